@@ -1,0 +1,63 @@
+"""The Task protocol: what a mission must provide to be learned from demonstration.
+
+Coordinates: every position that crosses this interface is in **pixel
+coordinates** of the observation raster, as floats ``(x, y) = (column, row)``,
+with the centre of pixel ``[row i, column j]`` at ``(x=j, y=i)``. A task converts
+to and from its own units (metres, polygon coordinates) internally.
+
+A scene must be reproducible from the generator it was sampled with, so a
+dataset stores one seed per sample and evaluation regenerates scenes from it.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from typed_config import Config
+
+__all__ = ["Task", "MAX_POSITIONS"]
+
+MAX_POSITIONS = 10
+"""The largest number of positions (UAVs, guards) an expert may place."""
+
+
+@runtime_checkable
+class Task(Protocol):
+    """A mission: scenes, their raster observation, the expert and the QoS.
+
+    Attributes:
+        name: Registry name, e.g. ``"wifi-s1"``.
+        config: The task's validated config (saved in shards and checkpoints).
+        channels: Number of observation channels C.
+        shape: Raster shape ``(h, w)``.
+        mission_dimension_px: The mission's size in pixels; the match radius
+            ε of the metrics is 10 % of it.
+    """
+
+    name: str
+    config: Config
+    channels: int
+    shape: tuple[int, int]
+    mission_dimension_px: float
+
+    def sample(self, rng: np.random.Generator) -> Any:
+        """Draw one scene using only ``rng``."""
+        ...
+
+    def observe(self, scene: Any) -> np.ndarray:
+        """The scene as a ``float32`` array of shape ``(C, h, w)``."""
+        ...
+
+    def expert(self, scene: Any) -> np.ndarray:
+        """The expert placement: ``float64`` array ``(k, 2)`` of pixel ``(x, y)``, ``0 <= k <= 10``."""
+        ...
+
+    def qos(self, scene: Any, positions_px: np.ndarray) -> dict[str, float]:
+        """Quality of service of a placement on the real scene.
+
+        Returns a dict with at least the key ``"qos"`` (in [0, 1]); tasks may add
+        more (e.g. mean throughput, mean seen fraction).
+        """
+        ...
