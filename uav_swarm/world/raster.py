@@ -1,0 +1,115 @@
+"""From metres to rasters: pedestrian density maps and the metre <-> pixel mapping.
+
+A raster of ``shape = (h, w)`` covers the area ``[0, width_m] x [0, height_m]``; row ``i``
+covers ``y`` in ``[i * h_px, (i + 1) * h_px)`` and column ``j`` covers ``x`` in
+``[j * w_px, (j + 1) * w_px)``, with ``w_px = width_m / w`` and ``h_px = height_m / h``
+(row 0 is the South edge). Pixel coordinates are ``(x = column, y = row)`` floats whose
+integer values are pixel centres: pixel ``(j, i)`` is centred on
+``((j + 0.5) * w_px, (i + 0.5) * h_px)`` metres.
+
+Example:
+    >>> import numpy as np
+    >>> density_map(np.array([[1.0, 1.0], [1.5, 0.2], [9.9, 9.9]]), 10.0, 10.0, (2, 2)).tolist()
+    [[2.0, 0.0], [0.0, 1.0]]
+    >>> metres_to_pixels(np.array([[2.5, 7.5]]), 10.0, 10.0, (2, 2)).tolist()
+    [[0.0, 1.0]]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["density_map", "metres_to_pixels", "pixels_to_metres"]
+
+
+def _check_shape(shape: tuple[int, int]) -> tuple[int, int]:
+    if len(shape) != 2 or min(shape) < 1:
+        raise ValueError(f"shape must be (h, w) with h, w >= 1, got {shape}")
+    return int(shape[0]), int(shape[1])
+
+
+def _check_area(width_m: float, height_m: float) -> None:
+    if not (width_m > 0 and height_m > 0):
+        raise ValueError(f"width_m and height_m must be > 0, got {width_m} x {height_m}")
+
+
+def _check_points(name: str, points: np.ndarray) -> np.ndarray:
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (k, 2), got {points.shape}")
+    return points
+
+
+def density_map(
+    positions_m: np.ndarray, width_m: float, height_m: float, shape: tuple[int, int]
+) -> np.ndarray:
+    """Count the pedestrians in each pixel.
+
+    Points on the far edges (``x == width_m`` or ``y == height_m``) count in the last
+    column or row; points outside the area are not counted.
+
+    Args:
+        positions_m: (N, 2) positions in metres.
+        width_m: Area width (x extent) in metres.
+        height_m: Area height (y extent) in metres.
+        shape: Raster shape ``(h, w)``.
+
+    Returns:
+        (h, w) float32 counts of pedestrians per pixel.
+
+    Raises:
+        ValueError: Bad shape, area or positions array.
+    """
+    h, w = _check_shape(shape)
+    _check_area(width_m, height_m)
+    positions_m = _check_points("positions_m", positions_m)
+    x_m, y_m = positions_m[:, 0], positions_m[:, 1]
+    inside = (x_m >= 0) & (x_m <= width_m) & (y_m >= 0) & (y_m <= height_m)
+    if not inside.all():
+        x_m, y_m = x_m[inside], y_m[inside]
+    cols = np.minimum((x_m * (w / width_m)).astype(np.intp), w - 1)
+    rows = np.minimum((y_m * (h / height_m)).astype(np.intp), h - 1)
+    counts = np.bincount(rows * w + cols, minlength=h * w)
+    return counts.reshape(h, w).astype(np.float32)
+
+
+def metres_to_pixels(
+    xy_m: np.ndarray, width_m: float, height_m: float, shape: tuple[int, int]
+) -> np.ndarray:
+    """Convert positions in metres to pixel coordinates ``(x = column, y = row)``.
+
+    Args:
+        xy_m: (k, 2) positions in metres.
+        width_m: Area width in metres.
+        height_m: Area height in metres.
+        shape: Raster shape ``(h, w)``.
+
+    Returns:
+        (k, 2) float64 pixel coordinates (integers at pixel centres).
+    """
+    h, w = _check_shape(shape)
+    _check_area(width_m, height_m)
+    xy_m = _check_points("xy_m", xy_m)
+    scale = np.array([w / width_m, h / height_m])
+    return xy_m * scale - 0.5
+
+
+def pixels_to_metres(
+    xy_px: np.ndarray, width_m: float, height_m: float, shape: tuple[int, int]
+) -> np.ndarray:
+    """Convert pixel coordinates ``(x = column, y = row)`` to metres (inverse of :func:`metres_to_pixels`).
+
+    Args:
+        xy_px: (k, 2) pixel coordinates.
+        width_m: Area width in metres.
+        height_m: Area height in metres.
+        shape: Raster shape ``(h, w)``.
+
+    Returns:
+        (k, 2) float64 positions in metres.
+    """
+    h, w = _check_shape(shape)
+    _check_area(width_m, height_m)
+    xy_px = _check_points("xy_px", xy_px)
+    scale = np.array([width_m / w, height_m / h])
+    return (xy_px + 0.5) * scale
