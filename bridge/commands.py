@@ -1,0 +1,148 @@
+"""Commands to a vehicle: guided replanning with ``MAV_CMD_DO_REPOSITION`` over COMMAND_INT.
+
+A COMMAND_INT is sent again when no COMMAND_ACK arrives within the handshake
+timeout (up to ``max_retries`` times); ``MAV_RESULT_IN_PROGRESS`` keeps waiting,
+``MAV_RESULT_ACCEPTED`` succeeds, any other result raises
+:class:`~bridge.errors.CommandRejectedError`.
+"""
+
+from __future__ import annotations
+
+import queue
+import time
+
+from bridge.config import ProtocolConfig
+from bridge.errors import CommandRejectedError, CommandTimeoutError
+from bridge.geo import Home, enu_to_geodetic
+from bridge.geofence import GeofenceConfig, check_geofence
+from bridge.mavlink import MavlinkLink
+from bridge.mission import DEG_E7
+
+__all__ = ["command_int", "reposition"]
+
+
+def command_int(
+    link: MavlinkLink,
+    system_id: int,
+    *,
+    command: int,
+    frame: int,
+    params: tuple[float, ...] = (),
+    x: int = 0,
+    y: int = 0,
+    z: float = 0.0,
+    protocol: ProtocolConfig | None = None,
+    component_id: int = 1,
+) -> None:
+    """Send a COMMAND_INT and wait for its final COMMAND_ACK.
+
+    Args:
+        link: The connection reaching the vehicle.
+        system_id: The vehicle.
+        command: ``MAV_CMD_*``.
+        frame: ``MAV_FRAME_*`` of ``x``, ``y``, ``z``.
+        params: param1..param4 (missing ones are 0).
+        x: Latitude, degE7 (global frames).
+        y: Longitude, degE7.
+        z: Altitude, metres.
+        protocol: Timeouts and retries.
+        component_id: The vehicle's autopilot component.
+
+    Raises:
+        CommandRejectedError: The ACK's result is not accepted (nor in progress).
+        CommandTimeoutError: No final ACK after every retry.
+    """
+    protocol = protocol or ProtocolConfig()
+    m = link.mavlink
+    p = (*params, 0.0, 0.0, 0.0, 0.0)[:4]
+
+    def send() -> None:
+        link.send(
+            lambda mav: mav.command_int_send(
+                target_system=system_id,
+                target_component=component_id,
+                frame=frame,
+                command=command,
+                current=0,
+                autocontinue=0,
+                param1=p[0],
+                param2=p[1],
+                param3=p[2],
+                param4=p[3],
+                x=x,
+                y=y,
+                z=z,
+            )
+        )
+
+    with link.inbox(system_id) as box:
+        send()
+        tries = 0
+        deadline_s = time.monotonic() + protocol.handshake_timeout_s
+        while True:
+            try:
+                msg = box.get(timeout=max(0.0, deadline_s - time.monotonic()))
+            except queue.Empty:
+                tries += 1
+                if tries > protocol.max_retries:
+                    raise CommandTimeoutError(
+                        system_id, command, protocol.handshake_timeout_s * tries
+                    ) from None
+                deadline_s = time.monotonic() + protocol.handshake_timeout_s
+                send()
+                continue
+            if msg.get_type() != "COMMAND_ACK" or msg.command != command:
+                continue
+            if msg.result == m.MAV_RESULT_ACCEPTED:
+                return
+            if msg.result == m.MAV_RESULT_IN_PROGRESS:
+                tries = 0
+                deadline_s = time.monotonic() + protocol.handshake_timeout_s
+                continue
+            raise CommandRejectedError(system_id, command, msg.result)
+
+
+def reposition(
+    link: MavlinkLink,
+    system_id: int,
+    home: Home,
+    fence: GeofenceConfig,
+    x_m: float,
+    y_m: float,
+    z_m: float,
+    *,
+    speed_m_s: float = -1.0,
+    protocol: ProtocolConfig | None = None,
+) -> None:
+    """Send a guided vehicle to a new ENU point (``MAV_CMD_DO_REPOSITION``, switching to guided mode).
+
+    Args:
+        link: The connection reaching the vehicle.
+        system_id: The vehicle.
+        home: Origin of the ENU frame.
+        fence: Checked before anything is sent.
+        x_m: East of home, metres.
+        y_m: North of home, metres.
+        z_m: Height above home, metres.
+        speed_m_s: Ground speed, m/s (-1: the vehicle's default).
+        protocol: Timeouts and retries.
+
+    Raises:
+        GeofenceError: The point is outside the fence (nothing sent).
+        CommandRejectedError: The vehicle refused.
+        CommandTimeoutError: No answer.
+    """
+    check_geofence([(x_m, y_m, z_m)], fence)
+    m = link.mavlink
+    lat_deg, lon_deg, _ = enu_to_geodetic(home, x_m, y_m, z_m)
+    command_int(
+        link,
+        system_id,
+        command=m.MAV_CMD_DO_REPOSITION,
+        frame=m.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        params=(speed_m_s, float(m.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE), 0.0, float("nan")),
+        x=round(lat_deg * DEG_E7),
+        y=round(lon_deg * DEG_E7),
+        z=z_m,
+        protocol=protocol,
+    )

@@ -1,0 +1,279 @@
+"""The MAVLink mission protocol, ground-station side: upload, download, clear, set current.
+
+Timing follows the protocol: the first answer is awaited ``handshake_timeout_s``
+(1.5 s), each later one ``item_timeout_s`` (0.25 s); an unanswered message is sent
+again up to ``max_retries`` (5) times, then :class:`~bridge.errors.MissionTimeoutError`
+is raised. Every wait is bounded, so no call can hang. Error acknowledgements raise
+the named exception of their ``MAV_MISSION_RESULT`` code. Uploads run in
+:mod:`bridge.mission_upload` (requests answered on the reader thread; its docstring
+gives the re-send rules).
+
+A transfer that breaks off after the handshake (the vehicle answered, then fell
+silent through every retry) is started again from the beginning, up to
+``transfer_attempts`` times in all; a vehicle that never answers is not.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import time
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+from bridge.config import ProtocolConfig
+from bridge.errors import MissionMismatchError, MissionTimeoutError, mission_result_error
+from bridge.mavlink import MavlinkLink
+from bridge.mission import DEG_E7, MissionItem, compare_missions
+from bridge.mission_upload import is_mission_message, upload_concurrently
+
+__all__ = ["MissionClient"]
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+
+class _Exchange:
+    """Send-and-wait with the protocol's timeouts and retries, on one vehicle's inbox."""
+
+    def __init__(self, client: MissionClient, box: queue.Queue) -> None:
+        self.client = client
+        self.box = box
+        self.resend: Callable[[], None] = lambda: None
+        self.timeout_s = client.protocol.handshake_timeout_s
+        self.tries = 0
+        self.stage = ""
+        self.seq: int | None = None
+        self.deadline_s = time.monotonic() + self.timeout_s
+
+    def expect(self, stage: str, seq: int | None, timeout_s: float, send: Callable[[], None]) -> None:
+        """Send now; ``next`` re-sends it whenever ``timeout_s`` passes without progress."""
+        self.stage, self.seq, self.timeout_s, self.tries, self.resend = stage, seq, timeout_s, 0, send
+        self.deadline_s = time.monotonic() + timeout_s
+        send()
+
+    def next(self) -> object:
+        """The next message for this vehicle, re-sending on timeouts; raises when retries run out.
+
+        The wait is measured from the last send, not from the last message: unrelated
+        traffic (MISSION_CURRENT streams, duplicates) cannot extend it. When retries run
+        out, :class:`MissionTimeoutError` is raised.
+        """
+        while True:
+            try:
+                return self.box.get(timeout=max(0.0, self.deadline_s - time.monotonic()))
+            except queue.Empty:
+                self.tries += 1
+                if self.tries > self.client.protocol.max_retries:
+                    waited_s = self.timeout_s * self.tries
+                    raise MissionTimeoutError(self.client.system_id, self.seq, self.stage, waited_s) from None
+                log.debug("vehicle %d: no %s, retry %d", self.client.system_id, self.stage, self.tries)
+                self.deadline_s = time.monotonic() + self.timeout_s
+                self.resend()
+
+
+class MissionClient:
+    """Mission transfers with one vehicle (system id, component 1) over a shared link.
+
+    Args:
+        link: The connection reaching the vehicle.
+        system_id: The vehicle's system id.
+        protocol: Timeouts and retries.
+        component_id: The vehicle's autopilot component.
+    """
+
+    def __init__(
+        self, link: MavlinkLink, system_id: int, protocol: ProtocolConfig | None = None, component_id: int = 1
+    ) -> None:
+        self.link = link
+        self.system_id = system_id
+        self.component_id = component_id
+        self.protocol = protocol or ProtocolConfig()
+        self._m = link.mavlink
+
+    def _targets(self) -> dict[str, int]:
+        return {"target_system": self.system_id, "target_component": self.component_id}
+
+    def _upload_once(self, items: Sequence[MissionItem], attempts: int = 1) -> None:
+        """Upload with ``attempts`` whole-transfer attempts (see :func:`upload_concurrently`)."""
+        _, errors = upload_concurrently(
+            {self.system_id: self.link}, {self.system_id: items}, self.protocol, attempts, self.component_id
+        )
+        if errors:
+            raise errors[self.system_id]
+
+    def _download_once(self) -> tuple[MissionItem, ...]:
+        """One download attempt."""
+        m = self._m
+        with self.link.inbox(self.system_id) as box:
+            ex = _Exchange(self, box)
+            ex.expect(
+                "MISSION_COUNT",
+                None,
+                self.protocol.handshake_timeout_s,
+                lambda: self.link.send(
+                    lambda mav: mav.mission_request_list_send(
+                        mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets()
+                    )
+                ),
+            )
+            count = self._await(ex, lambda msg: msg.get_type() == "MISSION_COUNT").count
+            items = []
+            for seq in range(count):
+                ex.expect(
+                    "MISSION_ITEM_INT",
+                    seq,
+                    self.protocol.item_timeout_s,
+                    lambda seq=seq: self.link.send(
+                        lambda mav: mav.mission_request_int_send(
+                            seq=seq, mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets()
+                        )
+                    ),
+                )
+                msg = self._await(
+                    ex,
+                    lambda msg, seq=seq: (
+                        msg.get_type() in ("MISSION_ITEM_INT", "MISSION_ITEM") and msg.seq == seq
+                    ),
+                )
+                items.append(self._item_from(msg))
+            self.link.send(
+                lambda mav: mav.mission_ack_send(
+                    type=m.MAV_MISSION_ACCEPTED, mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets()
+                )
+            )
+        return tuple(items)
+
+    def _await(self, ex: _Exchange, wanted: Callable[[object], bool]) -> object:
+        """The next message satisfying ``wanted``; error acknowledgements raise."""
+        while True:
+            msg = ex.next()
+            if not is_mission_message(msg):
+                continue
+            if wanted(msg):
+                return msg
+            if msg.get_type() == "MISSION_ACK" and msg.type != self._m.MAV_MISSION_ACCEPTED:
+                raise mission_result_error(msg.type, self.system_id, ex.seq)
+
+    def _item_from(self, msg: object) -> MissionItem:
+        x, y = msg.x, msg.y
+        if msg.get_type() == "MISSION_ITEM":
+            x, y = round(x * DEG_E7), round(y * DEG_E7)
+        return MissionItem(
+            seq=msg.seq,
+            frame=msg.frame,
+            command=msg.command,
+            current=msg.current,
+            autocontinue=msg.autocontinue,
+            param1=msg.param1,
+            param2=msg.param2,
+            param3=msg.param3,
+            param4=msg.param4,
+            x=x,
+            y=y,
+            z=msg.z,
+            mission_type=getattr(msg, "mission_type", 0),
+        )
+
+    def clear(self) -> None:
+        """Delete the vehicle's mission (MISSION_CLEAR_ALL, MISSION_ACK).
+
+        Raises:
+            MissionResultError: A named subclass for the vehicle's error code.
+            MissionTimeoutError: The vehicle did not acknowledge.
+        """
+        m = self._m
+        with self.link.inbox(self.system_id) as box:
+            ex = _Exchange(self, box)
+            ex.expect(
+                "MISSION_ACK",
+                None,
+                self.protocol.handshake_timeout_s,
+                lambda: self.link.send(
+                    lambda mav: mav.mission_clear_all_send(
+                        mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets()
+                    )
+                ),
+            )
+            self._await(
+                ex, lambda msg: msg.get_type() == "MISSION_ACK" and msg.type == m.MAV_MISSION_ACCEPTED
+            )
+
+    def set_current(self, seq: int) -> None:
+        """Make item ``seq`` the current one (MISSION_SET_CURRENT, confirmed by MISSION_CURRENT).
+
+        Raises:
+            MissionResultError: A named subclass for the vehicle's error code.
+            MissionTimeoutError: The vehicle did not confirm.
+        """
+        with self.link.inbox(self.system_id) as box:
+            ex = _Exchange(self, box)
+            ex.expect(
+                "MISSION_CURRENT",
+                seq,
+                self.protocol.handshake_timeout_s,
+                lambda: self.link.send(lambda mav: mav.mission_set_current_send(seq=seq, **self._targets())),
+            )
+            self._await(ex, lambda msg: msg.get_type() == "MISSION_CURRENT" and msg.seq == seq)
+
+    def _attempts(self, transfer: Callable[[], T]) -> T:
+        """Run a whole transfer again (up to ``transfer_attempts`` times) when it broke off mid-way.
+
+        A transfer breaks off mid-way when the vehicle answered the handshake and then fell
+        silent for every retry, or when a verified upload read back something else. A vehicle
+        that never answers, or that refuses with an error code, is not asked again.
+        """
+        for attempt in range(1, self.protocol.transfer_attempts + 1):
+            try:
+                return transfer()
+            except (MissionTimeoutError, MissionMismatchError) as exc:
+                mid_way = isinstance(exc, MissionMismatchError) or exc.seq is not None
+                if not mid_way or attempt == self.protocol.transfer_attempts:
+                    raise
+                log.warning("vehicle %d: %s; transfer attempt %d", self.system_id, exc, attempt + 1)
+        raise AssertionError("unreachable")  # pragma: no cover
+
+    def upload(self, items: Sequence[MissionItem]) -> None:
+        """Upload a mission (MISSION_COUNT, answer each request, MISSION_ACK).
+
+        Answers MISSION_REQUEST_INT with MISSION_ITEM_INT and the legacy MISSION_REQUEST
+        with MISSION_ITEM, in whatever order the vehicle asks.
+
+        Raises:
+            MissionResultError: A named subclass for the vehicle's error code.
+            MissionTimeoutError: The vehicle stopped answering.
+        """
+        self._upload_once(items, attempts=self.protocol.transfer_attempts)
+
+    def download(self) -> tuple[MissionItem, ...]:
+        """Download the vehicle's mission (MISSION_REQUEST_LIST, request each item, MISSION_ACK).
+
+        Raises:
+            MissionResultError: A named subclass for the vehicle's error code.
+            MissionTimeoutError: The vehicle stopped answering.
+        """
+        return self._attempts(self._download_once)
+
+    def upload_verified(self, items: Sequence[MissionItem]) -> None:
+        """Upload, then download and compare.
+
+        A final MISSION_ACK lost on the way back is not an error when the vehicle's
+        mission, read back, is the one sent.
+
+        Raises:
+            MissionMismatchError: The vehicle holds something else.
+            MissionResultError: A named subclass for the vehicle's error code.
+            MissionTimeoutError: The vehicle stopped answering.
+        """
+
+        def transfer() -> None:
+            try:
+                self._upload_once(items)
+            except MissionTimeoutError as exc:
+                if exc.stage != "MISSION_ACK":
+                    raise
+                log.warning("vehicle %d: final MISSION_ACK lost; checking by download", self.system_id)
+            compare_missions(self.system_id, items, self._download_once())
+
+        self._attempts(transfer)

@@ -1,0 +1,150 @@
+"""Zenoh session settings for telemetry: loopback-only by default.
+
+Zenoh's own defaults scout by multicast and listen on every interface; ours never do. A session
+opened from :class:`TelemetryConfig` listens and connects only on the endpoints listed (by default
+``tcp/127.0.0.1:7447`` for the publishing side), with multicast scouting off unless switched on, and
+every connect, listen and query wait bounded by ``timeout_s``.
+
+Example:
+    >>> config = TelemetryConfig(swarm="demo", listen=(), connect=("tcp/127.0.0.1:7447",))
+    >>> zenoh_config(config).get_json("scouting/multicast/enabled")
+    'false'
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from typing import Literal
+
+import zenoh
+
+from bridge.telemetry_keys import check_swarm_name
+from typed_config import Config, ConfigError, param
+
+__all__ = [
+    "DEFAULT_ENDPOINT",
+    "LOCATOR_SCHEMES",
+    "TelemetryConfig",
+    "TelemetryConnectionError",
+    "check_endpoint",
+    "zenoh_config",
+    "open_session",
+]
+
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+"""Where the publishing side listens, and the other side connects, unless configured."""
+
+LOCATOR_SCHEMES: tuple[str, ...] = (
+    "tcp", "udp", "tls", "quic", "ws", "unixsock-stream", "unixpipe", "serial", "vsock")
+"""Zenoh locator schemes accepted in endpoints (``<scheme>/<address>``)."""
+
+_IP_SCHEMES = frozenset({"tcp", "udp", "tls", "quic", "ws"})
+_HOST_PORT_RE = re.compile(r"(?P<host>\[[0-9A-Fa-f:.%a-zA-Z]+\]|[A-Za-z0-9_.-]+):(?P<port>\d{1,5})")
+
+
+class TelemetryConnectionError(ConnectionError):
+    """A Zenoh session could not be opened with the configured endpoints."""
+
+
+def check_endpoint(endpoint: str, where: str) -> str:
+    """Validate one Zenoh endpoint ``<scheme>/<address>[?config][#metadata]``.
+
+    IP-based schemes (tcp, udp, tls, quic, ws) need ``host:port`` with a port in [0, 65535].
+
+    Args:
+        endpoint: The endpoint text, e.g. ``tcp/127.0.0.1:7447``.
+        where: The config field, for the error message.
+
+    Raises:
+        ConfigError: The scheme is unknown or the address malformed.
+    """
+    scheme, sep, address = endpoint.partition("/")
+    if not sep or scheme not in LOCATOR_SCHEMES:
+        allowed = [s + "/" for s in LOCATOR_SCHEMES]
+        raise ConfigError(f"{where} = {endpoint!r}: must start with one of {allowed}")
+    address = re.split(r"[?#]", address, maxsplit=1)[0]
+    if not address:
+        raise ConfigError(f"{where} = {endpoint!r}: the address after {scheme}/ is empty")
+    if scheme in _IP_SCHEMES:
+        match = _HOST_PORT_RE.fullmatch(address)
+        if not match or int(match["port"]) > 65535:
+            raise ConfigError(
+                f"{where} = {endpoint!r}: expected {scheme}/<host>:<port> with 0 <= port <= 65535")
+    return endpoint
+
+
+@dataclass(frozen=True)
+class TelemetryConfig(Config):
+    """How a telemetry publisher or subscriber joins Zenoh.
+
+    The defaults are for the publishing side (the simulator or the MAVLink bridge): a peer listening
+    on ``tcp/127.0.0.1:7447``. A watcher connects there instead (``listen=()``,
+    ``connect=("tcp/127.0.0.1:7447",)``). Client mode connects to a Zenoh router in ``connect``.
+    """
+
+    swarm: str = param("default", doc="swarm name, one key chunk of A-Z a-z 0-9 _ -")
+    mode: Literal["peer", "client"] = param("peer", doc="Zenoh session mode: peer, or client of a router")
+    listen: tuple[str, ...] = param((DEFAULT_ENDPOINT,), doc="endpoints to listen on (peer mode only)")
+    connect: tuple[str, ...] = param((), doc="endpoints to connect to, e.g. tcp/127.0.0.1:7447")
+    multicast_scouting: bool = param(False, doc="discover peers by UDP multicast (sends to the network)")
+    timeout_s: float = param(2.0, gt=0.0, le=60.0, doc="bound on connecting, listening and queries, seconds")
+
+    def check(self) -> None:
+        """Validate the swarm name and endpoints; the session must be able to reach someone."""
+        try:
+            check_swarm_name(self.swarm)
+        except ValueError as exc:
+            raise ConfigError(f"TelemetryConfig.swarm: {exc}") from None
+        for name in ("listen", "connect"):
+            for i, endpoint in enumerate(getattr(self, name)):
+                check_endpoint(endpoint, f"TelemetryConfig.{name}[{i}]")
+        if self.mode == "client" and self.listen:
+            raise ConfigError(
+                f"TelemetryConfig.listen = {list(self.listen)}: a client does not listen; use []")
+        if self.mode == "client" and not self.connect and not self.multicast_scouting:
+            raise ConfigError("TelemetryConfig.connect is empty: client mode needs a router endpoint")
+        if not self.listen and not self.connect and not self.multicast_scouting:
+            raise ConfigError("TelemetryConfig: listen and connect are both empty and multicast scouting is "
+                              "off, so the session could reach nobody; give at least one endpoint")
+
+
+def zenoh_config(config: TelemetryConfig) -> zenoh.Config:
+    """The :class:`zenoh.Config` for ``config``: explicit endpoints only, bounded waits.
+
+    Args:
+        config: The telemetry settings.
+    """
+    timeout_ms = round(config.timeout_s * 1000)
+    client = config.mode == "client"
+    settings = {
+        "mode": config.mode,
+        "listen": {"endpoints": list(config.listen), "timeout_ms": timeout_ms},
+        "connect": {
+            "endpoints": list(config.connect),
+            "timeout_ms": timeout_ms,
+            "exit_on_failure": client,
+            "retry": {"period_init_ms": 100, "period_max_ms": 1000, "period_increase_factor": 2.0},
+        },
+        "scouting": {"timeout": timeout_ms, "multicast": {"enabled": config.multicast_scouting}},
+        "queries_default_timeout": timeout_ms,
+    }
+    return zenoh.Config.from_json5(json.dumps(settings))
+
+
+def open_session(config: TelemetryConfig) -> zenoh.Session:
+    """Open a Zenoh session for ``config``.
+
+    Args:
+        config: The telemetry settings.
+
+    Raises:
+        TelemetryConnectionError: Zenoh refused the settings or (client mode) reached no router in time.
+    """
+    try:
+        return zenoh.open(zenoh_config(config))
+    except zenoh.ZError as exc:
+        raise TelemetryConnectionError(
+            f"cannot open a Zenoh {config.mode} session (listen={list(config.listen)}, "
+            f"connect={list(config.connect)}): {exc}") from None

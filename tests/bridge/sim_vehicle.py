@@ -1,0 +1,285 @@
+"""A small MAVLink vehicle written with pymavlink: the mission server side, for tests.
+
+It sends HEARTBEAT, GLOBAL_POSITION_INT, SYS_STATUS, BATTERY_STATUS and
+MISSION_CURRENT, and serves the mission protocol (upload with re-requests after
+0.25 s, download, clear, set current) and COMMAND_INT ``MAV_CMD_DO_REPOSITION``.
+Faults on demand: never answer the mission protocol (``silent``), refuse an item
+with a ``MAV_MISSION_RESULT`` code, or use the legacy MISSION_REQUEST.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from bridge.mavlink import use_mavlink2
+from bridge.mission import DEG_E7, MissionItem
+
+mavutil = use_mavlink2()
+m = mavutil.mavlink
+
+__all__ = ["SimVehicle", "endpoint_pair", "TRANSPORTS"]
+
+TRANSPORTS = ("udpin", "udpout", "tcp")
+
+
+def endpoint_pair(transport: str, port: int) -> tuple[str, str]:
+    """``(vehicle_url, ground_station_url)`` on 127.0.0.1 for the ground station's transport."""
+    vehicle = {"udpin": "udpout", "udpout": "udpin", "tcp": "tcpin"}[transport]
+    return f"{vehicle}:127.0.0.1:{port}", f"{transport}:127.0.0.1:{port}"
+
+
+class SimVehicle:
+    """A vehicle on ``url`` (``udpout:``, ``udpin:`` or ``tcpin:``) with MAVLink system id ``system_id``."""
+
+    def __init__(
+        self,
+        url: str,
+        system_id: int,
+        *,
+        autopilot: int = m.MAV_AUTOPILOT_GENERIC,
+        silent: bool = False,
+        refuse_code: int | None = None,
+        refuse_seq: int = 1,
+        legacy_requests: bool = False,
+        command_result: int = m.MAV_RESULT_ACCEPTED,
+        signing_key: bytes | None = None,
+        lat_deg: float = 47.3977418,
+        lon_deg: float = 8.5455938,
+        alt_m: float = 488.0,
+        telemetry_period_s: float = 0.1,
+    ) -> None:
+        self.system_id = system_id
+        self.autopilot = autopilot
+        self.silent = silent
+        self.refuse_code = refuse_code
+        self.refuse_seq = refuse_seq
+        self.legacy_requests = legacy_requests
+        self.command_result = command_result
+        self.lat_deg, self.lon_deg, self.alt_m = lat_deg, lon_deg, alt_m
+        self.telemetry_period_s = telemetry_period_s
+        self.mission: list[MissionItem] = []
+        self.current_seq = 0
+        self.reached_seq: int | None = None
+        self.uploads = 0
+        self.reposition_target: tuple[int, int, float] | None = None
+        self.custom_mode = 3  # ArduCopter AUTO
+        self._rx: dict | None = None
+        self._last_done_seq: int | None = None
+        self._conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=1)
+        if signing_key is not None:
+            self._conn.setup_signing(signing_key, sign_outgoing=True)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name=f"sim vehicle {system_id}", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self._conn.close()
+
+    def __enter__(self) -> SimVehicle:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- sending -------------------------------------------------------------------------------
+    def _targets(self, msg) -> dict[str, int]:
+        return {"target_system": msg.get_srcSystem(), "target_component": msg.get_srcComponent()}
+
+    def _ack(self, msg, code: int) -> None:
+        self._conn.mav.mission_ack_send(
+            type=code, mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets(msg)
+        )
+
+    def _request(self, seq: int) -> None:
+        rx = self._rx
+        kwargs = {
+            "target_system": rx["gcs"][0],
+            "target_component": rx["gcs"][1],
+            "seq": seq,
+            "mission_type": m.MAV_MISSION_TYPE_MISSION,
+        }
+        if self.legacy_requests:
+            self._conn.mav.mission_request_send(**kwargs)
+        else:
+            self._conn.mav.mission_request_int_send(**kwargs)
+        rx["asked_s"] = time.monotonic()
+
+    def _telemetry(self) -> None:
+        mav = self._conn.mav
+        mav.heartbeat_send(
+            type=m.MAV_TYPE_QUADROTOR,
+            autopilot=self.autopilot,
+            base_mode=m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | m.MAV_MODE_FLAG_SAFETY_ARMED,
+            custom_mode=self.custom_mode,
+            system_status=m.MAV_STATE_ACTIVE,
+        )
+        mav.global_position_int_send(
+            time_boot_ms=int(time.monotonic() * 1000) % 2**32,
+            lat=round(self.lat_deg * DEG_E7),
+            lon=round(self.lon_deg * DEG_E7),
+            alt=round(self.alt_m * 1000),
+            relative_alt=round((self.alt_m - 488.0) * 1000),
+            vx=100,
+            vy=200,
+            vz=-50,
+            hdg=9000,
+        )
+        mav.sys_status_send(
+            onboard_control_sensors_present=0,
+            onboard_control_sensors_enabled=0,
+            onboard_control_sensors_health=0,
+            load=0,
+            voltage_battery=15800,
+            current_battery=-1,
+            battery_remaining=76,
+            drop_rate_comm=0,
+            errors_comm=0,
+            errors_count1=0,
+            errors_count2=0,
+            errors_count3=0,
+            errors_count4=0,
+        )
+        mav.battery_status_send(
+            id=0,
+            battery_function=0,
+            type=0,
+            temperature=32767,
+            voltages=[4000, 4000, 4000, 3900] + [65535] * 6,
+            current_battery=-1,
+            current_consumed=-1,
+            energy_consumed=-1,
+            battery_remaining=75,
+        )
+        mav.mission_current_send(seq=self.current_seq, total=len(self.mission))
+
+    # -- receiving -----------------------------------------------------------------------------
+    def _loop(self) -> None:
+        next_telemetry_s = 0.0
+        while not self._stop.is_set():
+            now_s = time.monotonic()
+            try:
+                if now_s >= next_telemetry_s:
+                    next_telemetry_s = now_s + self.telemetry_period_s
+                    self._telemetry()
+                if self._rx is not None and now_s - self._rx["asked_s"] > 0.25:
+                    self._rx["retries"] += 1
+                    if self._rx["retries"] > 5:
+                        self._rx = None
+                    else:
+                        self._request(self._rx["expected"])
+                msg = self._conn.recv_match(blocking=True, timeout=0.02)
+            except OSError:
+                time.sleep(0.02)
+                continue
+            if msg is None or msg.get_type() == "BAD_DATA" or self.silent:
+                continue
+            if getattr(msg, "target_system", self.system_id) not in (0, self.system_id):
+                continue
+            handler = getattr(self, "_on_" + msg.get_type().lower(), None)
+            if handler is not None:
+                handler(msg)
+
+    def _on_mission_count(self, msg) -> None:
+        if msg.count == 0:
+            self.mission, self._rx = [], None
+            self._ack(msg, m.MAV_MISSION_ACCEPTED)
+            return
+        self._rx = {
+            "count": msg.count,
+            "items": [],
+            "expected": 0,
+            "retries": 0,
+            "asked_s": 0.0,
+            "gcs": (msg.get_srcSystem(), msg.get_srcComponent()),
+        }
+        self._request(0)
+
+    def _on_mission_item_int(self, msg) -> None:
+        rx = self._rx
+        if rx is None:
+            if msg.seq == self._last_done_seq:
+                self._ack(msg, m.MAV_MISSION_ACCEPTED)  # our final ACK was lost: say it again
+            return
+        if msg.seq != rx["expected"]:
+            self._ack(msg, m.MAV_MISSION_INVALID_SEQUENCE)  # as ArduPilot does; the transfer goes on
+            return
+        if self.refuse_code is not None and msg.seq == self.refuse_seq:
+            self._rx = None
+            self._ack(msg, self.refuse_code)
+            return
+        x, y = (
+            (round(msg.x * DEG_E7), round(msg.y * DEG_E7))
+            if msg.get_type() == "MISSION_ITEM"
+            else (msg.x, msg.y)
+        )
+        rx["items"].append(
+            MissionItem(
+                seq=msg.seq,
+                frame=msg.frame,
+                command=msg.command,
+                current=msg.current,
+                autocontinue=msg.autocontinue,
+                param1=msg.param1,
+                param2=msg.param2,
+                param3=msg.param3,
+                param4=msg.param4,
+                x=x,
+                y=y,
+                z=msg.z,
+            )
+        )
+        rx["expected"] += 1
+        rx["retries"] = 0
+        if rx["expected"] == rx["count"]:
+            self.mission, self._rx, self._last_done_seq = rx["items"], None, msg.seq
+            self.uploads += 1
+            self._ack(msg, m.MAV_MISSION_ACCEPTED)
+        else:
+            self._request(rx["expected"])
+
+    _on_mission_item = _on_mission_item_int
+
+    def _on_mission_request_list(self, msg) -> None:
+        self._conn.mav.mission_count_send(
+            count=len(self.mission), mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets(msg)
+        )
+
+    def _on_mission_request_int(self, msg) -> None:
+        if not 0 <= msg.seq < len(self.mission):
+            self._ack(msg, m.MAV_MISSION_INVALID_SEQUENCE)
+            return
+        fields = {**self.mission[msg.seq].message_fields(), "current": int(msg.seq == self.current_seq)}
+        if msg.get_type() == "MISSION_REQUEST":
+            fields["x"], fields["y"] = fields["x"] / DEG_E7, fields["y"] / DEG_E7
+            self._conn.mav.mission_item_send(**fields, **self._targets(msg))
+        else:
+            self._conn.mav.mission_item_int_send(**fields, **self._targets(msg))
+
+    _on_mission_request = _on_mission_request_int
+
+    def _on_mission_clear_all(self, msg) -> None:
+        self.mission, self.current_seq = [], 0
+        self._ack(msg, m.MAV_MISSION_ACCEPTED)
+
+    def _on_mission_set_current(self, msg) -> None:
+        if not 0 <= msg.seq < len(self.mission):
+            self._ack(msg, m.MAV_MISSION_INVALID_SEQUENCE)
+            return
+        self.current_seq = msg.seq
+        self._conn.mav.mission_current_send(seq=msg.seq, total=len(self.mission))
+        if msg.seq > 0:
+            self.reached_seq = msg.seq - 1
+            self._conn.mav.mission_item_reached_send(seq=msg.seq - 1)
+
+    def _on_command_int(self, msg) -> None:
+        if msg.command != m.MAV_CMD_DO_REPOSITION:
+            result = m.MAV_RESULT_UNSUPPORTED
+        else:
+            result = self.command_result
+            if result == m.MAV_RESULT_ACCEPTED:
+                self.reposition_target = (msg.x, msg.y, msg.z)
+                self.custom_mode = 4  # ArduCopter GUIDED
+        self._conn.mav.command_ack_send(command=msg.command, result=result, **self._targets(msg))

@@ -1,0 +1,116 @@
+import json
+
+from lossy_relay import free_udp_port
+from pymavlink.dialects.v20 import common as mavlink
+from sim_vehicle import SimVehicle, endpoint_pair
+
+from bridge.mission_files import load_plan, load_wpl
+from uav_swarm.cli import main
+
+
+def _config(tmp_path, ports):
+    lines = ["[home]", "lat_deg = 47.3977418", "lon_deg = 8.5455938", "alt_m = 488.0", ""]
+    for sid, port in ports.items():
+        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "udpin:127.0.0.1:{port}"', ""]
+    path = tmp_path / "bridge.toml"
+    path.write_text("\n".join(lines))
+    return path
+
+
+def test_export_writes_one_file_per_vehicle(tmp_path, capsys):
+    config = _config(tmp_path, {1: 1, 2: 2})
+    plans = tmp_path / "plans.json"
+    plans.write_text(json.dumps({"1": [[10, 20]], "2": [[0, 0], [-30, 40, 50]]}))
+    out = tmp_path / "missions"
+    assert (
+        main(
+            [
+                "mission",
+                "export",
+                "--config",
+                str(config),
+                "--plans",
+                str(plans),
+                "--out-dir",
+                str(out),
+                "--autopilot",
+                "ardupilot",
+            ]
+        )
+        == 0
+    )
+    assert len(load_plan(out / "vehicle_1.plan").items) == 4  # home, takeoff, waypoint, loiter
+    assert load_plan(out / "vehicle_2.plan").autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+    assert (
+        main(
+            [
+                "mission",
+                "export",
+                "--config",
+                str(config),
+                "--target",
+                "1:5,5",
+                "--out-dir",
+                str(out),
+                "--format",
+                "waypoints",
+            ]
+        )
+        == 0
+    )
+    assert [i.command for i in load_wpl(out / "vehicle_1.waypoints")] == [
+        mavlink.MAV_CMD_NAV_TAKEOFF,
+        mavlink.MAV_CMD_NAV_WAYPOINT,
+        mavlink.MAV_CMD_NAV_LOITER_UNLIM,
+    ]
+    assert "vehicle_1.waypoints" in capsys.readouterr().out
+
+
+def test_export_refuses_points_outside_the_geofence(tmp_path, capsys):
+    config = _config(tmp_path, {1: 1})
+    assert (
+        main(
+            [
+                "mission",
+                "export",
+                "--config",
+                str(config),
+                "--target",
+                "1:9000,0",
+                "--out-dir",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 2
+    )
+    assert "outside the geofence" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_upload_download_clear_against_vehicles(tmp_path, capsys):
+    ports = {3: free_udp_port(), 4: free_udp_port()}
+    vehicles = [
+        SimVehicle(endpoint_pair("udpin", port)[0], sid, telemetry_period_s=0.2)
+        for sid, port in ports.items()
+    ]
+    config = _config(tmp_path, ports)
+    try:
+        assert (
+            main(
+                ["mission", "upload", "--config", str(config), "--target", "3:10,20", "--target", "4:-5,8,40"]
+            )
+            == 0
+        )
+        assert "vehicle 4: uploaded 3 items" in capsys.readouterr().out
+        assert [len(v.mission) for v in vehicles] == [3, 3]
+        out = tmp_path / "down"
+        assert main(["mission", "download", "--config", str(config), "--out-dir", str(out)]) == 0
+        assert tuple(vehicles[1].mission) == load_plan(out / "vehicle_4.plan").items
+        vehicles[1].mission = []
+        assert main(["mission", "upload", "--config", str(config), "--from-dir", str(out)]) == 0
+        assert tuple(vehicles[1].mission) == load_plan(out / "vehicle_4.plan").items
+        assert main(["mission", "clear", "--config", str(config), "--vehicle", "3"]) == 0
+        assert vehicles[0].mission == [] and vehicles[1].mission != []
+    finally:
+        for v in vehicles:
+            v.close()

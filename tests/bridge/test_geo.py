@@ -1,0 +1,27 @@
+import pymap3d
+import pytest
+
+from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
+from typed_config import ConfigError
+
+HOME = Home(lat_deg=47.3977418, lon_deg=8.5455938, alt_m=488.0)
+
+
+@pytest.mark.parametrize("point_m", [(0.0, 0.0, 0.0), (100.0, -250.0, 30.0), (-499.5, 499.5, 120.0)])
+def test_enu_geodetic_round_trip(point_m):
+    back_m = geodetic_to_enu(HOME, *enu_to_geodetic(HOME, *point_m))
+    assert back_m == pytest.approx(point_m, abs=1e-6)
+
+
+def test_north_offset_matches_pymap3d_and_meridian_arc():
+    lat_deg, lon_deg, alt_m = enu_to_geodetic(HOME, 0.0, 1000.0, 0.0)
+    assert lon_deg == pytest.approx(HOME.lon_deg, abs=1e-9)
+    # one degree of latitude near 47 N is about 111.2 km
+    assert (lat_deg - HOME.lat_deg) * 111_200 == pytest.approx(1000.0, rel=2e-3)
+    expected = pymap3d.enu2geodetic(0.0, 1000.0, 0.0, HOME.lat_deg, HOME.lon_deg, HOME.alt_m)
+    assert (lat_deg, lon_deg, alt_m) == pytest.approx(tuple(float(v) for v in expected))
+
+
+def test_home_rejects_out_of_range_latitude():
+    with pytest.raises(ConfigError, match="lat_deg = 91.0 is out of range"):
+        Home(lat_deg=91.0, lon_deg=0.0, alt_m=0.0)

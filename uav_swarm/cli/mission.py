@@ -1,0 +1,217 @@
+"""``uav-swarm mission export|upload|download|clear``: MAVLink missions for the configured vehicles.
+
+Vehicles, home, mission shape, geofence and protocol timing come from a bridge config
+(``configs/bridge/*.toml``). Plans are local East-North-Up metres around home, the last
+point of each plan the target: ``--target ID:X,Y[,Z]`` (repeatable) or ``--plans FILE``
+with JSON ``{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]}``. Mission files are named
+``vehicle_<ID>.plan`` (QGroundControl) or ``vehicle_<ID>.waypoints`` (QGC WPL 110).
+
+Examples:
+  uav-swarm mission export --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --out-dir out/missions
+  uav-swarm mission upload --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --target 2:-30,10,45
+  uav-swarm mission upload --config configs/bridge/ardupilot_sitl_10.toml --from-dir out/missions
+  uav-swarm mission download --config configs/bridge/px4_sitl_10.toml --out-dir out/downloaded
+  uav-swarm mission clear --config configs/bridge/px4_sitl_10.toml --vehicle 1 --vehicle 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["register", "run", "parse_target"]
+
+_AUTOPILOTS = {
+    "generic": "MAV_AUTOPILOT_GENERIC",
+    "ardupilot": "MAV_AUTOPILOT_ARDUPILOTMEGA",
+    "px4": "MAV_AUTOPILOT_PX4",
+}
+_SUFFIX = {"plan": ".plan", "waypoints": ".waypoints"}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``mission`` subcommand and its four actions."""
+    parser = subparsers.add_parser(
+        "mission",
+        help="export, upload, download or clear MAVLink missions",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("action", choices=("export", "upload", "download", "clear"))
+    add = parser.add_argument
+    add("--config", type=Path, required=True, help="bridge config TOML (configs/bridge/*.toml)")
+    add(
+        "--target",
+        action="append",
+        default=[],
+        metavar="ID:X,Y[,Z]",
+        help="plan of one vehicle: its target in ENU metres (repeatable)",
+    )
+    add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]}')
+    add("--from-dir", type=Path, help="upload: the vehicle_<ID>.plan/.waypoints files of this folder")
+    add("--out-dir", type=Path, help="export/download: folder for vehicle_<ID> files")
+    add("--format", choices=tuple(_SUFFIX), default="plan", help="mission file format (default: %(default)s)")
+    add(
+        "--autopilot",
+        choices=tuple(_AUTOPILOTS),
+        default="generic",
+        help="export: autopilot convention (ardupilot adds the home placeholder; default: %(default)s)",
+    )
+    add(
+        "--vehicle",
+        type=int,
+        action="append",
+        default=[],
+        metavar="ID",
+        help="download/clear: only these vehicles (repeatable; default: all)",
+    )
+    add("--no-verify", action="store_true", help="upload: skip the download-and-compare check")
+    parser.set_defaults(func=run)
+
+
+def parse_target(text: str) -> tuple[int, list[float]]:
+    """``"ID:X,Y[,Z]"`` -> ``(ID, [x_m, y_m(, z_m)])``.
+
+    Raises:
+        ValueError: Malformed text.
+    """
+    try:
+        system_id, coords = text.split(":", 1)
+        values = [float(v) for v in coords.split(",")]
+        if len(values) not in (2, 3):
+            raise ValueError
+        return int(system_id), values
+    except ValueError:
+        raise ValueError(f"--target {text!r}: expected ID:X,Y or ID:X,Y,Z (metres East, North, Up)") from None
+
+
+def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
+    plans: dict[int, list[list[float]]] = {}
+    if args.plans is not None:
+        data = json.loads(args.plans.read_text(encoding="utf-8"))
+        plans.update({int(sid): [list(map(float, p)) for p in points] for sid, points in data.items()})
+    for text in args.target:
+        system_id, point = parse_target(text)
+        plans.setdefault(system_id, []).append(point)
+    return plans
+
+
+def _mission_files(folder: Path) -> dict[int, Path]:
+    files = {}
+    for path in sorted(folder.glob("vehicle_*")):
+        stem = path.stem.removeprefix("vehicle_")
+        if stem.isdigit() and path.suffix in (".plan", ".waypoints"):
+            files[int(stem)] = path
+    if not files:
+        raise ValueError(f"--from-dir {folder}: no vehicle_<ID>.plan or vehicle_<ID>.waypoints files")
+    return files
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run one mission action; returns the exit code (1: a vehicle failed, 2: bad input)."""
+    import typed_config
+    from bridge.config import BridgeConfig
+    from bridge.errors import BridgeError
+
+    config = typed_config.load_toml(BridgeConfig, args.config)
+    try:
+        return _ACTIONS[args.action](args, config)
+    except BridgeError as exc:
+        print(f"uav-swarm mission {args.action}: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, ValueError) else 1
+    except (ValueError, OSError, KeyError) as exc:  # bad input, unreachable endpoint, unknown vehicle
+        print(f"uav-swarm mission {args.action}: {exc}", file=sys.stderr)
+        return 2
+
+
+def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+    from pymavlink.dialects.v20 import common as mavlink
+
+    from bridge.mission import build_mission
+    from bridge.mission_files import save_mission
+
+    plans = _plans(args)
+    if not plans or args.out_dir is None:
+        raise ValueError("export needs --target or --plans, and --out-dir")
+    missions = {
+        sid: build_mission(
+            points,
+            config.home,
+            config.mission,
+            config.geofence,
+            getattr(mavlink, _AUTOPILOTS[args.autopilot]),
+        )
+        for sid, points in plans.items()
+    }
+    args.out_dir.mkdir(parents=True, exist_ok=True)
+    for sid, mission in sorted(missions.items()):
+        path = args.out_dir / f"vehicle_{sid}{_SUFFIX[args.format]}"
+        save_mission(path, mission)
+        print(f"vehicle {sid}: {len(mission.items)} items -> {path}")
+    return 0
+
+
+def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+    from pymavlink.dialects.v20 import common as mavlink
+
+    from bridge.fleet import Fleet
+    from bridge.mission_files import load_mission
+
+    plans = _plans(args)
+    if bool(plans) == (args.from_dir is not None):
+        raise ValueError("upload needs either --target/--plans or --from-dir")
+    with Fleet(config) as fleet:
+        if plans:
+            missions = fleet.build_missions(plans)
+        else:
+            missions = {}
+            for sid, path in _mission_files(args.from_dir).items():
+                autopilot = fleet.autopilot(sid)
+                mission = load_mission(path, config.home, autopilot)
+                ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+                if (mission.autopilot == ardupilot) != (autopilot == ardupilot) and path.suffix == ".plan":
+                    raise ValueError(
+                        f"{path}: written for autopilot {mission.autopilot}, vehicle {sid} "
+                        f"runs {autopilot} (ArduPilot's home placeholder differs)"
+                    )
+                missions[sid] = mission
+        times_s = fleet.upload(missions, verify=not args.no_verify)
+    for sid in sorted(times_s):
+        check = "" if args.no_verify else ", verified"
+        print(f"vehicle {sid}: uploaded {len(missions[sid].items)} items in {times_s[sid]:.3f} s{check}")
+    return 0
+
+
+def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+    from bridge.fleet import Fleet
+    from bridge.mission_files import save_mission
+
+    if args.out_dir is None:
+        raise ValueError("download needs --out-dir")
+    with Fleet(config) as fleet:
+        ids = args.vehicle or list(fleet.system_ids)
+        fleet.wait_for_vehicles(ids)
+        missions = fleet.download(ids)
+    args.out_dir.mkdir(parents=True, exist_ok=True)
+    for sid, mission in sorted(missions.items()):
+        path = args.out_dir / f"vehicle_{sid}{_SUFFIX[args.format]}"
+        save_mission(path, mission)
+        print(f"vehicle {sid}: {len(mission.items)} items -> {path}")
+    return 0
+
+
+def _clear(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+    from bridge.fleet import Fleet
+
+    with Fleet(config) as fleet:
+        ids = args.vehicle or list(fleet.system_ids)
+        fleet.wait_for_vehicles(ids)
+        fleet.clear(ids)
+    for sid in sorted(ids):
+        print(f"vehicle {sid}: mission cleared")
+    return 0
+
+
+_ACTIONS = {"export": _export, "upload": _upload, "download": _download, "clear": _clear}

@@ -1,0 +1,166 @@
+"""``uav-swarm telemetry watch | record``: watch or record a swarm's Zenoh telemetry.
+
+By default both connect to the publishing side on ``tcp/127.0.0.1:7447`` as a peer, with
+multicast scouting off. ``--config FILE`` reads a ``[telemetry]`` table (the fields of
+:class:`bridge.telemetry_config.TelemetryConfig`): the keys it sets override these defaults, and
+command-line flags override both.
+``--duration`` and ``--count`` bound a run (for scripts and tests).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import tomllib
+from pathlib import Path
+from typing import Any, TextIO
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``telemetry`` command with its ``watch`` and ``record`` subcommands."""
+    parser = subparsers.add_parser("telemetry", help="watch or record the swarm's Zenoh telemetry",
+                                   description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    watch = actions.add_parser("watch", help="print a live table of the swarm")
+    watch.add_argument("--refresh-s", type=float, default=0.5, help="table refresh period, seconds")
+    record = actions.add_parser("record", help="record every message to a JSON-lines file")
+    record.add_argument("--out", type=Path, required=True, help="the .jsonl file to write")
+    for sub in (watch, record):
+        sub.add_argument("--config", type=Path, help="TOML file with a [telemetry] table")
+        sub.add_argument("--swarm", help="swarm name (default: 'default')")
+        sub.add_argument("--mode", choices=["peer", "client"], help="Zenoh session mode (default: peer)")
+        sub.add_argument("--connect", action="append", metavar="ENDPOINT",
+                         help="endpoint to connect to, repeatable (default: tcp/127.0.0.1:7447)")
+        sub.add_argument("--listen", action="append", metavar="ENDPOINT",
+                         help="endpoint to listen on, repeatable (default: none)")
+        sub.add_argument("--multicast-scouting", action="store_true",
+                         help="discover peers by UDP multicast (sends traffic to the network)")
+        sub.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+        sub.add_argument("--count", type=int, metavar="N", help="stop after N messages")
+        sub.set_defaults(func=run)
+
+
+def _toml_table(path: Path, section: str) -> dict[str, Any]:
+    from typed_config import ConfigError
+
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"config file not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    if not isinstance(data.get(section), dict):
+        raise ConfigError(f"{path}: missing table [{section}]")
+    return data[section]
+
+
+def _config(args: argparse.Namespace) -> Any:
+    """The subscriber's TelemetryConfig: watcher defaults, then the keys the TOML table sets, then flags."""
+    from bridge.telemetry_config import DEFAULT_ENDPOINT, TelemetryConfig
+
+    data: dict[str, Any] = {"listen": [], "connect": [DEFAULT_ENDPOINT]}
+    if args.config is not None:
+        data.update(_toml_table(args.config, "telemetry"))
+    flags = {"swarm": args.swarm, "mode": args.mode, "connect": args.connect, "listen": args.listen,
+             "multicast_scouting": args.multicast_scouting or None}
+    data.update({key: value for key, value in flags.items() if value is not None})
+    return TelemetryConfig.from_dict(data)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Subscribe and watch or record until interrupted or the bound is reached."""
+    from bridge.telemetry import SwarmSubscriber
+
+    for name in ("duration", "count"):
+        value = getattr(args, name)
+        if value is not None and value <= 0:
+            print(f"uav-swarm telemetry: --{name} = {value} must be > 0", file=sys.stderr)
+            return 2
+    config = _config(args)
+    with SwarmSubscriber(config) as subscriber:
+        if args.action == "record":
+            count = _record(subscriber, args.out, args)
+            print(f"recorded {count} messages to {args.out}", file=sys.stderr)
+        else:
+            _watch(subscriber, args, sys.stdout)
+    return 0
+
+
+def _record(subscriber: Any, out: Path, args: argparse.Namespace) -> int:
+    """Write one JSON object per line; the file appears (atomically) when recording ends."""
+    from bridge.telemetry_keys import alive_key
+    from bridge.telemetry_schema import Presence
+
+    swarm = subscriber.config.swarm
+    out.parent.mkdir(parents=True, exist_ok=True)
+    partial = out.with_name(out.name + ".part")
+    count = 0
+    try:
+        with partial.open("w", encoding="utf-8") as stream:
+            for item in subscriber.messages(duration_s=args.duration, count=args.count):
+                if isinstance(item, Presence):
+                    line = {"key": alive_key(swarm, item.uav_id), "received_s": item.received_s,
+                            "presence": "alive" if item.alive else "lost", "uav_id": item.uav_id}
+                else:
+                    line = {"key": item.key(swarm), "received_s": time.time(), "payload": item.to_dict()}
+                stream.write(json.dumps(line, separators=(",", ":")) + "\n")
+                count += 1
+        os.replace(partial, out)
+    finally:
+        partial.unlink(missing_ok=True)
+    return count
+
+
+def _watch(subscriber: Any, args: argparse.Namespace, stream: TextIO) -> None:
+    """Print the swarm table every ``--refresh-s`` seconds (redrawn in place on a terminal)."""
+    from bridge.telemetry_schema import Presence
+
+    snapshot = subscriber.latest()
+    alive = subscriber.alive()
+    next_draw = 0.0
+    for item in subscriber.messages(duration_s=args.duration, count=args.count):
+        if isinstance(item, Presence):
+            (alive.add if item.alive else alive.discard)(item.uav_id)
+        else:
+            snapshot.add(item)
+        if time.monotonic() >= next_draw:
+            _draw(snapshot, alive, subscriber.config.swarm, stream)
+            next_draw = time.monotonic() + args.refresh_s
+    _draw(snapshot, alive, subscriber.config.swarm, stream)
+
+
+def _draw(snapshot: Any, alive: set[int], swarm: str, stream: TextIO) -> None:
+    def opt(value: float | None, fmt: str) -> str:
+        return "-" if value is None else format(value, fmt)
+
+    lines = [f"swarm {swarm}: {len(alive)} alive, {len(snapshot.states)} with state",
+             f"{'uav':>4} {'alive':>5} {'src':>7} {'seq':>7} {'age_s':>6} {'east_m':>8} {'north_m':>8} "
+             f"{'up_m':>6} {'speed_m_s':>9} {'batt_%':>6} {'target_enu_m':>22}"]
+    now = time.time()
+    for uav_id in sorted(set(snapshot.states) | alive):
+        state = snapshot.states.get(uav_id)
+        if state is None:
+            lines.append(f"{uav_id:>4} {'yes':>5}")
+            continue
+        east, north, up = state.position_enu_m
+        speed = sum(v * v for v in state.velocity_enu_m_s) ** 0.5
+        target = "-" if state.target_enu_m is None else ", ".join(f"{v:.1f}" for v in state.target_enu_m)
+        lines.append(f"{uav_id:>4} {'yes' if uav_id in alive else 'no':>5} {state.source:>7} {state.seq:>7} "
+                     f"{now - state.stamp_s:>6.1f} {east:>8.1f} {north:>8.1f} {up:>6.1f} {speed:>9.2f} "
+                     f"{opt(state.battery_pct, '.0f'):>6} {target:>22}")
+    if snapshot.plan is not None:
+        plan = snapshot.plan
+        lines.append(f"plan seq {plan.seq} by {plan.planner}: {len(plan.targets)} targets, "
+                     f"latency {opt(plan.latency_ms, '.1f')} ms")
+    if snapshot.qos is not None:
+        qos = snapshot.qos
+        lines.append(f"qos seq {qos.seq}: S1 {qos.qos_s1:.3f}  S2 {qos.qos_s2:.3f}  "
+                     f"mean {qos.mean_throughput_mbps:.2f} Mbit/s  users {qos.n_users}")
+    clear = "\x1b[H\x1b[2J" if stream.isatty() else ""
+    stream.write(clear + "\n".join(lines) + "\n\n")
+    stream.flush()
