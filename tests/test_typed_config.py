@@ -37,15 +37,16 @@ def test_defaults_and_coercion():
         ({"n_uavs": 11}, r"Outer.n_uavs = 11 is out of range: allowed 1 <= n_uavs <= 10"),
         ({"n_uavs": 2.5}, r"Outer.n_uavs = 2.5 must be an integer"),
         ({"n_uavs": True}, r"must be an integer"),
-        ({"mode": "teleport"}, r"Outer.mode = 'teleport' is not allowed: choose one of \['velocity', 'waypoint'\]"),
+        ({"mode": "teleport"},
+         r"Outer.mode = 'teleport' is not allowed: choose one of \['velocity', 'waypoint'\]"),
         ({"sizes": [1, 2, 3]}, r"Outer.sizes .* must have exactly 2 items"),
         ({"scale": -1}, r"Outer.scale = -1.0 is out of range: allowed 0.0 < scale"),
         ({"inner": {"gain": 0}}, r"Outer.inner.gain = 0.0 is out of range"),
         ({"inner": {"gian": 1}}, r"Outer.inner: unknown key\(s\) \['gian'\]"),
         ({"n_uvas": 3}, r"unknown key\(s\) \['n_uvas'\]; allowed keys are"),
     ],
-    ids=["range", "float-for-int", "bool-for-int", "literal", "tuple-length", "optional-range", "nested-range",
-         "nested-unknown", "unknown"],
+    ids=["range", "float-for-int", "bool-for-int", "literal", "tuple-length", "optional-range",
+         "nested-range", "nested-unknown", "unknown"],
 )
 def test_errors_name_the_field_and_range(data, message):
     with pytest.raises(ConfigError, match=message):

@@ -14,13 +14,17 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from uav_swarm import __version__
 from typed_config import ConfigError
+from uav_swarm import __version__
 
 __all__ = ["main", "build_parser"]
 
 COMMAND_MODULES: tuple[str, ...] = (
     "uav_swarm.cli.env_demo",
+    "uav_swarm.cli.telemetry",
+    "uav_swarm.cli.mission",
+    "uav_swarm.cli.learn",
+    "uav_swarm.cli.search",
 )
 
 

@@ -1,0 +1,171 @@
+"""Evaluating a checkpoint on held-out scenes: metrics, QoS, results files and pictures.
+
+The test set is a dataset of ``split="test"`` (by default generated into
+``out_dir/test-data`` with the same resumable machinery as training data). Its
+sample seeds live in another namespace than the training split's, and
+:func:`evaluate` checks that none of them is a seed of the checkpoint's training
+dataset, so the test scenes are ones training never saw.
+
+For each scene: the model's peaks are the prediction; the scene is regenerated
+from its stored seed to judge the QoS of both the prediction and the expert on the
+real scene. Outputs in ``out_dir``:
+
+- ``results.json``: per-sample seed, expert and predicted pixel positions, counts,
+  corr, precision and QoS dicts, plus ε and the configs: enough to recompute every metric;
+- ``summary.json`` and ``results.md``: the aggregates (means of per-sample corr and
+  precision as in the paper, pooled ratios too; QoS absolute as the mean over scenes
+  and relative as mean QoS / mean expert QoS, plus the mean of per-scene ratios);
+- ``examples.png``: the first scenes' input, utility map, expert and predicted positions.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from learning.checkpoint import load_checkpoint
+from learning.data import generate_dataset, load_arrays, sample_seed, write_json_atomic, write_text_atomic
+from learning.metrics import MATCH_FRACTION, aggregate, score_sample
+from learning.peaks import PeakConfig, find_peaks
+from learning.plots import plot_examples
+from learning.task import Task
+
+__all__ = ["evaluate", "summarise_qos", "markdown_table"]
+
+log = logging.getLogger(__name__)
+
+
+def summarise_qos(samples: list[dict[str, Any]]) -> dict[str, float]:
+    """QoS aggregates of per-sample ``qos`` / ``expert_qos`` dicts (keys common to all samples)."""
+    keys = set.intersection(*(set(s["qos"]) & set(s["expert_qos"]) for s in samples))
+    out: dict[str, float] = {}
+    for key in sorted(keys):
+        pred = np.array([s["qos"][key] for s in samples], dtype=np.float64)
+        expert = np.array([s["expert_qos"][key] for s in samples], dtype=np.float64)
+        out[f"{key}"] = float(pred.mean())
+        out[f"expert_{key}"] = float(expert.mean())
+        out[f"{key}_relative"] = float(pred.mean() / expert.mean()) if expert.mean() > 0 else float("nan")
+        positive = expert > 0
+        per_scene = pred[positive] / expert[positive]
+        out[f"{key}_relative_per_scene"] = float(per_scene.mean()) if positive.any() else float("nan")
+    return out
+
+
+def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
+    """The paper-style results table (percentages)."""
+    def pct(key: str) -> str:
+        value = summary.get(key, float("nan"))
+        return f"{100 * value:.1f}" if value == value else "n/a"
+
+    return (
+        "| Task | Corr % | Precision % | QoS % | QoS rel. % | expert QoS % | scenes |\n"
+        "|---|---|---|---|---|---|---|\n"
+        f"| {task_name} | {pct('corr')} | {pct('precision')} | {pct('qos')} | {pct('qos_relative')} "
+        f"| {pct('expert_qos')} | {summary['n_samples']} |\n"
+    )
+
+
+def _check_disjoint(train_data: dict[str, Any], test_seeds: np.ndarray) -> None:
+    train_seeds = {sample_seed(train_data["seed"], train_data["split"], i) for i in range(train_data["n"])}
+    shared = train_seeds.intersection(int(s) for s in test_seeds)
+    if shared:
+        raise ValueError(f"{len(shared)} test scene seed(s) were in the training dataset (seed "
+                         f"{train_data['seed']}, split {train_data['split']!r}); use another seed or split")
+
+
+def evaluate(
+    checkpoint: str | Path,
+    task_factory: Callable[[], Task],
+    n: int,
+    seed: int,
+    out_dir: str | Path,
+    *,
+    split: str = "test",
+    data_dir: str | Path | None = None,
+    peak_config: PeakConfig | None = None,
+    n_examples: int = 6,
+    executor: Literal["local", "ray"] = "local",
+    workers: int | None = None,
+    address: str | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Evaluate a checkpoint on ``n`` test scenes; write the results files into ``out_dir``.
+
+    Args:
+        checkpoint: A ``.pt`` file trained on this task.
+        task_factory: Picklable zero-argument callable returning the task.
+        n: Number of test scenes.
+        seed: Test dataset seed.
+        out_dir: Output folder (created if needed).
+        split: Seed namespace of the test set (must differ from training's or use another seed).
+        data_dir: Where the test dataset is (or is generated); default ``out_dir/test-data``.
+        peak_config: Peak extraction; default: the checkpoint's.
+        n_examples: Scenes drawn in ``examples.png`` (0: no picture).
+        executor: Executor for generating the test dataset.
+        workers: Local worker processes for generating the test dataset.
+        address: Ray address.
+        progress: Show progress bars.
+
+    Returns:
+        The summary (also in ``summary.json``).
+
+    Raises:
+        learning.checkpoint.CheckpointError: The checkpoint is corrupt or from another task or input shape.
+        ValueError: The test scenes overlap the checkpoint's training scenes.
+    """
+    task = task_factory()
+    ckpt = load_checkpoint(checkpoint, task_name=task.name, task_config=task.config.to_dict(),
+                           input_shape=(task.channels, *task.shape))
+    peaks = peak_config or ckpt.peak_config
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    data_dir = Path(data_dir) if data_dir is not None else out / "test-data"
+    generate_dataset(task_factory, n, seed, data_dir, split=split, executor=executor, workers=workers,
+                     address=address, progress=progress)
+    _, arrays = load_arrays(data_dir)
+    _check_disjoint(ckpt.payload["data"], arrays["seeds"])
+    eps_px = MATCH_FRACTION * task.mission_dimension_px
+    device = next(ckpt.model.parameters()).device
+
+    samples, scores, utilities = [], [], []
+    for start in tqdm(range(0, n, 64), disable=not progress, desc="predict", unit="batch"):
+        with torch.inference_mode():
+            x = torch.from_numpy(arrays["inputs"][start:start + 64]).to(device)  # (B, C, h, w)
+            utilities.extend(ckpt.model(x)[:, 0].float().cpu().numpy())  # B × (h, w)
+    for i in tqdm(range(n), disable=not progress, desc="qos", unit="scene"):
+        expert = arrays["positions"][i][arrays["mask"][i]]
+        predicted = find_peaks(utilities[i], peaks)
+        score = score_sample(expert, predicted, eps_px)
+        scene = task.sample(np.random.default_rng(int(arrays["seeds"][i])))
+        scores.append(score)
+        samples.append({
+            "index": int(arrays["indices"][i]), "seed": int(arrays["seeds"][i]),
+            "expert": expert.tolist(), "predicted": predicted.tolist(), **score.to_dict(),
+            "qos": {k: float(v) for k, v in task.qos(scene, predicted).items()},
+            "expert_qos": {k: float(v) for k, v in task.qos(scene, expert).items()},
+        })
+
+    summary: dict[str, Any] = {"task": task.name, "checkpoint": str(checkpoint), "seed": seed, "split": split,
+                               "eps_px": eps_px, **aggregate(scores), **summarise_qos(samples)}
+    write_json_atomic(out / "results.json", {
+        "task": task.name, "task_config": task.config.to_dict(), "checkpoint": str(checkpoint),
+        "peak_config": peaks.to_dict(), "eps_px": eps_px, "match": "distance <= eps_px, optimal assignment "
+        "maximising the number of matches", "test_data": {"seed": seed, "split": split, "n": n},
+        "samples": samples, "summary": summary,
+    })
+    write_json_atomic(out / "summary.json", summary)
+    write_text_atomic(out / "results.md", markdown_table(task.name, summary))
+    if n_examples > 0:
+        k = min(n_examples, n)
+        plot_examples(out / "examples.png", arrays["inputs"][:k], np.stack(utilities[:k]),
+                      [np.asarray(s["expert"]) for s in samples[:k]],
+                      [np.asarray(s["predicted"]) for s in samples[:k]],
+                      [f"#{s['index']} corr {s['corr']:.2f} prec {s['precision']:.2f}" for s in samples[:k]])
+    log.info("%s: corr %.3f precision %.3f", task.name, summary["corr"], summary["precision"])
+    return summary

@@ -1,0 +1,112 @@
+"""Peak extraction: the local maxima of a utility map are the placements.
+
+A pixel is a candidate when it equals the maximum of its
+``(2·min_distance_px + 1)²`` window (border pixels compare only with the pixels
+that exist), reaches the thresholds, and stands at least ``min_contrast`` above
+the minimum of the same window (this rejects the broad, flat maxima that the wide
+target Gaussian creates between experts). Equal-valued 8-connected candidates
+(plateaus) give one peak at their centroid. Candidates are then taken by
+decreasing value, dropping any closer than ``min_distance_px`` to one already
+taken (non-maximum suppression), up to ``max_peaks``. A single-pixel peak is
+refined to sub-pixel precision by a 1-D parabola through it and its two
+neighbours along each axis (skipped on the border, where a neighbour is missing).
+
+Thresholds are in the utility map's units: the network regresses ``R / α1``
+(see :mod:`learning.targets`), so an isolated expert peaks near ``1 + α2/α1``.
+Cost on a 64×64 map: about 0.2 ms (two ``scipy.ndimage`` filters).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from typed_config import Config, param
+
+__all__ = ["PeakConfig", "find_peaks"]
+
+_EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
+
+
+@dataclass(frozen=True)
+class PeakConfig(Config):
+    """Non-maximum suppression settings (values in utility-map units)."""
+
+    threshold_abs: float = param(0.5, doc="a peak's value must be at least this")
+    threshold_rel: float = param(0.0, ge=0.0, le=1.0, doc="... and this fraction of the map's maximum")
+    min_contrast: float = param(0.25, ge=0.0, doc="a peak must exceed its window's minimum by this much")
+    min_distance_px: int = param(2, ge=1, le=64, doc="window half-size, minimum peak distance, px")
+    max_peaks: int = param(10, ge=1, le=1000, doc="at most this many peaks (the UAV budget)")
+    subpixel: bool = param(True, doc="refine single-pixel peaks with a parabola fit")
+
+
+def _parabola_offset(left: float, centre: float, right: float) -> float:
+    """Vertex offset in [-0.5, 0.5] of the parabola through three equally spaced samples."""
+    curvature = left - 2.0 * centre + right
+    if curvature >= 0.0:  # flat or not a maximum: no refinement
+        return 0.0
+    return float(np.clip(0.5 * (left - right) / curvature, -0.5, 0.5))
+
+
+def find_peaks(utility: np.ndarray, config: PeakConfig | None = None, max_peaks: int | None = None
+               ) -> np.ndarray:
+    """Local maxima of a utility map after thresholds and non-maximum suppression.
+
+    Args:
+        utility: ``(h, w)`` map.
+        config: Thresholds and distances; defaults to ``PeakConfig()``.
+        max_peaks: Overrides ``config.max_peaks`` (e.g. the number of UAVs available).
+
+    Returns:
+        ``(k, 2)`` float64 pixel positions ``(x=column, y=row)``, by decreasing value.
+
+    Raises:
+        ValueError: ``utility`` is not a finite 2-D array, or ``max_peaks < 0``.
+
+    Example:
+        >>> u = np.zeros((9, 9)); u[4, 6] = 1.0; u[4, 5] = u[4, 7] = 0.5
+        >>> find_peaks(u).tolist()
+        [[6.0, 4.0]]
+    """
+    config = config or PeakConfig()
+    limit = config.max_peaks if max_peaks is None else max_peaks
+    if limit < 0:
+        raise ValueError(f"max_peaks = {limit} must be >= 0")
+    u = np.asarray(utility, dtype=np.float64)
+    if u.ndim != 2 or not np.all(np.isfinite(u)):
+        raise ValueError(f"utility must be a finite 2-D array, got shape {u.shape}")
+    if limit == 0 or u.size == 0:
+        return np.zeros((0, 2))
+    size = 2 * config.min_distance_px + 1
+    local_max = ndimage.maximum_filter(u, size=size, mode="nearest")
+    candidates = (u == local_max) & (u >= max(config.threshold_abs, config.threshold_rel * u.max()))
+    if config.min_contrast > 0.0:
+        local_min = ndimage.minimum_filter(u, size=size, mode="nearest")
+        candidates &= u - local_min >= config.min_contrast
+    if not candidates.any():
+        return np.zeros((0, 2))
+    labels, n = ndimage.label(candidates, structure=_EIGHT_CONNECTED)
+    index = np.arange(1, n + 1)
+    values = np.asarray(ndimage.maximum(u, labels, index))
+    centres = np.asarray(ndimage.center_of_mass(candidates, labels, index)).reshape(-1, 2)  # (n, 2) row, col
+    sizes = np.asarray(ndimage.sum_labels(candidates, labels, index))
+    order = np.argsort(-values, kind="stable")
+    h, w = u.shape
+    chosen: list[np.ndarray] = []
+    for i in order:
+        row, col = centres[i]
+        xy = np.array([col, row])
+        if chosen and np.min(np.hypot(*(np.asarray(chosen) - xy).T)) < config.min_distance_px:
+            continue
+        if config.subpixel and sizes[i] == 1:
+            r, c = int(row), int(col)
+            if 0 < c < w - 1:
+                xy[0] += _parabola_offset(u[r, c - 1], u[r, c], u[r, c + 1])
+            if 0 < r < h - 1:
+                xy[1] += _parabola_offset(u[r - 1, c], u[r, c], u[r + 1, c])
+        chosen.append(xy)
+        if len(chosen) == limit:
+            break
+    return np.asarray(chosen, dtype=np.float64).reshape(-1, 2)

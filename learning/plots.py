@@ -1,0 +1,56 @@
+"""Pictures of predictions: a grid of input, utility map, expert and predicted positions.
+
+Uses matplotlib's object API with the Agg canvas (no pyplot, no global backend change).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+__all__ = ["plot_examples"]
+
+
+def plot_examples(
+    path: str | Path,
+    inputs: np.ndarray,
+    utilities: np.ndarray,
+    experts: Sequence[np.ndarray],
+    predictions: Sequence[np.ndarray],
+    titles: Sequence[str],
+) -> None:
+    """Write a PNG with one row per example: input (channels summed) and utility map.
+
+    Both panels show the expert positions (white circles) and the predicted positions (red crosses).
+
+    Args:
+        path: Output ``.png`` (written atomically).
+        inputs: ``(n, C, h, w)`` rasters.
+        utilities: ``(n, h, w)`` utility maps.
+        experts: ``n`` arrays ``(k, 2)`` of pixel ``(x, y)``.
+        predictions: ``n`` arrays ``(m, 2)`` of pixel ``(x, y)``.
+        titles: ``n`` row captions.
+    """
+    n = len(inputs)
+    fig = Figure(figsize=(6.0, 3.0 * max(n, 1)), dpi=80)
+    FigureCanvasAgg(fig)
+    for i in range(n):
+        for j, (image, label) in enumerate(((inputs[i].sum(axis=0), "input"), (utilities[i], "utility"))):
+            ax = fig.add_subplot(n, 2, 2 * i + j + 1)
+            ax.imshow(image, origin="lower", cmap="viridis", interpolation="nearest")
+            ex, pr = np.reshape(experts[i], (-1, 2)), np.reshape(predictions[i], (-1, 2))
+            ax.scatter(ex[:, 0], ex[:, 1], s=60, facecolors="none", edgecolors="white", linewidths=1.5)
+            ax.scatter(pr[:, 0], pr[:, 1], s=40, marker="x", c="red", linewidths=1.5)
+            ax.set_title(f"{titles[i]}: {label}", fontsize=8)
+            ax.set_xticks([])
+            ax.set_yticks([])
+    fig.tight_layout()
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    fig.savefig(tmp, format="png")
+    os.replace(tmp, path)

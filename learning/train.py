@@ -1,0 +1,245 @@
+"""Training the utility network on a dataset of demonstrations.
+
+``train(data_dir, out_dir, ...)`` reads top to bottom: load the shards, split off a
+validation part, build the model, then for each epoch minimise the MSE between
+the utility map and the target map ``R(ζ)/α1`` with Adam, validate (loss,
+correspondence and precision of the extracted peaks), and write
+``out_dir/checkpoint.pt`` (the latest, with the optimiser state to resume from) and
+``out_dir/best.pt`` (best validation corr + precision, weights and metadata only:
+the file to ship).
+
+Determinism: on CPU, the same data, configs and seed give bit-identical weights
+(fixed initialisation seed, one loader generator per epoch seeded from
+``(seed, epoch)``, deterministic algorithms enforced during training). Resuming
+continues from the epoch after the checkpoint's, so an interrupted run resumed
+ends as the uninterrupted run would.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch.utils.data import DataLoader
+from tqdm.auto import tqdm
+
+from learning.checkpoint import CHECKPOINT_FORMAT, CheckpointError, load_checkpoint, save_checkpoint
+from learning.data import load_arrays
+from learning.loader import ShardDataset
+from learning.metrics import MATCH_FRACTION, aggregate, score_sample
+from learning.model import ModelConfig, UtilityNet, build_model
+from learning.peaks import PeakConfig, find_peaks
+from learning.targets import TargetConfig
+from typed_config import Config, param
+
+__all__ = ["TrainConfig", "TrainResult", "train", "pick_device", "validate"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class TrainConfig(Config):
+    """Optimisation settings."""
+
+    epochs: int = param(50, ge=1, le=100_000, doc="passes over the training part")
+    batch_size: int = param(16, ge=1, le=4096, doc="samples per step")
+    lr: float = param(1e-3, gt=0.0, le=1.0, doc="Adam learning rate")
+    schedule: Literal["constant", "cosine", "step"] = param("cosine", doc="learning-rate schedule")
+    step_epochs: int = param(10, ge=1, doc="'step' schedule: epochs between decays")
+    step_gamma: float = param(0.5, gt=0.0, le=1.0, doc="'step' schedule: decay factor")
+    weight_decay: float = param(0.0, ge=0.0, le=1.0, doc="Adam L2 weight decay")
+    seed: int = param(0, ge=0, doc="initialisation, split and shuffling seed")
+    device: Literal["auto", "cpu", "cuda"] = param("auto", doc="'auto': CUDA when available")
+    num_workers: int = param(0, ge=0, le=64, doc="data loader worker processes")
+    torch_threads: int = param(0, ge=0, le=256, doc="CPU threads for torch (0: torch's default; 1 is "
+                               "often fastest on a busy machine)")
+    max_steps: int | None = param(None, ge=1, doc="stop after this many optimiser steps (all epochs)")
+    val_fraction: float = param(0.1, ge=0.0, lt=1.0, doc="share of the dataset held out for validation")
+    augment: bool = param(False, doc="random grid symmetries (only for tasks that are symmetric)")
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """Where the run wrote its checkpoints, and its per-epoch history."""
+
+    checkpoint: Path
+    best_checkpoint: Path
+    history: list[dict[str, float]]
+
+
+def pick_device(choice: str) -> torch.device:
+    """``"auto"`` -> CUDA when available, else CPU."""
+    if choice == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    return torch.device(choice)
+
+
+def _lr_factor(config: TrainConfig, step: int, steps_per_epoch: int, total_steps: int) -> float:
+    if config.schedule == "cosine":
+        return 0.5 * (1.0 + math.cos(math.pi * min(step, total_steps) / max(total_steps, 1)))
+    if config.schedule == "step":
+        return config.step_gamma ** (step // (steps_per_epoch * config.step_epochs))
+    return 1.0
+
+
+@torch.inference_mode()
+def validate(model: UtilityNet, dataset: ShardDataset, eps_px: float, peaks: PeakConfig, device: torch.device,
+             batch_size: int = 64) -> dict[str, float]:
+    """Mean MSE loss, correspondence and precision of ``model`` on ``dataset``."""
+    model.eval()
+    losses, scores = [], []
+    for start in range(0, len(dataset), batch_size):
+        items = [dataset[i] for i in range(start, min(start + batch_size, len(dataset)))]
+        x = torch.stack([item[0] for item in items]).to(device)  # (B, C, h, w)
+        y = torch.stack([item[1] for item in items]).to(device)  # (B, 1, h, w)
+        u = model(x)  # (B, 1, h, w)
+        losses.append(F.mse_loss(u, y, reduction="sum").item() / y[0].numel())
+        for j, utility in enumerate(u[:, 0].cpu().numpy()):
+            scores.append(score_sample(dataset.expert(start + j), find_peaks(utility, peaks), eps_px))
+    summary = aggregate(scores)
+    return {"val_loss": sum(losses) / len(dataset), "val_corr": summary["corr"],
+            "val_precision": summary["precision"]}
+
+
+def train(
+    data_dir: str | Path,
+    out_dir: str | Path,
+    *,
+    model_config: ModelConfig | None = None,
+    target_config: TargetConfig | None = None,
+    train_config: TrainConfig | None = None,
+    peak_config: PeakConfig | None = None,
+    resume: str | Path | None = None,
+    progress: bool = True,
+) -> TrainResult:
+    """Train a utility network on the dataset in ``data_dir``; checkpoints go to ``out_dir``.
+
+    Args:
+        data_dir: A complete dataset folder (see :mod:`learning.data`).
+        out_dir: Output folder (created if needed).
+        model_config: Architecture (``in_channels`` is taken from the data).
+        target_config: The target Gaussians.
+        train_config: Optimisation settings (on resume: defaults to the checkpoint's;
+            pass one to extend ``epochs``).
+        peak_config: Peak extraction for validation, saved in the checkpoint.
+        resume: A checkpoint of this dataset's task to continue from; its model,
+            target and peak configs are used.
+        progress: Show a progress bar.
+
+    Raises:
+        learning.data.DatasetError: Incomplete or corrupt dataset.
+        learning.checkpoint.CheckpointError: ``resume`` is corrupt or from another task or shape.
+    """
+    manifest, arrays = load_arrays(data_dir)
+    input_shape = (manifest["channels"], *manifest["shape"])
+    state: dict[str, Any] = {}
+    if resume is not None:
+        ckpt = load_checkpoint(resume, task_name=manifest["task"], task_config=manifest["task_config"],
+                               input_shape=input_shape)
+        state = ckpt.payload
+        if "optimizer_state" not in state:
+            raise CheckpointError(f"{resume}: has no optimizer state (a best.pt); resume from checkpoint.pt")
+        model_config, target_config, peak_config = ckpt.model_config, ckpt.target_config, ckpt.peak_config
+        train_config = train_config or TrainConfig.from_dict(state["train_config"])
+    model_config = (model_config or ModelConfig()).replace(in_channels=manifest["channels"])
+    target_config = target_config or TargetConfig()
+    train_config = train_config or TrainConfig()
+    peak_config = peak_config or PeakConfig()
+    cfg = train_config
+    device = pick_device(cfg.device)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+
+    n = len(arrays["inputs"])
+    order = np.random.default_rng(cfg.seed).permutation(n)
+    n_val = min(n - 1, max(1, round(cfg.val_fraction * n))) if cfg.val_fraction > 0 and n > 1 else 0
+    train_set = ShardDataset(arrays, target_config, np.sort(order[n_val:]), cfg.augment, cfg.seed)
+    val_set = ShardDataset(arrays, target_config, np.sort(order[:n_val]))
+    eps_px = MATCH_FRACTION * manifest["mission_dimension_px"]
+
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(cfg.seed)
+        model = build_model(model_config).to(device)
+    optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    steps_per_epoch = math.ceil(len(train_set) / cfg.batch_size)
+    total_steps = min(cfg.epochs * steps_per_epoch, cfg.max_steps or math.inf)
+    scheduler = torch.optim.lr_scheduler.LambdaLR(
+        optimizer, lambda s: _lr_factor(cfg, s, steps_per_epoch, int(total_steps)))
+    history: list[dict[str, float]] = []
+    step, first_epoch, elapsed_s = 0, 0, 0.0
+    if state:
+        model.load_state_dict(state["model_state"])
+        optimizer.load_state_dict(state["optimizer_state"])
+        scheduler.load_state_dict(state["scheduler_state"])
+        history, step, first_epoch = list(state["history"]), int(state["step"]), int(state["epoch"]) + 1
+        elapsed_s = float(history[-1]["elapsed_s"]) if history else 0.0
+    best_score = max((h["val_corr"] + h["val_precision"] for h in history if "val_corr" in h), default=-1.0)
+    payload = {
+        "format": CHECKPOINT_FORMAT, "model_config": model_config.to_dict(),
+        "target_config": target_config.to_dict(), "peak_config": peak_config.to_dict(),
+        "train_config": cfg.to_dict(), "task_name": manifest["task"], "task_config": manifest["task_config"],
+        "input_shape": list(input_shape), "mission_dimension_px": manifest["mission_dimension_px"],
+        "data": {"seed": manifest["seed"], "split": manifest["split"], "n": manifest["n"]},
+    }
+    ckpt_path, best_path = out / "checkpoint.pt", out / "best.pt"
+    log.info("training %s on %d samples (%d validation) on %s",
+             model_config.arch, len(train_set), n_val, device)
+
+    deterministic, threads = torch.are_deterministic_algorithms_enabled(), torch.get_num_threads()
+    torch.use_deterministic_algorithms(device.type == "cpu" or deterministic, warn_only=True)
+    if cfg.torch_threads:
+        torch.set_num_threads(cfg.torch_threads)
+    bar = tqdm(total=int(total_steps), initial=step, disable=not progress, unit="step")
+    try:
+        for epoch in range(first_epoch, cfg.epochs):
+            if step >= total_steps:
+                break
+            t0 = time.perf_counter()
+            model.train()
+            train_set.set_epoch(epoch)
+            generator = torch.Generator().manual_seed(cfg.seed * 100_003 + epoch)
+            loader = DataLoader(train_set, batch_size=cfg.batch_size, shuffle=True, generator=generator,
+                                num_workers=cfg.num_workers, pin_memory=device.type == "cuda")
+            loss_sum, seen = 0.0, 0
+            for x, y in loader:
+                x = x.to(device, non_blocking=True)  # (B, C, h, w)
+                y = y.to(device, non_blocking=True)  # (B, 1, h, w)
+                loss = F.mse_loss(model(x), y)
+                optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                optimizer.step()
+                scheduler.step()
+                step += 1
+                loss_sum, seen = loss_sum + loss.item() * len(x), seen + len(x)
+                bar.update(1)
+                bar.set_postfix(epoch=epoch, loss=f"{loss.item():.4f}")
+                if step >= total_steps:
+                    break
+            record = {"epoch": epoch, "step": step, "train_loss": loss_sum / max(seen, 1),
+                      "lr": scheduler.get_last_lr()[0]}
+            if n_val:
+                record.update(validate(model, val_set, eps_px, peak_config, device))
+            elapsed_s += time.perf_counter() - t0
+            record["elapsed_s"] = elapsed_s
+            history.append(record)
+            log.info("epoch %d: %s", epoch, {k: round(v, 4) for k, v in record.items()})
+            payload.update(model_state=model.state_dict(), optimizer_state=optimizer.state_dict(),
+                           scheduler_state=scheduler.state_dict(), epoch=epoch, step=step, history=history)
+            save_checkpoint(ckpt_path, payload)
+            score = record.get("val_corr", 0.0) + record.get("val_precision", 0.0)
+            if not n_val or score > best_score or not best_path.exists():
+                best_score = score
+                lean = {k: v for k, v in payload.items() if k not in ("optimizer_state", "scheduler_state")}
+                save_checkpoint(best_path, lean)
+    finally:
+        bar.close()
+        torch.use_deterministic_algorithms(deterministic)
+        torch.set_num_threads(threads)
+    return TrainResult(ckpt_path, best_path, history)

@@ -1,0 +1,68 @@
+"""The registry and the ``uav-swarm dataset | train | evaluate`` commands, on the synthetic blob task."""
+
+import json
+
+import pytest
+
+from typed_config import ConfigError
+from uav_swarm.cli import main
+from uav_swarm.missions import registry
+
+
+@pytest.fixture
+def blobs(monkeypatch):
+    entry = registry.TaskEntry("blob_task:BlobTask", alpha2=20.0, sigma2=3.0)
+    monkeypatch.setitem(registry.TASKS, "blobs", entry)
+
+
+def test_paper_targets_are_the_defaults():
+    expected = {"wifi-s1": (50, 50), "wifi-s2": (30, 30), "agp": (40, 40), "fp": (40, 20)}
+    for name, (alpha2, sigma2) in expected.items():
+        targets = registry.load_settings(name).targets
+        assert (targets.alpha1, targets.sigma1, targets.alpha2, targets.sigma2) == (255, 1, alpha2, sigma2)
+
+
+def test_settings_file_tables_and_errors(tmp_path):
+    path = tmp_path / "s1.toml"
+    path.write_text("[targets]\nsigma2 = 12.5\n[model]\narch = 'unet'\n[train]\nepochs = 3\n")
+    settings = registry.load_settings("wifi-s1", path)
+    assert (settings.targets.alpha2, settings.targets.sigma2) == (50, 12.5)
+    assert settings.model.arch == "unet" and settings.train.epochs == 3
+    path.write_text("[trian]\nepochs = 3\n")
+    with pytest.raises(ConfigError, match="trian"):
+        registry.load_settings("wifi-s1", path)
+    path.write_text("[train]\nepoch = 3\n")
+    with pytest.raises(ConfigError, match=r"\[train\].*epoch"):
+        registry.load_settings("wifi-s1", path)
+    with pytest.raises(ConfigError, match="wifi-s3"):
+        registry.make_task("wifi-s3")
+    with pytest.raises(ConfigError, match="strategy"):
+        registry.make_task("wifi-s1", overrides={"strategy": 2})
+
+
+def test_task_factory_rebuilds_the_same_task(blobs):
+    task = registry.make_task("blobs", overrides={"size_px": 16})
+    again = registry.task_factory(task)()
+    assert again.config == task.config and again.shape == (16, 16)
+
+
+def test_dataset_train_evaluate_commands(blobs, tmp_path, capsys):
+    config = tmp_path / "blobs.toml"
+    config.write_text("[task]\nsize_px = 16\n[model]\nwidth = 4\n[train]\nbatch_size = 4\ndevice = 'cpu'\n")
+    data, run, evaluation = tmp_path / "data", tmp_path / "run", tmp_path / "eval"
+    assert main(["dataset", "--task", "blobs", "--config", str(config), "--n", "12", "--seed", "4",
+                 "--out", str(data), "--workers", "1"]) == 0
+    assert json.loads((data / "manifest.json").read_text())["task_config"]["size_px"] == 16
+    assert main(["train", "--task", "blobs", "--config", str(config), "--data", str(data), "--out", str(run),
+                 "--max-steps", "2"]) == 0
+    assert main(["evaluate", "--task", "blobs", "--checkpoint", str(run / "checkpoint.pt"), "--n", "4",
+                 "--seed", "4", "--out", str(evaluation), "--workers", "1", "--examples", "0"]) == 0
+    assert "| blobs |" in capsys.readouterr().out
+    assert main(["evaluate", "--task", "wifi-s1", "--checkpoint", str(run / "checkpoint.pt"), "--n", "4",
+                 "--seed", "4", "--out", str(evaluation)]) == 2
+    assert "not 'wifi-s1'" in capsys.readouterr().err
+    assert main(["train", "--task", "blobs", "--data", str(tmp_path / "nothing"), "--out", str(run)]) == 2
+    config.write_text("[task]\nsize_px = 24\n")
+    assert main(["train", "--task", "blobs", "--config", str(config), "--data", str(data),
+                 "--out", str(run)]) == 2
+    assert "size_px" in capsys.readouterr().err

@@ -1,0 +1,83 @@
+import time
+
+import numpy as np
+import pytest
+
+from learning.peaks import PeakConfig, find_peaks
+
+NO_CONTRAST = PeakConfig(min_contrast=0.0, threshold_abs=0.1)
+
+
+def gaussian(shape, x, y, height=1.0, sigma=1.0):
+    ys, xs = np.mgrid[0 : shape[0], 0 : shape[1]]
+    return height * np.exp(-((xs - x) ** 2 + (ys - y) ** 2) / (2 * sigma**2))
+
+
+def test_subpixel_refinement_recovers_offset_gaussian_centre():
+    u = gaussian((20, 20), 7.3, 12.8, sigma=1.5)
+    (peak,) = find_peaks(u)
+    assert peak == pytest.approx([7.3, 12.8], abs=0.1)
+    (coarse,) = find_peaks(u, PeakConfig(subpixel=False))
+    assert coarse.tolist() == [7.0, 13.0]
+
+
+def test_plateau_gives_one_peak_at_its_centroid():
+    u = np.zeros((10, 10))
+    u[4:6, 3:6] = 1.0  # a 2 x 3 plateau
+    peaks = find_peaks(u, NO_CONTRAST)
+    assert peaks.tolist() == [[4.0, 4.5]]
+
+
+@pytest.mark.parametrize("row,col", [(0, 0), (0, 9), (7, 0), (7, 9), (0, 4)], ids=str)
+def test_peak_on_border_is_found_at_its_pixel(row, col):
+    u = gaussian((8, 10), col, row)
+    peaks = find_peaks(u)
+    assert peaks.tolist() == [[float(col), float(row)]]
+
+
+def test_at_most_k_peaks_by_decreasing_value():
+    u = np.zeros((40, 40))
+    heights = [0.6, 1.0, 0.9, 0.7, 0.8]
+    for i, h in enumerate(heights):
+        u += gaussian(u.shape, 5 + 7 * i, 20, height=h)
+    peaks = find_peaks(u, max_peaks=3)
+    assert peaks[:, 0].round().tolist() == [12.0, 19.0, 33.0]
+    assert len(find_peaks(u)) == 5
+
+
+def test_non_maximum_suppression_keeps_the_higher_of_two_close_peaks():
+    u = np.zeros((12, 12))
+    u[5, 5], u[5, 7] = 1.0, 0.9
+    assert find_peaks(u, PeakConfig(min_distance_px=2, subpixel=False)).tolist() == [[5.0, 5.0]]
+    assert len(find_peaks(u, PeakConfig(min_distance_px=1, subpixel=False))) == 2
+
+
+def test_threshold_and_contrast_reject_weak_or_flat_maxima():
+    u = gaussian((30, 30), 8, 8, height=0.3) + gaussian((30, 30), 20, 20, height=1.0)
+    assert len(find_peaks(u, PeakConfig(threshold_abs=0.5))) == 1
+    broad = 2.0 + gaussian((30, 30), 15, 15, height=0.05, sigma=8.0)  # a high but flat maximum
+    assert len(find_peaks(broad, PeakConfig(threshold_abs=0.5, min_contrast=0.25))) == 0
+    assert len(find_peaks(broad, PeakConfig(threshold_abs=0.5, min_contrast=0.0))) == 1
+
+
+def test_flat_and_empty_maps_have_no_peaks():
+    assert find_peaks(np.zeros((16, 16))).shape == (0, 2)
+    assert find_peaks(np.ones((16, 16)), PeakConfig(min_contrast=0.0)).shape == (1, 2)
+    assert find_peaks(np.ones((16, 16))).shape == (0, 2)
+
+
+def test_bad_input_is_rejected():
+    with pytest.raises(ValueError, match="2-D"):
+        find_peaks(np.zeros((2, 3, 4)))
+    with pytest.raises(ValueError, match="finite"):
+        find_peaks(np.full((4, 4), np.nan))
+
+
+def test_fast_enough_for_replanning_on_a_noisy_64px_map():
+    u = np.random.default_rng(0).random((64, 64))
+    find_peaks(u)
+    t0 = time.perf_counter()
+    for _ in range(20):
+        peaks = find_peaks(u)
+    assert (time.perf_counter() - t0) / 20 < 0.005  # budget of one replan, generous on a loaded CPU
+    assert len(peaks) == 10

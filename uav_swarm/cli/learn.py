@@ -1,0 +1,136 @@
+"""``uav-swarm dataset | train | evaluate``: learning placement from demonstration.
+
+Examples::
+
+    uav-swarm dataset --task wifi-s1 --n 5000 --seed 1 --out runs/s1/data
+    uav-swarm train --task wifi-s1 --data runs/s1/data --out runs/s1/train --config configs/tasks/wifi-s1.toml
+    uav-swarm evaluate --task wifi-s1 --checkpoint runs/s1/train/best.pt --n 800 --seed 1 --out runs/s1/eval
+
+Test scenes never repeat training scenes: ``dataset`` draws from the ``train`` seed
+namespace by default and ``evaluate`` from the ``test`` namespace, and
+``evaluate`` checks the test seeds against the checkpoint's training dataset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``dataset``, ``train`` and ``evaluate`` subcommands."""
+    from learning.data import SPLITS
+
+    def common(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--task", required=True, help="wifi-s1, wifi-s2, agp or fp")
+        parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks)")
+        parser.add_argument("--out", required=True, help="output folder")
+        parser.set_defaults(func=run)
+
+    def generation(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--n", type=int, required=True, help="number of scenes")
+        parser.add_argument("--seed", type=int, required=True, help="dataset seed (>= 0)")
+        parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where to compute")
+        parser.add_argument("--address", help="Ray cluster address (with --executor ray)")
+        parser.add_argument("--workers", type=int, help="local worker processes (default: all CPUs)")
+
+    dataset = subparsers.add_parser("dataset", help="generate expert demonstrations into shards (resumable)")
+    common(dataset)
+    generation(dataset)
+    dataset.add_argument("--split", choices=sorted(SPLITS), default="train", help="seed namespace")
+    dataset.add_argument("--shard-size", type=int, default=256, help="scenes per shard file")
+
+    train = subparsers.add_parser("train", help="train the utility network on a dataset")
+    common(train)
+    train.add_argument("--data", required=True, help="dataset folder")
+    train.add_argument("--epochs", type=int, help="override [train] epochs")
+    train.add_argument("--batch-size", type=int, help="override [train] batch_size")
+    train.add_argument("--lr", type=float, help="override [train] lr")
+    train.add_argument("--max-steps", type=int, help="override [train] max_steps")
+    train.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override [train] device")
+    train.add_argument("--torch-threads", type=int, help="override [train] torch_threads (1 on a busy CPU)")
+    train.add_argument("--arch", choices=("paper", "unet"), help="override [model] arch")
+    train.add_argument("--resume", help="checkpoint to continue from")
+
+    evaluate = subparsers.add_parser("evaluate", help="evaluate a checkpoint on fresh test scenes")
+    common(evaluate)
+    generation(evaluate)
+    evaluate.add_argument("--checkpoint", required=True, help="a .pt file trained on this task")
+    evaluate.add_argument("--data", help="test dataset folder (default: OUT/test-data, generated if needed)")
+    evaluate.add_argument("--examples", type=int, default=6, help="scenes drawn in examples.png")
+
+
+def _overrides(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, Any]:
+    """The options among ``names`` given on the command line (same names as the config fields)."""
+    return {name: getattr(args, name) for name in names if getattr(args, name) is not None}
+
+
+def _dataset(args: argparse.Namespace) -> int:
+    from learning.data import generate_dataset
+    from uav_swarm.missions.registry import make_task, task_factory
+
+    factory = task_factory(make_task(args.task, args.config))
+    manifest = generate_dataset(factory, args.n, args.seed, args.out, split=args.split,
+                                shard_size=args.shard_size, executor=args.executor, workers=args.workers,
+                                address=args.address)
+    print(f"{manifest['n']} {args.task} scenes ({args.split}, seed {args.seed}) in {args.out}")
+    return 0
+
+
+def _train(args: argparse.Namespace) -> int:
+    from learning.data import load_manifest
+    from learning.train import train
+    from uav_swarm.missions.registry import load_settings
+
+    settings = load_settings(args.task, args.config)
+    manifest = load_manifest(args.data)
+    if manifest["task"] != args.task:
+        print(f"uav-swarm: {args.data} holds {manifest['task']!r} scenes, not {args.task!r}", file=sys.stderr)
+        return 2
+    differ = sorted(k for k, v in settings.task.items() if manifest["task_config"].get(k) != v)
+    if differ:
+        print(f"uav-swarm: {args.data} was generated with other [task] values for {differ} "
+              f"than {args.config}", file=sys.stderr)
+        return 2
+    train_fields = ("epochs", "batch_size", "lr", "max_steps", "device", "torch_threads")
+    train_cfg = settings.train.replace(**_overrides(args, train_fields))
+    model_cfg = settings.model.replace(**_overrides(args, ("arch",)))
+    result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
+                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume)
+    last = result.history[-1] if result.history else {}
+    print(f"checkpoint: {result.checkpoint} (best: {result.best_checkpoint}); last epoch: "
+          + ", ".join(f"{k} {v:.4g}" for k, v in last.items()))
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from learning.checkpoint import load_checkpoint
+    from learning.evaluate import evaluate, markdown_table
+    from uav_swarm.missions.registry import TaskFactory, make_task, task_factory
+
+    if args.config is not None:  # must describe the task the checkpoint was trained on
+        factory = task_factory(make_task(args.task, args.config))
+    else:  # the task exactly as trained
+        factory = TaskFactory(args.task, load_checkpoint(args.checkpoint, task_name=args.task).task_config)
+    # peaks: the settings saved with (and validated during the training of) the checkpoint
+    summary = evaluate(args.checkpoint, factory, args.n, args.seed, args.out, data_dir=args.data,
+                       n_examples=args.examples, executor=args.executor,
+                       workers=args.workers, address=args.address)
+    print(markdown_table(args.task, summary), end="")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``dataset``, ``train`` or ``evaluate``; dataset and checkpoint problems exit with code 2."""
+    from learning.checkpoint import CheckpointError
+    from learning.data import DatasetError
+
+    command = {"dataset": _dataset, "train": _train, "evaluate": _evaluate}[args.command]
+    try:
+        return command(args)
+    except (CheckpointError, DatasetError) as exc:
+        print(f"uav-swarm {args.command}: {exc}", file=sys.stderr)
+        return 2

@@ -1,0 +1,82 @@
+r"""``uav-swarm search``: the (α2, σ2) grid search of the target's wide Gaussian for one task.
+
+Examples::
+
+    uav-swarm dataset --task agp --n 1000 --seed 1 --out runs/agp/data
+    uav-swarm search --task agp --data runs/agp/data --out runs/agp/search --alpha2 20:60:10 \
+        --sigma2 20:60:10 --epochs 5
+    uav-swarm search --task wifi-s1 --n 1000 --seed 1 --data runs/s1/data --out runs/s1/search \
+        --epochs 5 --executor ray --address ray://head:10001
+
+The dataset is ``--data``: an existing ``uav-swarm dataset`` folder, or, when ``--n`` is
+given, generated (or finished, resumably) there first with ``--seed``. Model, training
+and peak settings come from the task's settings (``--config``) with the options given
+here replacing them; ``[targets]`` gives α1 and σ1. Outputs in ``--out``: ``search.json``
+(resumable: run the same command again after a kill), ``summary.json``, ``summary.md``
+and ``heatmap.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``search`` subcommand."""
+    parser = subparsers.add_parser("search", help="grid search of the target's (alpha2, sigma2) (resumable)")
+    parser.add_argument("--task", required=True, help="wifi-s1, wifi-s2, agp or fp")
+    parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks)")
+    parser.add_argument("--data", required=True, help="dataset folder (generated there when --n is given)")
+    parser.add_argument("--out", required=True, help="search output folder")
+    parser.add_argument("--n", type=int, help="generate (or finish) a dataset of this many scenes in --data")
+    parser.add_argument("--seed", type=int, default=0, help="dataset seed with --n (default 0)")
+    parser.add_argument("--alpha2", default="20:60:10", help="alpha2 grid start:stop:step, inclusive")
+    parser.add_argument("--sigma2", default="20:60:10", help="sigma2 grid start:stop:step (px), inclusive")
+    parser.add_argument("--epochs", type=int, help="per-trial epochs (override [train] epochs)")
+    parser.add_argument("--max-steps", type=int, help="per-trial steps (override [train] max_steps)")
+    parser.add_argument("--batch-size", type=int, help="override [train] batch_size")
+    parser.add_argument("--lr", type=float, help="override [train] lr")
+    parser.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override [train] device")
+    parser.add_argument("--threads", type=int, default=1, help="torch threads per trial (default 1)")
+    parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where trials run")
+    parser.add_argument("--address", help="Ray cluster address (with --executor ray)")
+    parser.add_argument("--workers", type=int,
+                        help="trials at once (local processes, default CPUs/threads; Ray: default all CPUs)")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Generate the dataset if asked, run or resume the search, print the summary."""
+    from learning.checkpoint import CheckpointError
+    from learning.data import DatasetError, generate_dataset, load_manifest
+    from learning.search import SearchConfig, SearchError, run_search
+    from learning.search_report import markdown_summary
+    from uav_swarm.missions.registry import load_settings, make_task, task_factory
+
+    search_config = SearchConfig(alpha2=args.alpha2, sigma2=args.sigma2, threads=args.threads)
+    settings = load_settings(args.task, args.config)
+    fields = ("epochs", "max_steps", "batch_size", "lr", "device")
+    overrides = {f: getattr(args, f) for f in fields if getattr(args, f) is not None}
+    train_config = settings.train.replace(**overrides)
+    try:
+        if args.n is not None:
+            generate_dataset(task_factory(make_task(args.task, args.config)), args.n, args.seed, args.data,
+                             executor=args.executor, workers=args.workers, address=args.address)
+        manifest = load_manifest(args.data)
+        if manifest["task"] != args.task:
+            print(f"uav-swarm search: {args.data} holds {manifest['task']!r} scenes, not {args.task!r}",
+                  file=sys.stderr)
+            return 2
+        summary = run_search(args.data, args.out, search_config, model_config=settings.model,
+                             target_config=settings.targets, train_config=train_config,
+                             peak_config=settings.peaks, executor=args.executor, workers=args.workers,
+                             address=args.address)
+    except (CheckpointError, DatasetError, SearchError, ValueError) as exc:
+        print(f"uav-swarm search: {exc}", file=sys.stderr)
+        return 2
+    print(markdown_summary(summary), end="")
+    print(f"heat map: {args.out}/heatmap.png; results: {args.out}/search.json")
+    return 0

@@ -1,0 +1,173 @@
+"""The task registry: mission names to :class:`learning.task.Task` objects and their settings.
+
+Names: ``wifi-s1``, ``wifi-s2`` (the Wi-Fi task with strategy 1 or 2), ``agp``
+(Art Gallery) and ``fp`` (Fortress). Task classes are imported lazily and
+building a task imports no torch (data workers only build tasks). A task class
+has a class attribute ``config_class`` (its :class:`typed_config.Config`) and is
+constructed as ``cls(config)``.
+
+A task settings file (``configs/tasks/<name>.toml``) may hold the tables
+``[task]`` (the task's own config), ``[targets]`` (:class:`learning.targets.TargetConfig`),
+``[model]``, ``[train]`` and ``[peaks]`` (learning's configs); every table is optional.
+Without a ``[targets]`` table a task gets the paper's best (α2, σ2) from its grid search:
+S1 (50, 50), S2 (30, 30), AGP (40, 40), FP (40, 20) (pixels of the paper's rasters).
+
+Data generation runs in worker processes that rebuild the task from a picklable
+:class:`TaskFactory` (name + resolved config), never from a file that might change.
+"""
+
+from __future__ import annotations
+
+import importlib
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from learning.task import Task
+from typed_config import Config, ConfigError
+
+if TYPE_CHECKING:  # torch-importing modules are loaded only by load_settings
+    from learning.model import ModelConfig
+    from learning.peaks import PeakConfig
+    from learning.targets import TargetConfig
+    from learning.train import TrainConfig
+
+__all__ = ["TASKS", "TaskEntry", "TaskSettings", "TaskFactory", "make_task", "build_task", "task_factory",
+           "load_settings"]
+
+
+@dataclass(frozen=True)
+class TaskEntry:
+    """Where a task's class lives, the config values its name fixes, and its default targets."""
+
+    target: str
+    fixed: Mapping[str, Any] = field(default_factory=dict)
+    alpha2: float = 40.0
+    sigma2: float = 40.0
+
+
+TASKS: dict[str, TaskEntry] = {
+    "wifi-s1": TaskEntry("uav_swarm.missions.wifi:WifiTask", {"strategy": 1}, alpha2=50.0, sigma2=50.0),
+    "wifi-s2": TaskEntry("uav_swarm.missions.wifi:WifiTask", {"strategy": 2}, alpha2=30.0, sigma2=30.0),
+    "agp": TaskEntry("uav_swarm.missions.monitoring:ArtGalleryTask", alpha2=40.0, sigma2=40.0),
+    "fp": TaskEntry("uav_swarm.missions.monitoring:FortressTask", alpha2=40.0, sigma2=20.0),
+}
+_SECTIONS = ("task", "targets", "model", "train", "peaks")
+
+
+def _entry(name: str) -> TaskEntry:
+    if name not in TASKS:
+        raise ConfigError(f"task = {name!r} is not allowed: choose one of {sorted(TASKS)}")
+    return TASKS[name]
+
+
+def _task_class(name: str) -> type:
+    module_name, _, class_name = _entry(name).target.partition(":")
+    return getattr(importlib.import_module(module_name), class_name)
+
+
+def build_task(name: str, task_config: Mapping[str, Any] | None = None) -> Task:
+    """The task ``name`` with its config built from ``task_config`` (plus the values the name fixes).
+
+    Raises:
+        ConfigError: Unknown name, invalid config, or a value that contradicts the name
+            (e.g. ``strategy = 2`` for ``wifi-s1``).
+    """
+    entry = _entry(name)
+    values = dict(task_config or {})
+    for key, value in entry.fixed.items():
+        if values.get(key, value) != value:
+            raise ConfigError(f"[task] {key} = {values[key]!r} contradicts task {name!r} (needs {value!r})")
+        values[key] = value
+    cls = _task_class(name)
+    config_class: type[Config] = cls.config_class
+    return cls(config_class.from_dict(values, where="[task]"))
+
+
+@dataclass(frozen=True)
+class TaskFactory:
+    """A picklable zero-argument callable that rebuilds one task (for worker processes)."""
+
+    name: str
+    task_config: Mapping[str, Any]
+
+    def __call__(self) -> Task:
+        """Build the task."""
+        return build_task(self.name, self.task_config)
+
+
+def task_factory(task: Task) -> TaskFactory:
+    """A factory that rebuilds ``task`` (same name, same resolved config)."""
+    return TaskFactory(task.name, task.config.to_dict())
+
+
+@dataclass(frozen=True)
+class TaskSettings:
+    """Everything a settings file configures for one task, resolved with defaults."""
+
+    name: str
+    task: dict[str, Any]
+    targets: TargetConfig
+    model: ModelConfig
+    train: TrainConfig
+    peaks: PeakConfig
+
+
+def _read_tables(config_path: str | Path | None) -> dict[str, Any]:
+    if config_path is None:
+        return {}
+    path = Path(config_path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"config file not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    unknown = sorted(set(data) - set(_SECTIONS))
+    if unknown:
+        raise ConfigError(f"{path}: unknown table(s) {unknown}; allowed tables are {list(_SECTIONS)}")
+    return data
+
+
+def load_settings(name: str, config_path: str | Path | None = None) -> TaskSettings:
+    """The task, target, model, training and peak settings of ``name`` from an optional TOML file.
+
+    Raises:
+        ConfigError: Unknown task name, unreadable file, unknown table or key, or an invalid value.
+    """
+    from learning.model import ModelConfig
+    from learning.peaks import PeakConfig
+    from learning.targets import TargetConfig
+    from learning.train import TrainConfig
+
+    entry = _entry(name)
+    tables = _read_tables(config_path)
+    where = f"{config_path}: " if config_path is not None else ""
+    try:
+        targets = TargetConfig.from_dict({"alpha2": entry.alpha2, "sigma2": entry.sigma2,
+                                          **tables.get("targets", {})}, where="[targets]")
+        model = ModelConfig.from_dict(tables.get("model", {}), where="[model]")
+        train = TrainConfig.from_dict(tables.get("train", {}), where="[train]")
+        peaks = PeakConfig.from_dict(tables.get("peaks", {}), where="[peaks]")
+    except ConfigError as exc:
+        raise ConfigError(f"{where}{exc}") from None
+    return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks)
+
+
+def make_task(name: str, config_path: str | Path | None = None, overrides: Mapping[str, Any] | None = None
+              ) -> Task:
+    """Build a registered task, its config from the ``[task]`` table of ``config_path`` and ``overrides``.
+
+    Args:
+        name: ``"wifi-s1"``, ``"wifi-s2"``, ``"agp"`` or ``"fp"``.
+        config_path: Optional task settings TOML (see the module docstring).
+        overrides: ``[task]`` values that replace the file's.
+
+    Raises:
+        ConfigError: Unknown name, bad file, or invalid config values.
+    """
+    _entry(name)
+    table = {**_read_tables(config_path).get("task", {}), **(overrides or {})}
+    return build_task(name, table)
