@@ -32,7 +32,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
 
-__all__ = ["Config", "ConfigError", "param", "load_toml"]
+__all__ = ["Config", "ConfigError", "param", "load_toml", "read_toml"]
 
 C = TypeVar("C", bound="Config")
 
@@ -212,6 +212,21 @@ class Config:
         return "\n".join(lines)
 
 
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """The tables of a TOML file as a dict.
+
+    Raises:
+        ConfigError: The file is missing or is not valid TOML (the message names the file).
+    """
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"config file not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+
+
 def load_toml(cls: type[C], path: str | Path, *, section: str | None = None) -> C:
     """Load a config dataclass from a TOML file (optionally one table of it).
 
@@ -224,12 +239,7 @@ def load_toml(cls: type[C], path: str | Path, *, section: str | None = None) -> 
         ConfigError: The file is missing, malformed, or its values are invalid.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"config file not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    data = read_toml(path)
     where = cls.__name__
     if section is not None:
         if section not in data:

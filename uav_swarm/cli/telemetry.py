@@ -14,7 +14,6 @@ import json
 import os
 import sys
 import time
-import tomllib
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -46,14 +45,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _toml_table(path: Path, section: str) -> dict[str, Any]:
-    from typed_config import ConfigError
+    from typed_config import ConfigError, read_toml
 
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"config file not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    data = read_toml(path)
     if not isinstance(data.get(section), dict):
         raise ConfigError(f"{path}: missing table [{section}]")
     return data[section]

@@ -19,14 +19,13 @@ Data generation runs in worker processes that rebuild the task from a picklable
 from __future__ import annotations
 
 import importlib
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from learning.task import Task
-from typed_config import Config, ConfigError
+from typed_config import Config, ConfigError, read_toml
 
 if TYPE_CHECKING:  # torch-importing modules are loaded only by load_settings
     from learning.model import ModelConfig
@@ -119,12 +118,7 @@ def _read_tables(config_path: str | Path | None) -> dict[str, Any]:
     if config_path is None:
         return {}
     path = Path(config_path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"config file not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    data = read_toml(path)
     unknown = sorted(set(data) - set(_SECTIONS))
     if unknown:
         raise ConfigError(f"{path}: unknown table(s) {unknown}; allowed tables are {list(_SECTIONS)}")
