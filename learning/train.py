@@ -30,6 +30,7 @@ import torch.nn.functional as F
 from torch.utils.data import DataLoader
 from tqdm.auto import tqdm
 
+from learning.calibrate import calibrate_peaks
 from learning.checkpoint import CHECKPOINT_FORMAT, CheckpointError, load_checkpoint, save_checkpoint
 from learning.data import load_arrays
 from learning.loader import ShardDataset
@@ -63,6 +64,8 @@ class TrainConfig(Config):
     max_steps: int | None = param(None, ge=1, doc="stop after this many optimiser steps (all epochs)")
     val_fraction: float = param(0.1, ge=0.0, lt=1.0, doc="share of the dataset held out for validation")
     augment: bool = param(False, doc="random grid symmetries (only for tasks that are symmetric)")
+    calibrate_peaks: bool = param(False, doc="choose the peak thresholds on the validation split every "
+                                  "epoch (learning.calibrate); best.pt carries the chosen ones")
 
 
 @dataclass(frozen=True)
@@ -91,21 +94,31 @@ def _lr_factor(config: TrainConfig, step: int, steps_per_epoch: int, total_steps
 
 @torch.inference_mode()
 def validate(model: UtilityNet, dataset: ShardDataset, eps_px: float, peaks: PeakConfig, device: torch.device,
-             batch_size: int = 64) -> dict[str, float]:
-    """Mean MSE loss, correspondence and precision of ``model`` on ``dataset``."""
+             batch_size: int = 64, calibrate: bool = False) -> tuple[dict[str, float], PeakConfig]:
+    """Mean MSE loss, correspondence and precision of ``model`` on ``dataset``.
+
+    Returns:
+        The metrics and the peak settings they were measured with: ``peaks``, or with
+        ``calibrate`` the thresholds that :func:`learning.calibrate.calibrate_peaks` chose.
+    """
     model.eval()
-    losses, scores = [], []
+    losses, utilities = [], []
     for start in range(0, len(dataset), batch_size):
         items = [dataset[i] for i in range(start, min(start + batch_size, len(dataset)))]
         x = torch.stack([item[0] for item in items]).to(device)  # (B, C, h, w)
         y = torch.stack([item[1] for item in items]).to(device)  # (B, 1, h, w)
         u = model(x)  # (B, 1, h, w)
         losses.append(F.mse_loss(u, y, reduction="sum").item() / y[0].numel())
-        for j, utility in enumerate(u[:, 0].cpu().numpy()):
-            scores.append(score_sample(dataset.expert(start + j), find_peaks(utility, peaks), eps_px))
-    summary = aggregate(scores)
-    return {"val_loss": sum(losses) / len(dataset), "val_corr": summary["corr"],
-            "val_precision": summary["precision"]}
+        utilities.extend(u[:, 0].float().cpu().numpy())
+    experts = [dataset.expert(i) for i in range(len(dataset))]
+    if calibrate:
+        peaks, summary = calibrate_peaks(utilities, experts, eps_px, peaks)
+    else:
+        summary = aggregate(score_sample(e, find_peaks(u, peaks), eps_px)
+                            for u, e in zip(utilities, experts, strict=True))
+    metrics = {"val_loss": sum(losses) / len(dataset), "val_corr": summary["corr"],
+               "val_precision": summary["precision"]}
+    return metrics, peaks
 
 
 def train(
@@ -224,8 +237,14 @@ def train(
                     break
             record = {"epoch": epoch, "step": step, "train_loss": loss_sum / max(seen, 1),
                       "lr": scheduler.get_last_lr()[0]}
+            epoch_peaks = peak_config
             if n_val:
-                record.update(validate(model, val_set, eps_px, peak_config, device))
+                metrics, epoch_peaks = validate(model, val_set, eps_px, peak_config, device,
+                                                calibrate=cfg.calibrate_peaks)
+                record.update(metrics)
+                if cfg.calibrate_peaks:
+                    record.update(threshold_abs=epoch_peaks.threshold_abs,
+                                  min_contrast=epoch_peaks.min_contrast)
             elapsed_s += time.perf_counter() - t0
             record["elapsed_s"] = elapsed_s
             history.append(record)
@@ -237,6 +256,7 @@ def train(
             if not n_val or score > best_score or not best_path.exists():
                 best_score = score
                 lean = {k: v for k, v in payload.items() if k not in ("optimizer_state", "scheduler_state")}
+                lean["peak_config"] = epoch_peaks.to_dict()
                 save_checkpoint(best_path, lean)
     finally:
         bar.close()
