@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/uav-swarm env-demo --out out/demo
+	$(VENV)/bin/uav-swarm simulate --out out/simulate
 
 test: $(STAMP)
 	$(PY) -m pytest -q

@@ -1,0 +1,221 @@
+"""Tiny-budget runs of the main job (``uav-swarm simulate``) under tmp_path, telemetry on loopback."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import socket
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from pymavlink.dialects.v20 import common as mavlink
+
+from bridge.geo import Home
+from bridge.mission_files import load_plan
+from bridge.telemetry import SwarmSubscriber
+from bridge.telemetry_config import TelemetryConfig
+from bridge.telemetry_schema import Plan, Qos, UavState
+from learning.data import generate_dataset
+from learning.model import ModelConfig
+from learning.train import TrainConfig, train
+from uav_swarm.cli import main
+from uav_swarm.missions.registry import TaskFactory
+from uav_swarm.simulate import simulate
+from uav_swarm.simulate_config import SimulateConfig
+
+SMALL_TASK = {"warmup_min_s": 1.0, "warmup_max_s": 2.0,
+              "scenario": {"n_groups_min": 2, "n_groups_max": 3, "group_size_min": 35, "group_size_max": 45}}
+SMALL_TOML = """
+n_uavs = 3
+replan_every = 10
+gif_max_frames = 8
+gif_width_px = 128
+
+[task.scenario]
+n_groups_min = 2
+n_groups_max = 3
+group_size_min = 35
+group_size_max = 45
+"""
+
+
+@pytest.fixture(scope="module")
+def tiny_checkpoint(tmp_path_factory):
+    """A wifi-s1 checkpoint trained for 2 steps on 16 small scenes (64 px raster, 200 m area)."""
+    root = tmp_path_factory.mktemp("tiny-ckpt")
+    generate_dataset(TaskFactory("wifi-s1", SMALL_TASK), n=16, seed=0, out_dir=root / "data", workers=1,
+                     progress=False)
+    result = train(root / "data", root / "run", model_config=ModelConfig(arch="unet", width=4, depth=2),
+                   train_config=TrainConfig(max_steps=2, batch_size=4, device="cpu", torch_threads=1),
+                   progress=False)
+    return result.best_checkpoint
+
+
+@pytest.fixture()
+def small_config(tmp_path):
+    path = tmp_path / "sim.toml"
+    path.write_text(SMALL_TOML, encoding="utf-8")
+    return path
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def tiny(checkpoint_path, **changes) -> SimulateConfig:
+    base = {"duration_s": 3.0, "n_uavs": 3, "gif_max_frames": 6, "gif_width_px": 96,
+            "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_TASK}
+    return SimulateConfig.from_dict({**base, **changes})
+
+
+def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path, small_config,
+                                                                       tiny_checkpoint, capsys):
+    out = tmp_path / "sim"
+    argv = ["simulate", "--out", str(out), "--config", str(small_config),
+            "--checkpoint", str(tiny_checkpoint), "--duration-s", "3", "--seed", "2",
+            "--no-telemetry", "--quiet"]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "3 UAVs" in printed and "\nlearned " in printed and "\nexpert " in printed
+    assert "learned / expert: QoS S1" in printed
+
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["planners"]) == {"learned", "expert"} and summary["flown"] == "learned"
+    for s in summary["planners"].values():
+        for strategy in ("qos_s1", "qos_s2"):
+            assert 0.0 <= s[f"min_{strategy}"] <= s[f"mean_{strategy}"] <= 1.0
+        assert s["mean_throughput_mbps"] >= 0.0 and s["n_replans"] == 3 and s["n_pedestrians"] > 0
+        assert 0.0 < s["median_latency_ms"] <= s["p95_latency_ms"]
+    assert summary["planners"]["learned"]["planner"] == "cnn-peaks-hungarian"
+    assert summary["config"]["seed"] == 2 and summary["config"]["n_uavs"] == 3
+    assert summary["ratios_learned_over_expert"]["expert_over_learned_median_latency"] > 0.0
+
+    assert (out / "qos.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with Image.open(out / "scene.gif") as gif:
+        assert 2 <= gif.n_frames <= 8 and gif.size == (256, 128 + 18)
+    rows = (out / "timeseries.csv").read_text().splitlines()
+    assert rows[0].startswith("planner,time_s") and len(rows) == 1 + 2 * 30
+    plans = sorted((out / "missions").glob("vehicle_*.plan"))
+    assert [p.name for p in plans] == ["vehicle_1.plan", "vehicle_2.plan", "vehicle_3.plan"]
+    mission = load_plan(plans[0])
+    assert mission.items[-1].command == mavlink.MAV_CMD_NAV_LOITER_UNLIM and mission.home == Home()
+    assert not list(out.glob(".*"))  # no temporary file left
+
+
+def test_both_planners_face_the_same_crowd_and_the_results_are_sane(tmp_path, tiny_checkpoint):
+    result = simulate(tiny(tiny_checkpoint, duration_s=2.0, replan_every=5, seed=4), tmp_path, progress=False)
+    learned, expert = result.runs["learned"], result.runs["expert"]
+    np.testing.assert_array_equal(learned.final_pedestrians_m, expert.final_pedestrians_m)
+    for run in (learned, expert):
+        assert run.qos_s1.shape == (20,) and run.latency_ms.shape == (4,)
+        assert np.all((run.qos_s2 >= 0) & (run.qos_s2 <= run.qos_s1 + 1e-12) & (run.qos_s1 <= 1))
+        targets = run.final_targets_m
+        assert len({tuple(t) for t in targets.round(6)}) == 3  # distinct targets
+    assert 2 <= len(learned.frames) <= 6 and learned.frames[-1].utility.shape == (64, 64)
+    assert not expert.frames  # only the flown planner is animated
+
+
+def test_expert_only_without_gif(tmp_path, tiny_checkpoint):
+    result = simulate(tiny(tiny_checkpoint, planner="expert", gif=False, checkpoint=""), tmp_path,
+                      progress=False)
+    assert list(result.runs) == ["expert"] and "ratios_learned_over_expert" not in result.summary
+    assert not (tmp_path / "scene.gif").exists() and (tmp_path / "qos.png").exists()
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--n-uavs", "11"], "n_uavs = 11 is out of range"),
+    (["--duration-s", "-1"], "duration_s = -1.0 is out of range"),
+    (["--checkpoint", "/does/not/exist.pt"], "checkpoint not found: /does/not/exist.pt"),
+    (["--bridge-config", "/does/not/exist.toml"], "config file not found"),
+], ids=["uavs", "duration", "checkpoint", "bridge"])
+def test_bad_configuration_exits_2_before_any_work(tmp_path, small_config, capsys, extra, message):
+    out = tmp_path / "never"
+    argv = ["simulate", "--out", str(out), "--config", str(small_config), "--no-telemetry", "--quiet", *extra]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_area_outside_the_geofence_exits_2_before_any_work(tmp_path, small_config, capsys):
+    bridge = tmp_path / "fence.toml"
+    bridge.write_text("[geofence]\nx_max_m = 100.0\n", encoding="utf-8")
+    out = tmp_path / "never"
+    argv = ["simulate", "--out", str(out), "--config", str(small_config), "--planner", "expert",
+            "--bridge-config", str(bridge), "--no-telemetry", "--quiet"]
+    assert main(argv) == 2
+    assert "geofence" in capsys.readouterr().err.lower()
+    assert not out.exists()
+
+
+def test_unknown_config_key_exits_2(tmp_path, capsys):
+    path = tmp_path / "bad.toml"
+    path.write_text("n_uavz = 3\n", encoding="utf-8")
+    assert main(["simulate", "--out", str(tmp_path / "o"), "--config", str(path)]) == 2
+    assert "unknown key(s) ['n_uavz']" in capsys.readouterr().err
+
+
+def test_telemetry_reaches_a_subscriber_on_loopback(tmp_path, tiny_checkpoint):
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    config = tiny(tiny_checkpoint, publish_telemetry=True, compare_expert=False, gif=False,
+                  wait_for_subscriber_s=10.0,
+                  telemetry={"swarm": "simtest", "listen": [endpoint], "multicast_scouting": False})
+    received: list = []
+    watch = TelemetryConfig(swarm="simtest", listen=(), connect=(endpoint,), multicast_scouting=False)
+    with SwarmSubscriber(watch, callback=received.append, presence=False):
+        simulate(config, tmp_path, progress=False)
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline and sum(isinstance(m, Plan) for m in received) < 3:
+            time.sleep(0.05)
+    states = [m for m in received if isinstance(m, UavState)]
+    plans = [m for m in received if isinstance(m, Plan)]
+    qos = [m for m in received if isinstance(m, Qos)]
+    assert {s.uav_id for s in states} == {0, 1, 2}
+    assert all(s.source == "sim" and s.position_wgs84 is not None for s in states)
+    assert all(s.target_enu_m is not None and s.position_enu_m[2] == 10.0 for s in states)
+    assert plans and all(p.planner == "cnn-peaks-hungarian" and len(p.targets) == 3 for p in plans)
+    assert [p.seq for p in plans] == sorted(p.seq for p in plans)
+    assert qos and all(0.0 <= q.qos_s2 <= q.qos_s1 <= 1.0 for q in qos)
+
+
+def _sim_vehicle_module():
+    """tests/bridge/sim_vehicle.py: a pymavlink vehicle serving the mission protocol on loopback."""
+    spec = importlib.util.spec_from_file_location("sim_vehicle",
+                                                  Path(__file__).parents[1] / "bridge" / "sim_vehicle.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_final_missions_are_uploaded_to_the_configured_vehicles(tmp_path, tiny_checkpoint):
+    sim_vehicle = _sim_vehicle_module()
+    ports = {7: free_udp_port(), 8: free_udp_port()}
+    lines = ["[protocol]", "heartbeat_timeout_s = 5.0", ""]
+    for sid, port in ports.items():
+        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "udpin:127.0.0.1:{port}"', ""]
+    bridge = tmp_path / "bridge.toml"
+    bridge.write_text("\n".join(lines), encoding="utf-8")
+    vehicles = [sim_vehicle.SimVehicle(f"udpout:127.0.0.1:{port}", sid, telemetry_period_s=0.2)
+                for sid, port in ports.items()]
+    try:
+        config = tiny(tiny_checkpoint, n_uavs=2, duration_s=1.0, gif=False, compare_expert=False,
+                      bridge_config=str(bridge))
+        result = simulate(config, tmp_path / "out", progress=False)
+    finally:
+        for vehicle in vehicles:
+            vehicle.close()
+    assert result.summary["uploaded_to_vehicles"] == [7, 8]
+    for vehicle in vehicles:
+        sent = load_plan(tmp_path / "out" / "missions" / f"vehicle_{vehicle.system_id}.plan").items
+        assert len(vehicle.mission) == 3 and tuple(vehicle.mission) == sent
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]

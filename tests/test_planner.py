@@ -1,0 +1,211 @@
+"""The placement planners: assignment optimality, no duplicates, hysteresis, fallback, checkpoints, errors."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+import torch
+
+from learning.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+from learning.data import generate_dataset
+from learning.inference import utility_map
+from learning.model import ModelConfig
+from learning.peaks import find_peaks
+from learning.train import TrainConfig, train
+from typed_config import ConfigError
+from uav_swarm import planner as planner_module
+from uav_swarm.missions.registry import TaskFactory
+from uav_swarm.missions.wifi import WifiConfig, crowd_raster
+from uav_swarm.planner import (
+    AssigningPlanner,
+    ExpertPlanner,
+    LearnedPlanner,
+    Planner,
+    PlannerConfig,
+    make_planner,
+)
+
+SMALL_TASK = {"warmup_min_s": 1.0, "warmup_max_s": 2.0,
+              "scenario": {"n_groups_min": 2, "n_groups_max": 3, "group_size_min": 35, "group_size_max": 45}}
+
+
+@pytest.fixture(scope="module")
+def tiny_checkpoint(tmp_path_factory):
+    """A wifi-s1 checkpoint trained for 2 steps on 16 small scenes (64 px raster, 200 m area)."""
+    root = tmp_path_factory.mktemp("tiny-ckpt")
+    generate_dataset(TaskFactory("wifi-s1", SMALL_TASK), n=16, seed=0, out_dir=root / "data", workers=1,
+                     progress=False)
+    result = train(root / "data", root / "run", model_config=ModelConfig(arch="unet", width=4, depth=2),
+                   train_config=TrainConfig(max_steps=2, batch_size=4, device="cpu", torch_threads=1),
+                   progress=False)
+    return result.best_checkpoint
+
+
+class FixedPlanner(AssigningPlanner):
+    """Proposes the same candidates whatever the crowd (to test the assignment step alone)."""
+
+    name = "fixed"
+
+    def __init__(self, n_uavs: int, candidates_m: np.ndarray, config: PlannerConfig | None = None) -> None:
+        super().__init__(n_uavs, config)
+        self.candidates_m = np.asarray(candidates_m, dtype=np.float64).reshape(-1, 2)
+
+    def propose(self, pedestrians_m):
+        return self.candidates_m, None
+
+
+def clusters(centres_m, n_each=40, spread_m=2.0, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.concatenate([c + rng.uniform(-spread_m, spread_m, size=(n_each, 2)) for c in centres_m])
+
+
+def brute_force_cost(uavs, candidates):
+    n, k = len(uavs), len(candidates)
+    return min(sum(np.linalg.norm(uavs[u] - candidates[c]) for c, u in enumerate(perm))
+               for perm in itertools.permutations(range(n), k))
+
+
+@pytest.mark.parametrize(("n", "k"), [(1, 1), (2, 2), (3, 2), (4, 4), (5, 3), (6, 6), (6, 4)],
+                         ids=lambda v: str(v))
+def test_assignment_minimises_total_travel_like_brute_force(n, k):
+    rng = np.random.default_rng(10 * n + k)
+    for _ in range(5):
+        uavs = rng.uniform(0, 200, size=(n, 2))
+        candidates = rng.uniform(0, 200, size=(k, 2))
+        result = FixedPlanner(n, candidates).plan(np.zeros((0, 2)), uavs)
+        flying = result.candidate_index >= 0
+        assert np.count_nonzero(flying) == k
+        assert sorted(result.candidate_index[flying]) == list(range(k))  # every candidate used once
+        cost = np.linalg.norm(result.targets_m[flying] - uavs[flying], axis=1).sum()
+        assert cost == pytest.approx(brute_force_cost(uavs, candidates))
+        np.testing.assert_allclose(result.targets_m[~flying], uavs[~flying])  # spares hold
+
+
+def test_targets_are_pairwise_distinct_even_when_a_spare_sits_on_a_target():
+    uavs = np.array([[50.0, 50.0], [50.0, 50.0], [120.0, 80.0]])
+    result = FixedPlanner(3, [[50.0, 50.0]], PlannerConfig(min_gap_m=2.0)).plan(np.zeros((0, 2)), uavs)
+    gaps = np.linalg.norm(result.targets_m[:, None] - result.targets_m[None], axis=-1)[np.triu_indices(3, 1)]
+    assert gaps.min() >= 2.0 - 1e-9
+
+
+def test_fallback_without_any_peak_every_uav_holds():
+    uavs = np.array([[10.0, 20.0], [100.0, 100.0], [150.0, 30.0]])
+    result = FixedPlanner(3, np.zeros((0, 2))).plan(np.zeros((0, 2)), uavs)
+    np.testing.assert_array_equal(result.targets_m, uavs)
+    assert result.candidate_index.tolist() == [-1, -1, -1] and result.peaks_m.shape == (0, 2)
+    expert = ExpertPlanner(3).plan(np.zeros((0, 2)), uavs)  # no crowd: the expert places nobody
+    np.testing.assert_array_equal(expert.targets_m, uavs)
+
+
+def test_fallback_with_one_peak_the_nearest_uav_flies_the_others_hold():
+    uavs = np.array([[10.0, 20.0], [100.0, 100.0], [150.0, 30.0]])
+    result = FixedPlanner(3, [[110.0, 90.0]]).plan(np.zeros((0, 2)), uavs)
+    assert result.candidate_index.tolist() == [-1, 0, -1]
+    np.testing.assert_array_equal(result.targets_m, [[10.0, 20.0], [110.0, 90.0], [150.0, 30.0]])
+
+
+def test_expert_planner_covers_separate_groups_with_least_travel():
+    centres = np.array([[40.0, 40.0], [160.0, 50.0], [100.0, 160.0]])
+    uavs = np.array([[100.0, 150.0], [45.0, 30.0], [150.0, 60.0], [5.0, 195.0]])
+    result = ExpertPlanner(4).plan(clusters(centres), uavs)
+    assert len(result.peaks_m) == 3  # three groups of 40 > min_group_size: three UAVs, one spare
+    nearest = np.linalg.norm(result.targets_m[:3, None] - centres[None], axis=-1)
+    np.testing.assert_array_equal(nearest.argmin(axis=1), [2, 0, 1])  # each flies to its closest group
+    assert nearest.min(axis=1).max() < 5.0
+    np.testing.assert_array_equal(result.targets_m[3], uavs[3])
+
+
+def test_hysteresis_keeps_targets_under_small_crowd_motion():
+    centres = np.array([[40.0, 40.0], [160.0, 50.0], [100.0, 160.0]])
+    uavs = np.array([[50.0, 50.0], [150.0, 50.0], [100.0, 150.0]])
+    planner = ExpertPlanner(3, config=PlannerConfig(hysteresis_m=5.0))
+    first = planner.plan(clusters(centres), uavs)
+    second = planner.plan(clusters(centres + [1.5, -1.0], seed=1), uavs)
+    assert second.kept.all()
+    np.testing.assert_array_equal(second.targets_m, first.targets_m)  # no churn
+    moved = centres.copy()
+    moved[0] += 60.0  # one group walks far away: only its UAV is re-targeted
+    third = planner.plan(clusters(moved, seed=2), uavs)
+    assert third.kept.tolist() == [False, True, True]
+    assert np.linalg.norm(third.targets_m[0] - moved[0]) < 5.0
+    planner.reset()
+    assert not planner.plan(clusters(centres), uavs).kept.any()  # a new sequence starts fresh
+
+
+def test_learned_planner_with_a_tiny_checkpoint(tiny_checkpoint):
+    planner = make_planner("learned", 4, WifiConfig(), checkpoint=tiny_checkpoint)
+    assert isinstance(planner, Planner) and planner.name == "cnn-peaks-hungarian"
+    crowd = clusters(np.array([[40.0, 40.0], [160.0, 50.0], [100.0, 160.0]]))
+    uavs = np.array([[10.0, 10.0], [190.0, 10.0], [10.0, 190.0], [190.0, 190.0]])
+    result = planner.plan(crowd, uavs)
+    assert result.targets_m.shape == (4, 2) and result.utility.shape == (64, 64)
+    assert len(result.peaks_m) <= 4 and result.latency_ms > 0.0
+    reference = utility_map(load_checkpoint(tiny_checkpoint).model, crowd_raster(crowd, WifiConfig()))
+    np.testing.assert_allclose(result.utility, reference, rtol=1e-4, atol=1e-5)  # the reused input path
+
+
+def test_learned_planner_keeps_the_n_highest_peaks(tiny_checkpoint):
+    planner = LearnedPlanner(2, checkpoint=tiny_checkpoint)
+    planner.peak_config = planner.peak_config.replace(threshold_abs=-1e9, min_contrast=0.0)
+    crowd = clusters(np.array([[40.0, 40.0], [160.0, 50.0], [100.0, 160.0]]))
+    result = planner.plan(crowd, np.array([[0.0, 0.0], [200.0, 200.0]]))
+    every_peak = find_peaks(result.utility, planner.peak_config, max_peaks=1000)
+    assert len(every_peak) > 2
+    np.testing.assert_allclose(planner.task.to_pixels(result.peaks_m), every_peak[:2])
+
+
+def test_bfloat16_inference_stays_close_to_float32(tiny_checkpoint):
+    crowd = clusters(np.array([[40.0, 40.0], [160.0, 50.0]]))
+    uavs = np.array([[0.0, 0.0], [200.0, 200.0]])
+    exact = LearnedPlanner(2, checkpoint=tiny_checkpoint).plan(crowd, uavs).utility
+    fast = LearnedPlanner(2, checkpoint=tiny_checkpoint, config=PlannerConfig(precision="bfloat16"))
+    approx = fast.plan(crowd, uavs).utility
+    assert approx.dtype == np.float32
+    assert np.abs(approx - exact).max() <= 0.05 * max(1.0, np.abs(exact).max())
+
+
+def test_checkpoint_of_another_task_is_refused(tiny_checkpoint, tmp_path):
+    payload = torch.load(tiny_checkpoint, weights_only=True)
+    payload["task_name"] = "wifi-s2"
+    other = tmp_path / "s2.pt"
+    save_checkpoint(other, payload)
+    with pytest.raises(CheckpointError, match="trained on task 'wifi-s2', not 'wifi-s1'"):
+        make_planner("learned", 3, checkpoint=other)
+
+
+@pytest.mark.parametrize(("task", "match"), [
+    (WifiConfig(size_px=32), r"shape \(1, 64, 64\), not \(1, 32, 32\)"),
+    (WifiConfig(density_scale=8.0), "density_scale = 4.0"),
+    (WifiConfig(scenario={"width_m": 300.0, "height_m": 300.0}), "scenario.width_m = 200.0"),
+], ids=["size", "density-scale", "area"])
+def test_checkpoint_for_another_raster_is_refused(tiny_checkpoint, task, match):
+    with pytest.raises(CheckpointError, match=match):
+        make_planner("learned", 3, task, checkpoint=tiny_checkpoint)
+
+
+def test_missing_shipped_checkpoint_says_how_to_get_one(tmp_path, monkeypatch):
+    monkeypatch.setattr(planner_module, "default_checkpoint", lambda name: tmp_path / f"{name}.pt")
+    with pytest.raises(CheckpointError, match="uav-swarm train --task wifi-s1.*--checkpoint PATH"):
+        make_planner("learned", 3)
+    with pytest.raises(CheckpointError, match="checkpoint not found"):
+        make_planner("learned", 3, checkpoint=tmp_path / "nope.pt")
+
+
+def test_unknown_kind_and_too_many_uavs_are_config_errors():
+    with pytest.raises(ConfigError, match=r"planner = 'greedy' is not allowed: choose one of \['learned', "):
+        make_planner("greedy", 3)
+    for kind in ("learned", "expert"):  # before any checkpoint is looked for
+        with pytest.raises(ConfigError, match="n_uavs = 11 is out of range: allowed 1 <= n_uavs <= 10"):
+            make_planner(kind, 11, checkpoint="/does/not/exist.pt")
+    with pytest.raises(ConfigError, match="n_uavs = 0"):
+        ExpertPlanner(0)
+
+
+def test_plan_rejects_wrong_shapes():
+    planner = ExpertPlanner(2)
+    with pytest.raises(ValueError, match=r"uav_positions_m must have shape \(2, 2\)"):
+        planner.plan(np.zeros((5, 2)), np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="pedestrians_m must have shape"):
+        planner.plan(np.zeros((5, 3)), np.zeros((2, 2)))

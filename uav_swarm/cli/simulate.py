@@ -1,0 +1,114 @@
+"""``uav-swarm simulate``: the main job. Fly the placement planner over a dynamic crowd sequence.
+
+Runs ``uav_swarm_v0`` (waypoint mode) for ``duration_s`` of simulated time with the learned planner
+(utility network -> peaks -> Hungarian), replanning every ``replan_every`` steps, then the same
+sequence (same seed, same crowd) with the expert planner, and writes into ``--out``: ``qos.png``,
+``scene.gif``, ``summary.json``, ``timeseries.csv`` and ``missions/vehicle_<id>.plan``. Telemetry
+(UAV states, plans, QoS) goes out over Zenoh on tcp/127.0.0.1:7447 unless ``--no-telemetry``.
+
+Examples:
+  uav-swarm simulate --out out/sim
+  uav-swarm simulate --out out/sim --duration-s 60 --n-uavs 6 --seed 3 --no-gif
+  uav-swarm simulate --out out/sim --checkpoint runs/s1/train/best.pt --config sim.toml
+  uav-swarm simulate --out out/sim --bridge-config configs/bridge/px4_sitl_10.toml   # upload the missions
+
+Exit codes: 0 done, 1 telemetry or upload failed, 2 bad configuration or checkpoint (before any work).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["register", "run", "format_summary"]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``simulate`` subcommand."""
+    parser = subparsers.add_parser(
+        "simulate", help="the main job: fly the planner over a crowd sequence, compare with the expert",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add = parser.add_argument
+    add("--out", type=Path, default=Path("out/simulate"), help="output folder (default: %(default)s)")
+    add("--config", type=Path, help="TOML of SimulateConfig (keys and tables [task], [uav], [planning], "
+                                    "[telemetry]); flags override it")
+    add("--planner", choices=("learned", "expert"), help="the planner flown (default: learned)")
+    add("--checkpoint", help="learned planner checkpoint (default: uav_swarm/checkpoints/wifi-s1.pt)")
+    add("--duration-s", type=float, help="simulated seconds (default: 180)")
+    add("--n-uavs", type=int, help="number of UAVs, 1..10 (default: 10)")
+    add("--seed", type=int, help="sequence seed (default: 0)")
+    add("--replan-every", type=int, help="steps of 0.1 s between replans (default: 10)")
+    add("--bridge-config", help="bridge TOML: home and mission shape; its vehicles get the final missions")
+    add("--no-expert", action="store_true", help="do not fly the expert on the same sequence")
+    add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
+    add("--no-gif", action="store_true", help="do not write scene.gif")
+    add("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(func=run)
+
+
+def _overrides(args: argparse.Namespace) -> dict[str, Any]:
+    values = {"planner": args.planner, "checkpoint": args.checkpoint, "duration_s": args.duration_s,
+              "n_uavs": args.n_uavs, "seed": args.seed, "replan_every": args.replan_every,
+              "bridge_config": args.bridge_config}
+    overrides = {key: value for key, value in values.items() if value is not None}
+    if args.no_expert:
+        overrides["compare_expert"] = False
+    if args.no_telemetry:
+        overrides["publish_telemetry"] = False
+    if args.no_gif:
+        overrides["gif"] = False
+    return overrides
+
+
+def format_summary(summary: dict[str, Any]) -> str:
+    """The summary as a small text table (one row per planner, then the ratios)."""
+    header = (f"{'planner':<8} {'QoS S1 mean':>11} {'min':>6} {'QoS S2 mean':>11} {'min':>6} "
+              f"{'Mbps mean':>9} {'plan ms p50':>11} {'p95':>8}")
+    lines = [header, "-" * len(header)]
+    for kind, s in summary["planners"].items():
+        lines.append(f"{kind:<8} {s['mean_qos_s1']:>11.3f} {s['min_qos_s1']:>6.3f} {s['mean_qos_s2']:>11.3f} "
+                     f"{s['min_qos_s2']:>6.3f} {s['mean_throughput_mbps']:>9.2f} "
+                     f"{s['median_latency_ms']:>11.2f} {s['p95_latency_ms']:>8.2f}")
+    ratios = summary.get("ratios_learned_over_expert")
+    if ratios:
+        def show(value: float | None) -> str:
+            return "n/a" if value is None else f"{value:.3f}"
+
+        lines.append(f"learned / expert: QoS S1 {show(ratios['mean_qos_s1'])}, "
+                     f"S2 {show(ratios['mean_qos_s2'])}, throughput {show(ratios['mean_throughput_mbps'])}; "
+                     f"expert / learned planning time {show(ratios['expert_over_learned_median_latency'])}x")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validate the configuration, run the job, print the summary table."""
+    from bridge.errors import BridgeError
+    from bridge.telemetry_config import TelemetryConnectionError
+    from learning.checkpoint import CheckpointError
+    from typed_config import ConfigError
+    from uav_swarm.simulate import simulate
+    from uav_swarm.simulate_config import load_simulate_config
+
+    try:
+        config = load_simulate_config(args.config, _overrides(args))
+        result = simulate(config, args.out, progress=not args.quiet)
+    except (ConfigError, CheckpointError) as exc:
+        print(f"uav-swarm simulate: {exc}", file=sys.stderr)
+        return 2
+    except TelemetryConnectionError as exc:
+        print(f"uav-swarm simulate: {exc} (use --no-telemetry, or another [telemetry] listen endpoint)",
+              file=sys.stderr)
+        return 1
+    except BridgeError as exc:
+        print(f"uav-swarm simulate: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, ValueError) else 1
+    summary = result.summary
+    print(f"uav_swarm_v0: {config.n_uavs} UAVs, {summary['planners'][config.planner]['n_pedestrians']} "
+          f"pedestrians, {summary['duration_s']:.0f} s simulated, replan every {config.replan_every} steps, "
+          f"seed {config.seed}")
+    print(format_summary(summary))
+    files = summary["files"]
+    print(f"wrote {', '.join(files[:5])}{' ...' if len(files) > 5 else ''} in {args.out}")
+    return 0
