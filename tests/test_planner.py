@@ -9,14 +9,10 @@ import pytest
 import torch
 
 from learning.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
-from learning.data import generate_dataset
 from learning.inference import utility_map
-from learning.model import ModelConfig
 from learning.peaks import find_peaks
-from learning.train import TrainConfig, train
 from typed_config import ConfigError
 from uav_swarm import planner as planner_module
-from uav_swarm.missions.registry import TaskFactory
 from uav_swarm.missions.wifi import WifiConfig, crowd_raster
 from uav_swarm.planner import (
     AssigningPlanner,
@@ -26,21 +22,6 @@ from uav_swarm.planner import (
     PlannerConfig,
     make_planner,
 )
-
-SMALL_TASK = {"warmup_min_s": 1.0, "warmup_max_s": 2.0,
-              "scenario": {"n_groups_min": 2, "n_groups_max": 3, "group_size_min": 35, "group_size_max": 45}}
-
-
-@pytest.fixture(scope="module")
-def tiny_checkpoint(tmp_path_factory):
-    """A wifi-s1 checkpoint trained for 2 steps on 16 small scenes (64 px raster, 200 m area)."""
-    root = tmp_path_factory.mktemp("tiny-ckpt")
-    generate_dataset(TaskFactory("wifi-s1", SMALL_TASK), n=16, seed=0, out_dir=root / "data", workers=1,
-                     progress=False)
-    result = train(root / "data", root / "run", model_config=ModelConfig(arch="unet", width=4, depth=2),
-                   train_config=TrainConfig(max_steps=2, batch_size=4, device="cpu", torch_threads=1),
-                   progress=False)
-    return result.best_checkpoint
 
 
 class FixedPlanner(AssigningPlanner):

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SMALL_WIFI_TASK
 from PIL import Image
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -18,16 +19,10 @@ from bridge.mission_files import load_plan
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry_config import TelemetryConfig
 from bridge.telemetry_schema import Plan, Qos, UavState
-from learning.data import generate_dataset
-from learning.model import ModelConfig
-from learning.train import TrainConfig, train
 from uav_swarm.cli import main
-from uav_swarm.missions.registry import TaskFactory
 from uav_swarm.simulate import simulate
 from uav_swarm.simulate_config import SimulateConfig
 
-SMALL_TASK = {"warmup_min_s": 1.0, "warmup_max_s": 2.0,
-              "scenario": {"n_groups_min": 2, "n_groups_max": 3, "group_size_min": 35, "group_size_max": 45}}
 SMALL_TOML = """
 n_uavs = 3
 replan_every = 10
@@ -40,18 +35,6 @@ n_groups_max = 3
 group_size_min = 35
 group_size_max = 45
 """
-
-
-@pytest.fixture(scope="module")
-def tiny_checkpoint(tmp_path_factory):
-    """A wifi-s1 checkpoint trained for 2 steps on 16 small scenes (64 px raster, 200 m area)."""
-    root = tmp_path_factory.mktemp("tiny-ckpt")
-    generate_dataset(TaskFactory("wifi-s1", SMALL_TASK), n=16, seed=0, out_dir=root / "data", workers=1,
-                     progress=False)
-    result = train(root / "data", root / "run", model_config=ModelConfig(arch="unet", width=4, depth=2),
-                   train_config=TrainConfig(max_steps=2, batch_size=4, device="cpu", torch_threads=1),
-                   progress=False)
-    return result.best_checkpoint
 
 
 @pytest.fixture()
@@ -69,7 +52,7 @@ def free_port() -> int:
 
 def tiny(checkpoint_path, **changes) -> SimulateConfig:
     base = {"duration_s": 3.0, "n_uavs": 3, "gif_max_frames": 6, "gif_width_px": 96,
-            "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_TASK}
+            "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_WIFI_TASK}
     return SimulateConfig.from_dict({**base, **changes})
 
 

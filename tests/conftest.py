@@ -1,0 +1,33 @@
+"""Fixtures shared across test folders."""
+
+from __future__ import annotations
+
+import pytest
+
+from learning.data import generate_dataset
+from learning.model import ModelConfig
+from learning.train import TrainConfig, train
+from uav_swarm.missions.registry import TaskFactory
+
+SMALL_WIFI_TASK = {"warmup_min_s": 1.0, "warmup_max_s": 2.0,
+                   "scenario": {"n_groups_min": 2, "n_groups_max": 3, "group_size_min": 35,
+                                "group_size_max": 45}}
+"""A fast Wi-Fi task config: few groups, short warm-up (64 px raster over 200 m, as shipped)."""
+
+
+@pytest.fixture(scope="session")
+def small_wifi_task() -> dict:
+    """The config dict of :data:`SMALL_WIFI_TASK` (a fresh copy)."""
+    return {**SMALL_WIFI_TASK, "scenario": dict(SMALL_WIFI_TASK["scenario"])}
+
+
+@pytest.fixture(scope="session")
+def tiny_checkpoint(tmp_path_factory, small_wifi_task):
+    """A wifi-s1 checkpoint trained for 2 steps on 16 small scenes (64 px raster, 200 m area)."""
+    root = tmp_path_factory.mktemp("tiny-ckpt")
+    generate_dataset(TaskFactory("wifi-s1", small_wifi_task), n=16, seed=0, out_dir=root / "data", workers=1,
+                     progress=False)
+    result = train(root / "data", root / "run", model_config=ModelConfig(arch="unet", width=4, depth=2),
+                   train_config=TrainConfig(max_steps=2, batch_size=4, device="cpu", torch_threads=1),
+                   progress=False)
+    return result.best_checkpoint
