@@ -12,13 +12,13 @@ for resuming, ``optimizer_state`` and ``scheduler_state``.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import torch
 
+from learning.files import atomic_path
 from learning.model import ModelConfig, UtilityNet, build_model
 from learning.peaks import PeakConfig
 from learning.targets import TargetConfig
@@ -61,10 +61,8 @@ def save_checkpoint(path: str | Path, payload: dict[str, Any]) -> None:
     missing = [key for key in _REQUIRED if key not in payload]
     if missing:
         raise CheckpointError(f"checkpoint payload lacks {missing}")
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    torch.save(payload, tmp)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        torch.save(payload, tmp)
 
 
 def load_checkpoint(

@@ -28,7 +28,6 @@ import functools
 import hashlib
 import json
 import logging
-import os
 import zipfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -38,11 +37,12 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from learning.executors import ShardJob, run_local, run_ray
+from learning.files import atomic_path, write_json_atomic
 from learning.task import MAX_POSITIONS, Task
 
 __all__ = [
     "SPLITS", "FORMAT", "DatasetError", "sample_seed", "generate_shard", "generate_dataset",
-    "load_manifest", "load_arrays", "write_json_atomic", "write_text_atomic",
+    "load_manifest", "load_arrays",
 ]
 
 log = logging.getLogger(__name__)
@@ -121,26 +121,11 @@ def _sha256(path: Path) -> str:
 
 def _write_npz_atomic(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
     """A deterministic ``.npz`` (stored, fixed timestamps, sorted members), written atomically."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_STORED) as archive:
+    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_STORED) as archive:
         for name in sorted(arrays):
             member = zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_EPOCH)
             with archive.open(member, "w", force_zip64=True) as f:
                 np.lib.format.write_array(f, np.ascontiguousarray(arrays[name]), allow_pickle=False)
-    os.replace(tmp, path)
-
-
-def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write a UTF-8 text file through a temporary file in the same folder and ``os.replace``."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-
-
-def write_json_atomic(path: str | Path, data: Any) -> None:
-    """Write JSON (sorted keys, indented) atomically."""
-    write_text_atomic(path, json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
 def load_manifest(data_dir: str | Path) -> dict[str, Any]:

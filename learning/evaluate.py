@@ -30,7 +30,8 @@ import torch
 from tqdm.auto import tqdm
 
 from learning.checkpoint import load_checkpoint
-from learning.data import generate_dataset, load_arrays, sample_seed, write_json_atomic, write_text_atomic
+from learning.data import generate_dataset, load_arrays, sample_seed
+from learning.files import write_json_atomic, write_text_atomic
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_examples

@@ -5,13 +5,14 @@ Uses matplotlib's object API with the Agg canvas (no pyplot, no global backend c
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+
+from learning.files import atomic_path
 
 __all__ = ["plot_examples"]
 
@@ -51,6 +52,5 @@ def plot_examples(
             ax.set_yticks([])
     fig.tight_layout()
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    fig.savefig(tmp, format="png")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")

@@ -40,8 +40,9 @@ from typing import Any, Literal
 
 import torch
 
-from learning.data import load_manifest, write_json_atomic
+from learning.data import load_manifest
 from learning.executors import run_local
+from learning.files import write_json_atomic
 from learning.model import ModelConfig
 from learning.peaks import PeakConfig
 from learning.targets import TargetConfig

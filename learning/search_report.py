@@ -13,7 +13,6 @@ Files written in the search folder: ``summary.json``, ``summary.md`` and ``heatm
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -23,7 +22,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from learning.data import write_json_atomic, write_text_atomic
+from learning.files import atomic_path, write_json_atomic, write_text_atomic
 
 if TYPE_CHECKING:
     from learning.search import SearchConfig
@@ -134,9 +133,8 @@ def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
                  f"on {budget['n_train']} scenes", fontsize=8)
     fig.tight_layout()
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    fig.savefig(tmp, format="png")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
 
 
 def markdown_summary(summary: dict[str, Any]) -> str:

@@ -13,7 +13,6 @@ Example:
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -169,8 +168,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         self._last_px = np.array([w - 1, h - 1])
         self._padded_share_map = np.zeros((h + p - 1, w + p - 1), dtype=np.float32)  # zero border
         # Horizontal radius within which a user is covered (for drawing).
-        reach_sq = 2.0 * self.radio.effective_sigma_sq_m2 * math.log(1.0 / self.radio.signal_at_range)
-        self.coverage_radius_m = math.sqrt(max(0.0, reach_sq - self.radio.altitude_m**2))
+        self.coverage_radius_m = self.radio.coverage_radius_m
 
         self._rng: np.random.Generator | None = None
         self._scenario: Scenario | None = None

@@ -279,12 +279,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     """
     from bridge.errors import BridgeError
     from bridge.telemetry import SwarmPublisher
-    from uav_swarm.simulate_plots import (
-        write_bytes_atomic,
-        write_qos_figure,
-        write_scene_gif,
-        write_timeseries,
-    )
+    from learning.files import write_bytes_atomic
+    from uav_swarm.simulate_plots import write_qos_figure, write_scene_gif, write_timeseries
 
     out_dir = Path(out_dir)
     bridge = _load_bridge(config)

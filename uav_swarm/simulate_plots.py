@@ -8,8 +8,6 @@ the figure; Pillow draws and saves the GIF frames (:func:`uav_swarm.render.draw_
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,14 +15,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 from PIL import Image, ImageDraw
 
-from uav_swarm.missions.wifi import coverage_radius_m, crowd_raster
+from learning.files import write_bytes_atomic
+from uav_swarm.missions.wifi import crowd_raster
 from uav_swarm.render import draw_frame
 
 if TYPE_CHECKING:
     from uav_swarm.simulate import Frame, SequenceRun
     from uav_swarm.simulate_config import SimulateConfig
 
-__all__ = ["write_bytes_atomic", "write_qos_figure", "write_scene_gif", "write_timeseries", "scene_frame"]
+__all__ = ["write_qos_figure", "write_scene_gif", "write_timeseries", "scene_frame"]
 
 _STYLE = {"learned": {"color": "tab:blue"}, "expert": {"color": "tab:orange"}}
 _TARGET = (20, 20, 20)
@@ -32,19 +31,6 @@ _PEAK = (255, 255, 255)
 _HEADER_PX = 18
 _LEVELS = 10
 
-
-def write_bytes_atomic(path: Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and ``os.replace``."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def write_qos_figure(runs: Mapping[str, SequenceRun], path: Path) -> Path:
@@ -76,7 +62,8 @@ def write_qos_figure(runs: Mapping[str, SequenceRun], path: Path) -> Path:
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=100)
     plt.close(figure)
-    return write_bytes_atomic(path, buffer.getvalue())
+    write_bytes_atomic(path, buffer.getvalue())
+    return path
 
 
 def write_timeseries(runs: Mapping[str, SequenceRun], path: Path) -> Path:
@@ -85,7 +72,8 @@ def write_timeseries(runs: Mapping[str, SequenceRun], path: Path) -> Path:
     for kind, run in runs.items():
         for row in zip(run.times_s, run.qos_s1, run.qos_s2, run.throughput_mbps, strict=True):
             lines.append(f"{kind},{row[0]:.2f},{row[1]:.6f},{row[2]:.6f},{row[3]:.6f}")
-    return write_bytes_atomic(path, ("\n".join(lines) + "\n").encode())
+    write_bytes_atomic(path, ("\n".join(lines) + "\n").encode())
+    return path
 
 
 def _viridis(values: np.ndarray, levels: int = _LEVELS) -> np.ndarray:
@@ -122,7 +110,7 @@ def scene_frame(frame: Frame, config: SimulateConfig, obstacles_m: np.ndarray, w
     width_m, height_m = config.task.scenario.width_m, config.task.scenario.height_m
     scene = draw_frame(width_m, height_m, obstacles_m=obstacles_m, pedestrians_m=frame.pedestrians_m,
                        covered=frame.covered, uavs_m=frame.uavs_m,
-                       coverage_radius_m=coverage_radius_m(config.task.radio), width_px=width_px)
+                       coverage_radius_m=config.task.radio.coverage_radius_m, width_px=width_px)
     scale = width_px / width_m
     height_px = scene.shape[0]
 
@@ -161,4 +149,5 @@ def write_scene_gif(run: SequenceRun, config: SimulateConfig, path: Path) -> Pat
     buffer = io.BytesIO()
     images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:], duration=100, loop=0,
                    optimize=True)
-    return write_bytes_atomic(path, buffer.getvalue())
+    write_bytes_atomic(path, buffer.getvalue())
+    return path

@@ -6,7 +6,7 @@ import pytest
 from learning.task import MAX_POSITIONS, Task
 from typed_config import ConfigError
 from uav_swarm.missions.registry import make_task, task_factory
-from uav_swarm.missions.wifi import WifiConfig, WifiTask, coverage_radius_m, coverage_rules, crowd_raster
+from uav_swarm.missions.wifi import WifiConfig, WifiTask, coverage_rules, crowd_raster
 from uav_swarm.missions.wifi_exact import exact_placement
 from uav_swarm.missions.wifi_expert import WifiExpertConfig, assign_users, candidate_grid, place_uavs
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
@@ -89,7 +89,7 @@ def test_strategy_2_splits_a_crowd_of_70_between_two_uavs():
     s2 = WifiTask(WifiConfig(strategy=2)).expert_placement_m(users)
     s1 = WifiTask(WifiConfig(strategy=1)).expert_placement_m(users)
     assert len(s1) == 1 and len(s2) == 2
-    counts = assign_users(users, s2, coverage_radius_m(RadioConfig())).counts
+    counts = assign_users(users, s2, RadioConfig().coverage_radius_m).counts
     assert counts.sum() == 70 and np.all((counts >= 31) & (counts <= 40))
 
 

@@ -8,9 +8,7 @@ to the UAVs with the least total travel (Hungarian) and replans every ``--replan
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -127,9 +125,10 @@ def run(args: argparse.Namespace) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "env_demo.png"
-    with tempfile.NamedTemporaryFile(dir=args.out, suffix=".png", delete=False) as tmp:
+    from learning.files import atomic_path
+
+    with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)
-    os.replace(tmp.name, path)
     plt.close(figure)
     print(f"uav_swarm_v0: {args.n_uavs} UAVs, {info['n_pedestrians']} pedestrians, {step} steps "
           f"({step * par_env.dt_s:.1f} s), seed {args.seed}")

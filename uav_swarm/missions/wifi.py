@@ -49,7 +49,7 @@ from uav_swarm.world.crowd import CrowdConfig, CrowdSim
 from uav_swarm.world.raster import density_map, metres_to_pixels, pixels_to_metres
 from uav_swarm.world.scenario import ScenarioConfig, random_scenario
 
-__all__ = ["WifiConfig", "WifiScene", "WifiTask", "coverage_rules", "coverage_radius_m", "crowd_raster"]
+__all__ = ["WifiConfig", "WifiScene", "WifiTask", "coverage_rules", "crowd_raster"]
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,7 @@ class WifiConfig(Config):
         if self.scenario.width_m != self.scenario.height_m:
             raise ConfigError(f"WifiConfig.scenario: width_m = {self.scenario.width_m} must equal "
                               f"height_m = {self.scenario.height_m} (the raster is square)")
-        if coverage_radius_m(self.radio) <= 0.0:
+        if self.radio.coverage_radius_m <= 0.0:
             raise ConfigError(f"WifiConfig.radio.altitude_m = {self.radio.altitude_m} leaves no coverage: "
                               "allowed altitude_m < the radio range")
 
@@ -94,12 +94,6 @@ class WifiScene:
     time_s: float
 
 
-def coverage_radius_m(radio: RadioConfig) -> float:
-    """Horizontal distance (m) within which the rescaled signal reaches the coverage threshold."""
-    reach_sq = 2.0 * radio.effective_sigma_sq_m2 * math.log(1.0 / radio.signal_at_range)
-    return math.sqrt(max(0.0, reach_sq - radio.altitude_m**2))
-
-
 def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageRules:
     """The geometric constraints of the config's strategy (see the module docstring).
 
@@ -111,7 +105,7 @@ def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageR
     max_users = None
     if config.strategy == 2 and radio.min_user_rate_mbps > 0:
         max_users = int(math.floor(radio.capacity_mbps / radio.min_user_rate_mbps + 1e-9))
-    return CoverageRules(radius_m=coverage_radius_m(radio), min_users=config.expert.min_group_size + 1,
+    return CoverageRules(radius_m=radio.coverage_radius_m, min_users=config.expert.min_group_size + 1,
                          max_users=max_users,
                          max_uavs=config.expert.max_uavs if max_uavs is None else max_uavs,
                          exclusive=config.strategy == 1)

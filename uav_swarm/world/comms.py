@@ -63,6 +63,12 @@ class RadioConfig(Config):
             return self.sigma_sq_m2
         return self.range_m**2 / (2.0 * math.log(1.0 / self.signal_at_range))
 
+    @property
+    def coverage_radius_m(self) -> float:
+        """Horizontal distance (m) within which the signal reaches ``signal_at_range`` (0 if never)."""
+        reach_sq = 2.0 * self.effective_sigma_sq_m2 * math.log(1.0 / self.signal_at_range)
+        return math.sqrt(max(0.0, reach_sq - self.altitude_m**2))
+
 
 @dataclass(frozen=True)
 class Coverage:
