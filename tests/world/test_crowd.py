@@ -8,12 +8,12 @@ import pytest
 
 from typed_config import ConfigError
 from uav_swarm.world.crowd import CrowdConfig, CrowdSim
+from uav_swarm.world.pedsim import load_pedsim_xml
 from uav_swarm.world.scenario import (
     AgentGroup,
     Scenario,
     ScenarioConfig,
     Waypoint,
-    load_pedsim_xml,
     random_scenario,
 )
 

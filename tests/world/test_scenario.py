@@ -7,17 +7,16 @@ import numpy as np
 import pytest
 
 from typed_config import ConfigError
-from uav_swarm.world.pedsim import PedsimImportWarning
+from uav_swarm.world.pedsim import PedsimImportWarning, load_pedsim_xml
 from uav_swarm.world.scenario import (
     AgentGroup,
     Scenario,
     ScenarioConfig,
     ScenarioError,
     Waypoint,
-    load_pedsim_xml,
-    load_scenario,
     random_scenario,
 )
+from uav_swarm.world.scenario_toml import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
 PEDSIM = REPO.parent / "shared" / "data" / "pedsim"
