@@ -18,7 +18,8 @@ import numpy as np
 
 from uav_swarm.missions.wifi import WifiConfig, coverage_rules
 from uav_swarm.missions.wifi_exact import exact_placement
-from uav_swarm.missions.wifi_expert import WifiExpertConfig, assign_users, candidate_grid, place_uavs
+from uav_swarm.missions.wifi_expert import WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi_rules import assign_users, candidate_grid
 
 # strategy: (side_m, grid_step_m, clusters, cluster size range, max UAVs)
 SETTINGS = {1: (120.0, 5.0, 4, (25, 60), 3), 2: (60.0, 6.0, 2, (32, 45), 2)}

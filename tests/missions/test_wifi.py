@@ -8,7 +8,8 @@ from typed_config import ConfigError
 from uav_swarm.missions.registry import make_task, task_factory
 from uav_swarm.missions.wifi import WifiConfig, WifiTask, coverage_rules, crowd_raster
 from uav_swarm.missions.wifi_exact import exact_placement
-from uav_swarm.missions.wifi_expert import WifiExpertConfig, assign_users, candidate_grid, place_uavs
+from uav_swarm.missions.wifi_expert import WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi_rules import assign_users, candidate_grid
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
 from uav_swarm.world.scenario import ScenarioConfig
 

@@ -15,7 +15,7 @@ Positions crossing the Task interface are pixel coordinates ``(x = column, y = r
 (:func:`uav_swarm.world.raster.metres_to_pixels`); ``mission_dimension_px`` is the raster side,
 so the metrics' match radius (10 %) is 6.4 px = 20 m on the default 64 px raster of 200 m.
 
-The experts' rules (:class:`uav_swarm.missions.wifi_expert.CoverageRules`): a user is covered
+The experts' rules (:class:`uav_swarm.missions.wifi_rules.CoverageRules`): a user is covered
 within the radio's horizontal coverage radius (30 m by default); every UAV must be justified by
 more than ``expert.min_group_size`` (30) users (strategy 1: users only it covers; strategy 2:
 users it serves); strategy 2 also caps a UAV at ``capacity / min_user_rate`` (200 / 5 = 40)
@@ -43,7 +43,8 @@ import numpy as np
 
 from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
-from uav_swarm.missions.wifi_expert import CoverageRules, WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi_expert import WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi_rules import CoverageRules
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
 from uav_swarm.world.crowd import CrowdConfig, CrowdSim
 from uav_swarm.world.raster import density_map, metres_to_pixels, pixels_to_metres

@@ -39,7 +39,7 @@ from scipy import sparse
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.spatial import cKDTree
 
-from uav_swarm.missions.wifi_expert import CoverageRules
+from uav_swarm.missions.wifi_rules import CoverageRules
 
 __all__ = ["ExactPlacement", "exact_placement"]
 
