@@ -10,7 +10,7 @@ from blob_task import BlobConfig, BlobTask
 from learning.data import generate_dataset, load_arrays
 from learning.model import ModelConfig
 from learning.search import SearchConfig, SearchError, parse_grid, run_search
-from learning.search_report import mean_expert_distance_px
+from learning.search_report import f1_score, markdown_summary, mean_expert_distance_px, summarise
 from learning.train import TrainConfig
 from typed_config import ConfigError
 from uav_swarm.cli import main
@@ -124,6 +124,22 @@ def test_results_of_another_budget_or_dataset_are_refused(data, local_run, tmp_p
         search(other, out)
     with pytest.raises(SearchError, match="val_fraction"):
         search(data, out, train=TRAIN.replace(val_fraction=0.0))
+
+
+def test_best_by_f1_charges_for_peaks_that_match_no_expert():
+    # (20, 2) has the highest correspondence but sprays peaks; (10, 4) is the best trade-off.
+    table = {(10, 2): (0.50, 0.50), (10, 4): (0.60, 0.70), (20, 2): (0.70, 0.15), (20, 4): (0.40, 0.20)}
+    trials = [{"alpha2": float(a), "sigma2": float(s), "corr": c, "precision": p, "train_s": 1.0}
+              for (a, s), (c, p) in table.items()]
+    manifest = {"task": "blob", "n": 24, "seed": 5, "split": "train", "shape": [16, 16]}
+    summary = summarise(GRID, trials, manifest, 8.0, {"text": "3 steps"}, "local")
+    assert (summary["best"]["alpha2"], summary["best"]["sigma2"]) == (20, 2)
+    assert (summary["best_f1"]["alpha2"], summary["best_f1"]["sigma2"]) == (10, 4)
+    assert summary["best_f1"]["f1"] == pytest.approx(2 * 0.6 * 0.7 / 1.3)
+    assert summary["f1"][1][0] == pytest.approx(2 * 0.7 * 0.15 / 0.85)
+    assert "best (α2, σ2) by F1 of correspondence and precision: (10, 4)" in markdown_summary(
+        {**summary, "threads_per_trial": 1, "total_train_s": 4.0})
+    assert f1_score(np.zeros(2), np.zeros(2)).tolist() == [0.0, 0.0]
 
 
 def test_grids_parse_inclusively():

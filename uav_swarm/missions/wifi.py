@@ -4,7 +4,8 @@ A scene is the crowd of a random scenario (:func:`uav_swarm.world.scenario.rando
 after a warm-up of the social-force simulation (:class:`uav_swarm.world.crowd.CrowdSim`),
 drawn uniformly in ``[warmup_min_s, warmup_max_s]`` so that groups have formed and walk
 their routes; the expert placement (:func:`uav_swarm.missions.wifi_expert.place_uavs`) is
-solved when the scene is sampled, so ``expert(scene)`` costs nothing.
+solved by ``expert(scene)``, so regenerating a scene only for its QoS (as evaluation does)
+costs the warm-up alone.
 
 Observation (``float32``, shape ``(1, size_px, size_px)``): the pedestrian density map
 (:func:`uav_swarm.world.raster.density_map`, row 0 = South) divided by ``density_scale``
@@ -82,16 +83,14 @@ class WifiConfig(Config):
 
 @dataclass(frozen=True, eq=False)
 class WifiScene:
-    """One crowd and its expert placement.
+    """One crowd.
 
     Attributes:
         users_m: ``(N, 2)`` float64 read-only pedestrian positions, metres.
-        expert_m: ``(k, 2)`` float64 read-only expert UAV positions, metres, sorted by ``(y, x)``.
         time_s: Simulated warm-up time of the crowd (s).
     """
 
     users_m: np.ndarray
-    expert_m: np.ndarray
     time_s: float
 
 
@@ -156,7 +155,7 @@ class WifiTask:
         return place_uavs(users_m, self.rules, self.width_m, self.height_m, self.config.expert)
 
     def sample(self, rng: np.random.Generator) -> WifiScene:
-        """Draw a scenario, warm its crowd up for a random time and solve the expert placement."""
+        """Draw a scenario and warm its crowd up for a random time."""
         cfg = self.config
         scenario = random_scenario(rng, cfg.scenario)
         crowd = CrowdSim(scenario, cfg.crowd, rng)
@@ -165,18 +164,16 @@ class WifiTask:
         if steps:
             crowd.step(steps)
         users_m = np.array(crowd.positions_m, dtype=np.float64)
-        expert_m = self.expert_placement_m(users_m)
         users_m.setflags(write=False)
-        expert_m.setflags(write=False)
-        return WifiScene(users_m, expert_m, crowd.time_s)
+        return WifiScene(users_m, crowd.time_s)
 
     def observe(self, scene: WifiScene) -> np.ndarray:
         """``(1, size, size)`` float32 scaled pedestrian density."""
         return crowd_raster(scene.users_m, self.config)
 
     def expert(self, scene: WifiScene) -> np.ndarray:
-        """The expert's ``(k, 2)`` float64 positions in pixels, ``0 <= k <= 10``."""
-        return self.to_pixels(scene.expert_m)
+        """The expert's ``(k, 2)`` float64 positions in pixels, ``0 <= k <= 10``, sorted by ``(y, x)``."""
+        return self.to_pixels(self.expert_placement_m(scene.users_m))
 
     def qos(self, scene: WifiScene, positions_px: np.ndarray) -> dict[str, float]:
         """QoS of UAVs at ``positions_px`` over the scene's crowd (see the module docstring).
