@@ -135,7 +135,7 @@ def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
     """
     alphas, sigmas = summary["grid"]["alpha2"], summary["grid"]["sigma2"]
     corr = 100.0 * np.asarray(summary["corr"])  # (len(alphas), len(sigmas))
-    fig = Figure(figsize=(1.0 + 0.9 * len(sigmas), 1.2 + 0.7 * len(alphas)), dpi=100)
+    fig = Figure(figsize=(2.2 + 0.9 * len(sigmas), 1.4 + 0.7 * len(alphas)), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     image = ax.imshow(corr, origin="lower", cmap="RdYlGn", aspect="auto")
@@ -156,9 +156,9 @@ def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
     ax.set_ylabel("α2")
     budget = summary["budget"]
     ax.set_title(f"{summary['task']}: best α2={best['alpha2']:g}, σ2={best['sigma2']:g}; "
-                 f"α2-rise {summary['alpha2_rise_pts']:+.1f} pts; best F1 (dashed) "
-                 f"α2={best_f1['alpha2']:g}, σ2={best_f1['sigma2']:g}\n"
-                 f"budget per trial: {budget['steps_run']} steps of batch {budget['batch_size']} "
+                 f"α2-rise {summary['alpha2_rise_pts']:+.1f} pts\n"
+                 f"best F1 (dashed) α2={best_f1['alpha2']:g}, σ2={best_f1['sigma2']:g}; "
+                 f"per trial: {budget['steps_run']} steps of batch {budget['batch_size']} "
                  f"on {budget['n_train']} scenes", fontsize=8)
     fig.tight_layout()
     path = Path(path)
