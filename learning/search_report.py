@@ -167,7 +167,7 @@ def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
 
 
 def markdown_summary(summary: dict[str, Any]) -> str:
-    """The summary as Markdown: headline numbers, budget, and the correspondence table."""
+    """The summary as Markdown: headline numbers, budget, and the correspondence, precision and F1 tables."""
     best, best_f1 = summary["best"], summary["best_f1"]
     rule, budget = summary["rule_of_thumb"], summary["budget"]
     sigmas = summary["grid"]["sigma2"]

@@ -21,6 +21,7 @@ from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
+from uav_swarm.env_actions import parse_actions
 from uav_swarm.env_config import MAX_UAVS, EnvConfig, merge_overrides
 from uav_swarm.render import HumanViewer, draw_frame
 from uav_swarm.world.comms import Coverage, evaluate_coverage
@@ -306,23 +307,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
 
     def _command(self, actions: Mapping[str, Any]) -> np.ndarray:
         """Validate the actions and turn them into (K, 2) velocity commands in m/s."""
-        index = self._agent_index
-        given = [index.get(agent, -1) for agent in actions]
-        if -1 in given:
-            unknown = next(agent for agent in actions if agent not in index)
-            raise ValueError(f"unknown agent {unknown!r}: the agents are {self.possible_agents}")
-        try:
-            values = np.array(list(actions.values())) if given else np.zeros((0, 2))
-        except ValueError:  # ragged shapes
-            values = None
-        if values is None or values.dtype.kind not in "fiu" or values.shape != (len(given), 2):
-            self._raise_bad_action(actions)
-        values = values.astype(np.float64, copy=False)
-        finite = np.isfinite(values).all(axis=1)
-        if not finite.all():
-            bad = int(np.argmin(finite))
-            raise ValueError(f"action of {self.possible_agents[given[bad]]!r} contains NaN or inf: "
-                             f"{values[bad].tolist()}")
+        given, values = parse_actions(actions, self._agent_index)
         values = np.minimum(np.maximum(values, self._act_low), self._act_high)
         if self.config.action_mode == "velocity":
             command = np.zeros_like(self._fleet.positions_m)
@@ -330,17 +315,6 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
             return command
         self._targets_m[given] = values
         return self._fleet.waypoint_command(self._targets_m, self.dt_s)
-
-    @staticmethod
-    def _raise_bad_action(actions: Mapping[str, Any]) -> None:
-        """Raise a ValueError naming the first agent whose action has a bad shape or dtype."""
-        for agent, action in actions.items():
-            value = np.asarray(action)
-            if value.shape != (2,):
-                raise ValueError(f"action of {agent!r} must have shape (2,), got {value.shape}")
-            if value.dtype.kind not in "fiu":
-                raise ValueError(f"action of {agent!r} must be a float or int array, got dtype {value.dtype}")
-        raise ValueError(f"actions must be arrays of shape (2,) of floats or ints, got {actions!r}")
 
     def _update_world_view(self) -> None:
         """Density map, coverage and reward after the world moved (once per step)."""
