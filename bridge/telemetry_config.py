@@ -3,7 +3,9 @@
 Zenoh's own defaults scout by multicast and listen on every interface; ours never do. A session
 opened from :class:`TelemetryConfig` listens and connects only on the endpoints listed (by default
 ``tcp/127.0.0.1:7447`` for the publishing side), with multicast scouting off unless switched on, and
-every connect, listen and query wait bounded by ``timeout_s``.
+every connect, listen and query wait bounded by ``timeout_s``. Before the session opens, each
+``host:port`` it is to listen on is tried with a plain socket, so an endpoint held by another process
+is reported by name ("tcp/127.0.0.1:7447 is in use") instead of as Zenoh's timeout.
 
 Example:
     >>> config = TelemetryConfig(swarm="demo", listen=(), connect=("tcp/127.0.0.1:7447",))
@@ -13,8 +15,11 @@ Example:
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import re
+import socket
 from dataclasses import dataclass
 from typing import Literal
 
@@ -29,6 +34,7 @@ __all__ = [
     "TelemetryConfig",
     "TelemetryConnectionError",
     "check_endpoint",
+    "check_listen_endpoints",
     "zenoh_config",
     "open_session",
 ]
@@ -41,6 +47,9 @@ LOCATOR_SCHEMES: tuple[str, ...] = (
 """Zenoh locator schemes accepted in endpoints (``<scheme>/<address>``)."""
 
 _IP_SCHEMES = frozenset({"tcp", "udp", "tls", "quic", "ws"})
+_SOCKET_TYPES = {"tcp": socket.SOCK_STREAM, "tls": socket.SOCK_STREAM, "ws": socket.SOCK_STREAM,
+                 "udp": socket.SOCK_DGRAM, "quic": socket.SOCK_DGRAM}
+_IN_USE_ERRNOS = frozenset({errno.EADDRINUSE, getattr(errno, "WSAEADDRINUSE", errno.EADDRINUSE)})
 _HOST_PORT_RE = re.compile(r"(?P<host>\[[0-9A-Fa-f:.%a-zA-Z]+\]|[A-Za-z0-9_.-]+):(?P<port>\d{1,5})")
 
 
@@ -133,15 +142,80 @@ def zenoh_config(config: TelemetryConfig) -> zenoh.Config:
     return zenoh.Config.from_json5(json.dumps(settings))
 
 
-def open_session(config: TelemetryConfig) -> zenoh.Session:
-    """Open a Zenoh session for ``config``.
+def _probe_socket(family: int, kind: int) -> socket.socket:
+    """A socket that binds as Zenoh's listener does (address reuse on POSIX, exclusive on Windows).
+
+    Address reuse lets the bind succeed over connections of a previous run left in TIME_WAIT, which
+    Zenoh ignores too, and still fails on a port another socket listens on.
+    """
+    sock = socket.socket(family, kind)
+    if os.name == "nt":
+        sock.setsockopt(socket.SOL_SOCKET, getattr(socket, "SO_EXCLUSIVEADDRUSE", -5), 1)
+    else:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    return sock
+
+
+def _probe_listen_endpoint(endpoint: str) -> None:
+    """Bind (and for TCP listen on) the endpoint's ``host:port`` for a moment; raise if that fails."""
+    scheme, _, address = endpoint.partition("/")
+    kind = _SOCKET_TYPES.get(scheme)
+    match = _HOST_PORT_RE.fullmatch(re.split(r"[?#]", address, maxsplit=1)[0])
+    if kind is None or match is None or int(match["port"]) == 0:
+        return  # not an IP endpoint, or a port the system picks
+    host, port = match["host"].strip("[]"), int(match["port"])
+    try:
+        infos = socket.getaddrinfo(host, port, type=kind, flags=socket.AI_PASSIVE)
+    except socket.gaierror as exc:
+        raise TelemetryConnectionError(f"cannot listen on {endpoint}: unknown host ({exc})") from None
+    family, _, _, _, sockaddr = infos[0]
+    try:
+        with _probe_socket(family, kind) as sock:
+            sock.bind(sockaddr)
+            if kind == socket.SOCK_STREAM:
+                sock.listen(1)
+    except OSError as exc:
+        if exc.errno in _IN_USE_ERRNOS:
+            raise TelemetryConnectionError(
+                f"{endpoint} is in use (another socket listens there: a running simulation, bridge "
+                "or Zenoh router?)") from None
+        if exc.errno == errno.EADDRNOTAVAIL:
+            raise TelemetryConnectionError(
+                f"cannot listen on {endpoint}: {host} is not an address of this machine") from None
+        if exc.errno == errno.EACCES:
+            raise TelemetryConnectionError(
+                f"cannot listen on {endpoint}: permission denied (ports < 1024 need privileges)") from None
+        raise TelemetryConnectionError(f"cannot listen on {endpoint}: {exc.strerror or exc}") from None
+
+
+def check_listen_endpoints(config: TelemetryConfig) -> None:
+    """Check that this machine can listen on each IP endpoint of ``config.listen`` right now.
+
+    Each ``host:port`` (port 0 and non-IP endpoints are skipped) is bound with a plain socket, which is
+    closed again at once.
 
     Args:
         config: The telemetry settings.
 
     Raises:
-        TelemetryConnectionError: Zenoh refused the settings or (client mode) reached no router in time.
+        TelemetryConnectionError: An endpoint is in use (the message names it), its host is not an
+            address of this machine, or binding failed otherwise (the message gives the cause).
     """
+    for endpoint in config.listen:
+        _probe_listen_endpoint(endpoint)
+
+
+def open_session(config: TelemetryConfig) -> zenoh.Session:
+    """Open a Zenoh session for ``config``, its listen endpoints checked first.
+
+    Args:
+        config: The telemetry settings.
+
+    Raises:
+        TelemetryConnectionError: A listen endpoint cannot be bound (see :func:`check_listen_endpoints`),
+            Zenoh refused the settings or (client mode) reached no router in time.
+    """
+    check_listen_endpoints(config)
     try:
         return zenoh.open(zenoh_config(config))
     except zenoh.ZError as exc:

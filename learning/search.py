@@ -13,7 +13,8 @@ Layout of the output folder::
     ray/              Ray Tune's experiment storage (``executor="ray"`` only)
 
 Resuming: running the same search into the same folder skips the finished trials
-(and continues an interrupted trial from its last epoch checkpoint). A ``search.json``
+(and continues an interrupted trial from its last epoch checkpoint). Each trial records the
+executor it ran on, and the report names those, not the executor of the run that wrote it. A ``search.json``
 from another dataset or another budget (model, train, peak or base target config,
 torch threads) is an error, never silently mixed; the grid itself may change
 (finished points that are still on the grid are kept).
@@ -41,7 +42,7 @@ from typing import Any, Literal
 import torch
 
 from learning.data import load_manifest
-from learning.executors import run_local
+from learning.executors import ray_session, run_local
 from learning.files import write_json_atomic
 from learning.model import ModelConfig
 from learning.peaks import PeakConfig
@@ -50,7 +51,7 @@ from learning.train import TrainConfig, pick_device, train
 from typed_config import Config, ConfigError, param
 
 __all__ = ["SEARCH_FORMAT", "SearchError", "SearchConfig", "TrialSpec", "parse_grid", "trial_name",
-           "run_trial", "run_search"]
+           "run_trial", "run_search", "executor_label"]
 
 log = logging.getLogger(__name__)
 
@@ -107,10 +108,14 @@ def parse_grid(text: str, name: str, *, positive: bool = False) -> tuple[float, 
 
 @dataclass(frozen=True)
 class SearchConfig(Config):
-    """The grid and the per-trial threads of a search."""
+    """The grid and the per-trial threads of a search.
+
+    The default grid is the one of the README's Wi-Fi searches: α2 20-60 and σ2 5-45 px, step 10
+    (the paper's 5x5 shape; σ2 scaled to our 64 px rasters).
+    """
 
     alpha2: str = param("20:60:10", doc="α2 grid, inclusive 'start:stop:step' (>= 0), target units")
-    sigma2: str = param("20:60:10", doc="σ2 grid, inclusive 'start:stop:step' (> 0), pixels")
+    sigma2: str = param("5:45:10", doc="σ2 grid, inclusive 'start:stop:step' (> 0), pixels")
     threads: int = param(1, ge=1, le=256, doc="torch threads per trial (part of the results' identity)")
 
     def check(self) -> None:
@@ -216,7 +221,6 @@ def _run_ray(spec: TrialSpec, points: Sequence[Point], address: str | None, work
              record: Callable[[dict[str, Any]], None]) -> None:
     """Run the trials with Ray Tune's ``grid_search``; ``record`` gets each result on the driver."""
     try:
-        import ray
         from ray import tune
     except ImportError as exc:
         raise ImportError("the Ray executor needs Ray Tune: pip install 'ray[tune]'") from exc
@@ -232,13 +236,7 @@ def _run_ray(spec: TrialSpec, points: Sequence[Point], address: str | None, work
     device = spec.train_config["device"]
     use_gpu = device == "cuda" or (device == "auto" and pick_device("auto").type == "cuda")
     resources = {"cpu": spec.threads, "gpu": 1 if use_gpu else 0}  # Ray hides GPUs from trials without one
-    own_session = not ray.is_initialized()
-    if own_session:
-        local = {} if address else {"num_cpus": os.cpu_count(), "object_store_memory": 256 * 2**20}
-        ray.init(address=address, include_dashboard=False, logging_level=logging.WARNING, **local)
-    elif address is not None:
-        log.warning("Ray is already initialised; ignoring address %s", address)
-    try:
+    with ray_session(address, num_cpus=os.cpu_count(), object_store_memory=256 * 2**20):
         tuner = tune.Tuner(
             tune.with_resources(tune.with_parameters(trainable, spec=spec), resources),
             param_space={"point": tune.grid_search([list(p) for p in points])},
@@ -249,9 +247,6 @@ def _run_ray(spec: TrialSpec, points: Sequence[Point], address: str | None, work
         grid = tuner.fit()
         if grid.errors:
             raise SearchError(f"{len(grid.errors)} Ray trial(s) failed; first: {grid.errors[0]}")
-    finally:
-        if own_session:
-            ray.shutdown()
 
 
 def _dataset_identity(manifest: dict[str, Any]) -> dict[str, Any]:
@@ -267,8 +262,30 @@ def _differences(old: Any, new: Any, where: str = "") -> list[str]:
     return [] if old == new else [f"{where} = {old!r} there, {new!r} now"]
 
 
-def _load_finished(path: Path, identity: dict[str, Any]) -> dict[Point, dict[str, Any]]:
+def executor_label(trials: Sequence[dict[str, Any]]) -> str:
+    """Where the trials ran: ``"local"``, ``"ray"``, or e.g. ``"local + ray"`` for a search resumed elsewhere.
+
+    Example:
+        >>> executor_label([{"executor": "ray"}, {"executor": "local"}, {"executor": "ray"}])
+        'local + ray'
+    """
+    return " + ".join(sorted({t.get("executor", "unrecorded") for t in trials})) or "none"
+
+
+def _previous_executor(out: Path) -> str | None:
+    """The executor named by the report already in ``out`` (for trials recorded before trials named it)."""
+    try:
+        executor = json.loads((out / "summary.json").read_text(encoding="utf-8")).get("executor")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return executor if executor in ("local", "ray") else None
+
+
+def _load_finished(path: Path, identity: dict[str, Any], legacy_executor: str | None = None
+                   ) -> dict[Point, dict[str, Any]]:
     """The finished trials of ``path`` (empty when it does not exist).
+
+    Trials written before each trial recorded its executor get ``legacy_executor`` when known.
 
     Raises:
         SearchError: The file is unreadable or belongs to a different search.
@@ -285,7 +302,10 @@ def _load_finished(path: Path, identity: dict[str, Any]) -> dict[Point, dict[str
     if diff:
         raise SearchError(f"{path} holds a search of another dataset or budget ({'; '.join(diff[:4])}); "
                           "use another output folder or the same settings")
-    return {(t["alpha2"], t["sigma2"]): t for t in saved["trials"]}
+    trials = saved["trials"]
+    if legacy_executor is not None:
+        trials = [t if "executor" in t else {**t, "executor": legacy_executor} for t in trials]
+    return {(t["alpha2"], t["sigma2"]): t for t in trials}
 
 
 def run_search(
@@ -352,7 +372,7 @@ def run_search(
                 "train_config": spec.train_config, "peak_config": spec.peak_config, "threads": spec.threads}
     out.mkdir(parents=True, exist_ok=True)
     path = out / RESULTS_FILE
-    finished = _load_finished(path, identity)
+    finished = _load_finished(path, identity, _previous_executor(out))
     points = search_config.points
     todo = [p for p in points if p not in finished]
     log.info("search: %d grid points, %d finished, %d to run (%s)", len(points), len(points) - len(todo),
@@ -363,6 +383,7 @@ def run_search(
                                  "trials": [finished[p] for p in sorted(finished)]})
 
     def record(trial: dict[str, Any]) -> None:
+        trial = {**trial, "executor": executor}
         finished[(trial["alpha2"], trial["sigma2"])] = trial
         save()
         log.info("trial α2=%g σ2=%g: corr %.3f precision %.3f (%.0f s)", trial["alpha2"], trial["sigma2"],
@@ -376,5 +397,6 @@ def run_search(
     elif todo:
         for trial in _run_local(spec, todo, workers or max(1, (os.cpu_count() or 1) // spec.threads)):
             record(trial)
-    return write_report(out, search_config, [finished[p] for p in points], manifest, positions_px, mask,
-                        train_config, executor)
+    trials = [finished[p] for p in points]
+    return write_report(out, search_config, trials, manifest, positions_px, mask, train_config,
+                        executor_label(trials))

@@ -18,6 +18,7 @@ Files written in the search folder: ``summary.json``, ``summary.md`` and ``heatm
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -33,8 +34,8 @@ if TYPE_CHECKING:
     from learning.search import SearchConfig
     from learning.train import TrainConfig
 
-__all__ = ["mean_expert_distance_px", "f1_score", "summarise", "plot_heatmap", "markdown_summary",
-           "write_report"]
+__all__ = ["mean_expert_distance_px", "f1_score", "summarise", "heatmap_figure", "plot_heatmap",
+           "markdown_summary", "write_report"]
 
 
 def mean_expert_distance_px(positions_px: np.ndarray, mask: np.ndarray) -> float:
@@ -124,18 +125,39 @@ def summarise(search_config: SearchConfig, trials: Sequence[dict[str, Any]], man
     }
 
 
-def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
-    """Write the correspondence heat map (rows α2, columns σ2, values in %).
+_TITLE_PT = 8.0
+_MIN_WIDTH_IN = 4.5
 
-    The best cell by correspondence is framed in solid blue, the best by F1 in dashed black.
+
+def _wrapped(lines: Sequence[str], width_in: float) -> str:
+    """``lines`` wrapped to fit ``width_in`` inches at the title's font size (a wide glyph: 0.62 em)."""
+    chars = max(20, int(0.95 * width_in * 72.0 / (0.62 * _TITLE_PT)))
+    return "\n".join(part for line in lines for part in textwrap.wrap(line, chars))
+
+
+def heatmap_figure(summary: dict[str, Any]) -> Figure:
+    """The correspondence heat map (rows α2, columns σ2, values in %) as a figure.
+
+    The best cell by correspondence is framed in solid blue, the best by F1 in dashed black. The
+    title spans the figure and wraps to its width, so a grid of one or two columns shows it whole.
 
     Args:
-        path: Output ``.png`` (written atomically).
         summary: As returned by :func:`summarise`.
     """
     alphas, sigmas = summary["grid"]["alpha2"], summary["grid"]["sigma2"]
     corr = 100.0 * np.asarray(summary["corr"])  # (len(alphas), len(sigmas))
-    fig = Figure(figsize=(2.2 + 0.9 * len(sigmas), 1.4 + 0.7 * len(alphas)), dpi=100)
+    width_in = max(_MIN_WIDTH_IN, 2.2 + 0.9 * len(sigmas))
+    best, best_f1, budget = summary["best"], summary["best_f1"], summary["budget"]
+    title = _wrapped([
+        f"{summary['task']}: best α2={best['alpha2']:g}, σ2={best['sigma2']:g}; "
+        f"α2-rise {summary['alpha2_rise_pts']:+.1f} pts",
+        f"best F1 (dashed) α2={best_f1['alpha2']:g}, σ2={best_f1['sigma2']:g}",
+        f"per trial: {budget['steps_run']} steps of batch {budget['batch_size']} "
+        f"on {budget['n_train']} scenes",
+    ], width_in)
+    n_title_lines = title.count("\n") + 1
+    fig = Figure(figsize=(width_in, 1.2 + 0.7 * len(alphas) + 0.16 * n_title_lines), dpi=100,
+                 layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     image = ax.imshow(corr, origin="lower", cmap="RdYlGn", aspect="auto")
@@ -143,10 +165,8 @@ def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
     for i in range(len(alphas)):
         for j in range(len(sigmas)):
             ax.text(j, i, f"{corr[i, j]:.1f}", ha="center", va="center", fontsize=8)
-    best = summary["best"]
     bi, bj = alphas.index(best["alpha2"]), sigmas.index(best["sigma2"])
     ax.add_patch(Rectangle((bj - 0.5, bi - 0.5), 1, 1, fill=False, edgecolor="blue", linewidth=2.5))
-    best_f1 = summary["best_f1"]
     fi, fj = alphas.index(best_f1["alpha2"]), sigmas.index(best_f1["sigma2"])
     ax.add_patch(Rectangle((fj - 0.4, fi - 0.4), 0.8, 0.8, fill=False, edgecolor="black", linewidth=1.5,
                            linestyle="--"))
@@ -154,13 +174,18 @@ def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
     ax.set_yticks(range(len(alphas)), [f"{a:g}" for a in alphas])
     ax.set_xlabel("σ2 (px)")
     ax.set_ylabel("α2")
-    budget = summary["budget"]
-    ax.set_title(f"{summary['task']}: best α2={best['alpha2']:g}, σ2={best['sigma2']:g}; "
-                 f"α2-rise {summary['alpha2_rise_pts']:+.1f} pts\n"
-                 f"best F1 (dashed) α2={best_f1['alpha2']:g}, σ2={best_f1['sigma2']:g}; "
-                 f"per trial: {budget['steps_run']} steps of batch {budget['batch_size']} "
-                 f"on {budget['n_train']} scenes", fontsize=8)
-    fig.tight_layout()
+    fig.suptitle(title, fontsize=_TITLE_PT)
+    return fig
+
+
+def plot_heatmap(path: str | Path, summary: dict[str, Any]) -> None:
+    """Write :func:`heatmap_figure` as a PNG.
+
+    Args:
+        path: Output ``.png`` (written atomically).
+        summary: As returned by :func:`summarise`.
+    """
+    fig = heatmap_figure(summary)
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")

@@ -6,7 +6,13 @@ the utility map and the target map ``R(ζ)/α1`` with Adam, validate (loss,
 correspondence and precision of the extracted peaks), and write
 ``out_dir/checkpoint.pt`` (the latest, with the optimiser state to resume from) and
 ``out_dir/best.pt`` (best validation corr + precision, weights and metadata only:
-the file to ship).
+the file to ship). With ``patience`` the run stops once that many epochs pass without a
+better validation score.
+
+Speed: the forward pass runs under bfloat16 autocast where the device computes it
+natively (``precision = "auto"``, :mod:`learning.precision`; float32 master weights,
+optimiser state and loss), on channels-last tensors; validation chooses the peak
+thresholds on a subset (``calibrate_samples``) and scores the whole split.
 
 Determinism: on CPU, the same data, configs and seed give bit-identical weights
 (fixed initialisation seed, one loader generator per epoch seeded from
@@ -37,6 +43,7 @@ from learning.loader import ShardDataset
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from learning.model import ModelConfig, UtilityNet, build_model
 from learning.peaks import PeakConfig, find_peaks
+from learning.precision import Precision, autocast, resolve_precision
 from learning.targets import TargetConfig
 from typed_config import Config, param
 
@@ -66,6 +73,14 @@ class TrainConfig(Config):
     augment: bool = param(False, doc="random grid symmetries (only for tasks that are symmetric)")
     calibrate_peaks: bool = param(False, doc="choose the peak thresholds on the validation split every "
                                   "epoch (learning.calibrate); best.pt carries the chosen ones")
+    calibrate_samples: int = param(1000, ge=0, doc="validation samples the thresholds are chosen on (0: all; "
+                                   "the metrics are always measured on the whole split)")
+    precision: Literal["auto", "float32", "bfloat16"] = param(
+        "auto", doc="'auto': bfloat16 autocast where the device computes it natively (learning.precision), "
+        "else float32; weights, optimiser and loss stay float32")
+    channels_last: bool = param(True, doc="channels-last memory format for the network and its batches")
+    patience: int = param(0, ge=0, doc="stop after this many epochs without a better validation "
+                          "corr + precision (0: run every epoch)")
 
 
 @dataclass(frozen=True)
@@ -94,8 +109,21 @@ def _lr_factor(config: TrainConfig, step: int, steps_per_epoch: int, total_steps
 
 @torch.inference_mode()
 def validate(model: UtilityNet, dataset: ShardDataset, eps_px: float, peaks: PeakConfig, device: torch.device,
-             batch_size: int = 64, calibrate: bool = False) -> tuple[dict[str, float], PeakConfig]:
-    """Mean MSE loss, correspondence and precision of ``model`` on ``dataset``.
+             batch_size: int = 64, calibrate: bool = False, precision: Precision = "float32",
+             calibrate_samples: int = 0) -> tuple[dict[str, float], PeakConfig]:
+    """Mean MSE loss, correspondence and precision (the paper's matching rule) of ``model`` on ``dataset``.
+
+    Args:
+        model: The network (set to eval mode).
+        dataset: The validation split.
+        eps_px: Match radius, pixels.
+        peaks: Peak extraction settings (the starting point of calibration).
+        device: Where ``model`` is.
+        batch_size: Samples per forward pass.
+        calibrate: Choose the thresholds first, on the first ``calibrate_samples`` samples
+            (all when 0), then measure the whole split with them.
+        precision: Autocast precision of the forward passes (the loss is float32).
+        calibrate_samples: See ``calibrate``.
 
     Returns:
         The metrics and the peak settings they were measured with: ``peaks``, or with
@@ -107,15 +135,16 @@ def validate(model: UtilityNet, dataset: ShardDataset, eps_px: float, peaks: Pea
         items = [dataset[i] for i in range(start, min(start + batch_size, len(dataset)))]
         x = torch.stack([item[0] for item in items]).to(device)  # (B, C, h, w)
         y = torch.stack([item[1] for item in items]).to(device)  # (B, 1, h, w)
-        u = model(x)  # (B, 1, h, w)
+        with autocast(precision, device):
+            u = model(x).float()  # (B, 1, h, w)
         losses.append(F.mse_loss(u, y, reduction="sum").item() / y[0].numel())
-        utilities.extend(u[:, 0].float().cpu().numpy())
+        utilities.extend(u[:, 0].cpu().numpy())
     experts = [dataset.expert(i) for i in range(len(dataset))]
     if calibrate:
-        peaks, summary = calibrate_peaks(utilities, experts, eps_px, peaks)
-    else:
-        summary = aggregate(score_sample(e, find_peaks(u, peaks), eps_px)
-                            for u, e in zip(utilities, experts, strict=True))
+        k = calibrate_samples or len(utilities)
+        peaks, _ = calibrate_peaks(utilities[:k], experts[:k], eps_px, peaks)
+    summary = aggregate(score_sample(e, find_peaks(u, peaks), eps_px)
+                        for u, e in zip(utilities, experts, strict=True))
     metrics = {"val_loss": sum(losses) / len(dataset), "val_corr": summary["corr"],
                "val_precision": summary["precision"]}
     return metrics, peaks
@@ -130,6 +159,7 @@ def train(
     train_config: TrainConfig | None = None,
     peak_config: PeakConfig | None = None,
     resume: str | Path | None = None,
+    init: str | Path | None = None,
     progress: bool = True,
 ) -> TrainResult:
     """Train a utility network on the dataset in ``data_dir``; checkpoints go to ``out_dir``.
@@ -144,6 +174,9 @@ def train(
         peak_config: Peak extraction for validation, saved in the checkpoint.
         resume: A checkpoint of this dataset's task to continue from; its model,
             target and peak configs are used.
+        init: A checkpoint of this dataset's task whose weights start a new run (fine-tuning,
+            e.g. a shipped ``best.pt`` on a larger dataset); its model config is used, the
+            optimiser, schedule and history start afresh.
         progress: Show a progress bar.
 
     Raises:
@@ -161,6 +194,13 @@ def train(
             raise CheckpointError(f"{resume}: has no optimizer state (a best.pt); resume from checkpoint.pt")
         model_config, target_config, peak_config = ckpt.model_config, ckpt.target_config, ckpt.peak_config
         train_config = train_config or TrainConfig.from_dict(state["train_config"])
+    init_state = None
+    if init is not None:
+        if resume is not None:
+            raise ValueError("pass either resume (continue a run) or init (start from its weights), not both")
+        start = load_checkpoint(init, task_name=manifest["task"], task_config=manifest["task_config"],
+                                input_shape=input_shape)
+        model_config, init_state = start.model_config, start.model.state_dict()
     model_config = (model_config or ModelConfig()).replace(in_channels=manifest["channels"])
     target_config = target_config or TargetConfig()
     train_config = train_config or TrainConfig()
@@ -177,33 +217,43 @@ def train(
     val_set = ShardDataset(arrays, target_config, np.sort(order[:n_val]))
     eps_px = MATCH_FRACTION * manifest["mission_dimension_px"]
 
+    precision = resolve_precision(cfg.precision, device)
+    memory_format = torch.channels_last if cfg.channels_last else torch.contiguous_format
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(cfg.seed)
-        model = build_model(model_config).to(device)
+        model = build_model(model_config)
+        if init_state is not None:
+            model.load_state_dict(init_state)
+        model = model.to(device, memory_format=memory_format)
     optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     steps_per_epoch = math.ceil(len(train_set) / cfg.batch_size)
     total_steps = min(cfg.epochs * steps_per_epoch, cfg.max_steps or math.inf)
     scheduler = torch.optim.lr_scheduler.LambdaLR(
         optimizer, lambda s: _lr_factor(cfg, s, steps_per_epoch, int(total_steps)))
     history: list[dict[str, float]] = []
-    step, first_epoch, elapsed_s = 0, 0, 0.0
+    step, first_epoch, elapsed_s, samples = 0, 0, 0.0, 0
     if state:
         model.load_state_dict(state["model_state"])
         optimizer.load_state_dict(state["optimizer_state"])
         scheduler.load_state_dict(state["scheduler_state"])
         history, step, first_epoch = list(state["history"]), int(state["step"]), int(state["epoch"]) + 1
         elapsed_s = float(history[-1]["elapsed_s"]) if history else 0.0
-    best_score = max((h["val_corr"] + h["val_precision"] for h in history if "val_corr" in h), default=-1.0)
+        samples = int(history[-1].get("samples", step * cfg.batch_size)) if history else 0
+    scored = [(h["val_corr"] + h["val_precision"], int(h["epoch"])) for h in history if "val_corr" in h]
+    best_score, best_epoch = max(scored, default=(-1.0, first_epoch - 1))
     payload = {
         "format": CHECKPOINT_FORMAT, "model_config": model_config.to_dict(),
         "target_config": target_config.to_dict(), "peak_config": peak_config.to_dict(),
         "train_config": cfg.to_dict(), "task_name": manifest["task"], "task_config": manifest["task_config"],
         "input_shape": list(input_shape), "mission_dimension_px": manifest["mission_dimension_px"],
+        "precision": precision,
         "data": {"seed": manifest["seed"], "split": manifest["split"], "n": manifest["n"]},
     }
+    if init is not None:
+        payload["init"] = Path(init).name
     ckpt_path, best_path = out / "checkpoint.pt", out / "best.pt"
-    log.info("training %s on %d samples (%d validation) on %s",
-             model_config.arch, len(train_set), n_val, device)
+    log.info("training %s on %d samples (%d validation) on %s in %s",
+             model_config.arch, len(train_set), n_val, device, precision)
 
     deterministic, threads = torch.are_deterministic_algorithms_enabled(), torch.get_num_threads()
     torch.use_deterministic_algorithms(device.type == "cpu" or deterministic, warn_only=True)
@@ -214,6 +264,9 @@ def train(
         for epoch in range(first_epoch, cfg.epochs):
             if step >= total_steps:
                 break
+            if cfg.patience and n_val and epoch - best_epoch > cfg.patience:
+                log.info("stopping: no better validation score for %d epochs", cfg.patience)
+                break
             t0 = time.perf_counter()
             model.train()
             train_set.set_epoch(epoch)
@@ -222,9 +275,11 @@ def train(
                                 num_workers=cfg.num_workers, pin_memory=device.type == "cuda")
             loss_sum, seen = 0.0, 0
             for x, y in loader:
-                x = x.to(device, non_blocking=True)  # (B, C, h, w)
-                y = y.to(device, non_blocking=True)  # (B, 1, h, w)
-                loss = F.mse_loss(model(x), y)
+                x = x.to(device, non_blocking=True, memory_format=memory_format)  # (B, C, h, w)
+                y = y.to(device, non_blocking=True, memory_format=memory_format)  # (B, 1, h, w)
+                with autocast(precision, device):
+                    u = model(x)  # (B, 1, h, w)
+                loss = F.mse_loss(u.float(), y)
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 optimizer.step()
@@ -235,12 +290,14 @@ def train(
                 bar.set_postfix(epoch=epoch, loss=f"{loss.item():.4f}")
                 if step >= total_steps:
                     break
-            record = {"epoch": epoch, "step": step, "train_loss": loss_sum / max(seen, 1),
-                      "lr": scheduler.get_last_lr()[0]}
+            samples += seen
+            record = {"epoch": epoch, "step": step, "samples": samples,
+                      "train_loss": loss_sum / max(seen, 1), "lr": scheduler.get_last_lr()[0]}
             epoch_peaks = peak_config
             if n_val:
                 metrics, epoch_peaks = validate(model, val_set, eps_px, peak_config, device,
-                                                calibrate=cfg.calibrate_peaks)
+                                                calibrate=cfg.calibrate_peaks, precision=precision,
+                                                calibrate_samples=cfg.calibrate_samples)
                 record.update(metrics)
                 if cfg.calibrate_peaks:
                     record.update(threshold_abs=epoch_peaks.threshold_abs,
@@ -254,7 +311,7 @@ def train(
             save_checkpoint(ckpt_path, payload)
             score = record.get("val_corr", 0.0) + record.get("val_precision", 0.0)
             if not n_val or score > best_score or not best_path.exists():
-                best_score = score
+                best_score, best_epoch = score, epoch
                 lean = {k: v for k, v in payload.items() if k not in ("optimizer_state", "scheduler_state")}
                 lean["peak_config"] = epoch_peaks.to_dict()
                 save_checkpoint(best_path, lean)

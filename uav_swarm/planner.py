@@ -23,8 +23,9 @@ Assignment (:func:`uav_swarm.assignment.assign_targets`), the same for both:
 Latency: a learned replan (raster, network, peaks, Hungarian) reuses one preallocated input tensor
 (channels-last), runs under :func:`torch.inference_mode` and allocates only the small raster and
 utility arrays; ``PlannerConfig.torch_threads`` (default 1, the fastest on a shared CPU) sets the
-process's torch threads and ``precision = "bfloat16"`` halves the network's time on CPUs with
-native bfloat16.
+process's torch threads and ``precision = "auto"`` (the default) runs the network in bfloat16 where
+the processor computes it natively (:mod:`learning.precision`), which halves its time, and in
+float32 elsewhere.
 
 Example:
     >>> planner = make_planner("expert", n_uavs=2)
@@ -76,8 +77,9 @@ class PlannerConfig(Config):
     min_gap_m: float = param(1.0, ge=0.0, le=100.0, doc="smallest distance between two UAVs' targets (m)")
     torch_threads: int = param(1, ge=0, le=256,
                                doc="learned: torch CPU threads for the process (0: leave torch's setting)")
-    precision: Literal["float32", "bfloat16"] = param(
-        "float32", doc="learned: network precision on CPU ('bfloat16' is ~2x faster where supported)")
+    precision: Literal["auto", "float32", "bfloat16"] = param(
+        "auto", doc="learned: network precision ('auto': bfloat16 where the CPU or GPU computes it natively, "
+        "about 2x faster; float32 elsewhere)")
 
 
 @dataclass(frozen=True)
@@ -251,6 +253,7 @@ class LearnedPlanner(AssigningPlanner):
         import torch
 
         from learning.checkpoint import CheckpointError, load_checkpoint
+        from learning.precision import resolve_precision
 
         task_config = task_config or WifiConfig()
         self.task = WifiTask(task_config)
@@ -277,7 +280,8 @@ class LearnedPlanner(AssigningPlanner):
         self.checkpoint = ckpt
         self.checkpoint_path = path
         self.peak_config = ckpt.peak_config
-        dtype = torch.bfloat16 if self.config.precision == "bfloat16" else torch.float32
+        self.precision = resolve_precision(self.config.precision, next(ckpt.model.parameters()).device)
+        dtype = torch.bfloat16 if self.precision == "bfloat16" else torch.float32
         self._model = ckpt.model.eval().to(dtype=dtype, memory_format=torch.channels_last)
         self._input: torch.Tensor = torch.zeros((1, WifiTask.channels, side, side), dtype=dtype).contiguous(
             memory_format=torch.channels_last)  # (1, C, h, w), reused by every replan

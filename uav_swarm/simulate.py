@@ -34,7 +34,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from uav_swarm.env import parallel_env
-from uav_swarm.planner import Planner, make_planner
+from uav_swarm.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.simulate_config import SimulateConfig
 
 if TYPE_CHECKING:
@@ -234,6 +234,21 @@ def _load_bridge(config: SimulateConfig) -> BridgeConfig:
     return bridge
 
 
+def _checkpoint_name(path: Path) -> str:
+    """The checkpoint as a user can name it on any machine (no absolute path of this one).
+
+    The shipped one by its package path, another relative to the working folder when below it,
+    else as given.
+    """
+    shipped = default_checkpoint(path.stem)
+    if path.resolve() == shipped.resolve():
+        return f"uav_swarm/checkpoints/{path.name} (shipped)"
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, alt_m: float) -> dict[int, list[tuple]]:
     """Each UAV's plan (its final target): by vehicle system id when configured, else ids 1..n."""
     ids = [v.system_id for v in bridge.vehicles[:len(targets_m)]] or list(range(1, len(targets_m) + 1))
@@ -274,7 +289,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
         typed_config.ConfigError: Invalid bridge config or too few vehicles.
         bridge.errors.GeofenceError: The area at the flight altitude is not inside the bridge's geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
-        bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened.
+        bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened, e.g. a
+            listen endpoint is in use (nothing is written).
         bridge.errors.BridgeError: Uploading to the configured vehicles failed (outputs are written).
     """
     from bridge.errors import BridgeError
@@ -314,7 +330,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                                                         summary["planners"]["expert"])
     learned = planners.get("learned")
     if learned is not None:
-        summary["checkpoint"] = str(learned.checkpoint_path)  # type: ignore[attr-defined]
+        summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
+        summary["precision"] = learned.precision  # type: ignore[attr-defined]
     files = [write_qos_figure(runs, out_dir / "qos.png"), write_timeseries(runs, out_dir / "timeseries.csv")]
     flown = runs[config.planner]
     if config.gif and flown.frames:

@@ -45,7 +45,8 @@ class SimulateConfig(Config):
     compare_expert: bool = param(True, doc="run the same sequence with the expert planner too")
     gif: bool = param(True, doc="write scene.gif of the flown planner's run")
     gif_max_frames: int = param(100, ge=2, le=1000, doc="most frames in scene.gif (every N-th step)")
-    gif_width_px: int = param(300, ge=64, le=2048, doc="width of the scene panel of a GIF frame (px)")
+    gif_width_px: int = param(1000, ge=900, le=2400,
+                              doc="width of a scene.gif frame (px): scene and utility map side by side")
     publish_telemetry: bool = param(True, doc="publish states, plans and QoS over Zenoh ([telemetry])")
     telemetry_every: int = param(1, ge=1, le=100_000, doc="steps between two published states and QoS")
     wait_for_subscriber_s: float = param(0.0, ge=0.0, le=600.0,

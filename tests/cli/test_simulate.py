@@ -27,7 +27,7 @@ SMALL_TOML = """
 n_uavs = 3
 replan_every = 10
 gif_max_frames = 8
-gif_width_px = 128
+gif_width_px = 900
 
 [task.scenario]
 n_groups_min = 2
@@ -51,7 +51,7 @@ def free_port() -> int:
 
 
 def tiny(checkpoint_path, **changes) -> SimulateConfig:
-    base = {"duration_s": 3.0, "n_uavs": 3, "gif_max_frames": 6, "gif_width_px": 96,
+    base = {"duration_s": 3.0, "n_uavs": 3, "gif_max_frames": 6, "gif_width_px": 900,
             "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_WIFI_TASK}
     return SimulateConfig.from_dict({**base, **changes})
 
@@ -80,7 +80,9 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
 
     assert (out / "qos.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with Image.open(out / "scene.gif") as gif:
-        assert 2 <= gif.n_frames <= 8 and gif.size == (256, 128 + 18)
+        n_frames = gif.n_frames
+        assert 2 <= n_frames <= 8 and gif.size == (900, 504)  # at least 900 px wide, for people
+    assert (out / "scene.gif").stat().st_size < 5e6 * n_frames / 100  # 5 MB for the default 100 frames
     rows = (out / "timeseries.csv").read_text().splitlines()
     assert rows[0].startswith("planner,time_s") and len(rows) == 1 + 2 * 30
     plans = sorted((out / "missions").glob("vehicle_*.plan"))
@@ -140,6 +142,29 @@ def test_unknown_config_key_exits_2(tmp_path, capsys):
     path.write_text("n_uavz = 3\n", encoding="utf-8")
     assert main(["simulate", "--out", str(tmp_path / "o"), "--config", str(path)]) == 2
     assert "unknown key(s) ['n_uavz']" in capsys.readouterr().err
+
+
+def test_a_telemetry_endpoint_in_use_exits_2_before_the_first_step_and_writes_nothing(
+        tmp_path, small_config, tiny_checkpoint, capsys, monkeypatch):
+    import uav_swarm.simulate as simulate_module
+
+    def no_step(*args, **kwargs):
+        raise AssertionError("a step ran before the telemetry endpoint was checked")
+
+    monkeypatch.setattr(simulate_module, "run_sequence", no_step)
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as holder:
+        holder.bind(("127.0.0.1", 0))
+        holder.listen(1)
+        endpoint = f"tcp/127.0.0.1:{holder.getsockname()[1]}"
+        config = tmp_path / "busy.toml"
+        config.write_text(small_config.read_text() + f'\n[telemetry]\nlisten = ["{endpoint}"]\n')
+        out = tmp_path / "never"
+        argv = ["simulate", "--out", str(out), "--config", str(config), "--checkpoint", str(tiny_checkpoint),
+                "--duration-s", "3", "--quiet"]
+        assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"{endpoint} is in use" in err and "--no-telemetry" in err
+    assert not out.exists()
 
 
 def test_telemetry_reaches_a_subscriber_on_loopback(tmp_path, tiny_checkpoint):

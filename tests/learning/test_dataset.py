@@ -6,6 +6,7 @@ import pytest
 from blob_task import BlobTask, make_blob_task
 
 from learning.data import DatasetError, generate_dataset, load_arrays, load_manifest, sample_seed
+from learning.executors import ray_session
 from learning.loader import ShardDataset
 from learning.targets import TargetConfig
 
@@ -92,13 +93,11 @@ def test_folder_of_another_dataset_is_refused(reference):
 
 
 def test_local_and_ray_shards_are_byte_identical(reference, tmp_path):
-    ray = pytest.importorskip("ray")
+    import ray
+
     ray.cloudpickle.register_pickle_by_value(blob_task)  # the test task is not an installed module
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-    try:
+    with ray_session(num_cpus=2, log_to_driver=False):  # local, loopback only
         generate_dataset(make_blob_task, 20, 7, tmp_path, shard_size=6, executor="ray", progress=False)
-    finally:
-        ray.shutdown()
     assert files(tmp_path) == files(reference)
 
 

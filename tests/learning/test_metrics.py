@@ -28,14 +28,40 @@ def test_match_radius_is_inclusive():
     assert score_sample(np.array([[0.0, 0.0]]), np.array([[3.0, 4.0]]), eps=4.99).n_matched == 0
 
 
-def test_assignment_maximises_matches_not_raw_distance():
+def _crossed_pairs() -> tuple[np.ndarray, np.ndarray]:
     # Minimising raw distance pairs e1-p1 (0) and e2-p2 (1.1 > eps): one match.
     # The maximum matching pairs e1-p2 and e2-p1 (both 1.0 <= eps): two matches.
     c, s = np.sqrt(1 - 0.55**2), 0.55
-    expert = np.array([[0.0, 0.0], [c, s]])
-    predicted = np.array([[0.0, 0.0], [c, -s]])
-    pairs = match_positions(expert, predicted, eps=1.01)
+    return np.array([[0.0, 0.0], [c, s]]), np.array([[0.0, 0.0], [c, -s]])
+
+
+def test_max_matches_rule_maximises_matches_not_raw_distance():
+    expert, predicted = _crossed_pairs()
+    pairs = match_positions(expert, predicted, eps=1.01, rule="max-matches")
     assert sorted(map(tuple, pairs.tolist())) == [(0, 1), (1, 0)]
+
+
+def test_paper_rule_takes_the_least_total_distance_then_counts_pairs_within_eps():
+    expert, predicted = _crossed_pairs()
+    assert match_positions(expert, predicted, eps=1.01).tolist() == [[0, 0]]
+    paper = score_sample(expert, predicted, eps=1.01)
+    ours = score_sample(expert, predicted, eps=1.01, rule="max-matches")
+    assert (paper.n_matched, ours.n_matched) == (1, 2)
+    assert (paper.corr, paper.precision) == (0.5, 0.5)
+
+
+def test_paper_rule_never_scores_above_max_matches():
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        expert = rng.uniform(0, 20, size=(rng.integers(0, 6), 2))
+        predicted = rng.uniform(0, 20, size=(rng.integers(0, 6), 2))
+        paper = score_sample(expert, predicted, eps=4.0).n_matched
+        assert paper <= score_sample(expert, predicted, eps=4.0, rule="max-matches").n_matched
+
+
+def test_unknown_match_rule_is_refused():
+    with pytest.raises(ValueError, match="rule = 'nearest'"):
+        match_positions(np.zeros((1, 2)), np.zeros((1, 2)), eps=1.0, rule="nearest")
 
 
 @pytest.mark.parametrize(

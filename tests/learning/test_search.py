@@ -2,18 +2,26 @@
 
 import functools
 import json
+import shutil
 
 import numpy as np
 import pytest
 from blob_task import BlobConfig, BlobTask
 
 from learning.data import generate_dataset, load_arrays
+from learning.executors import ray_session as local_ray_session
 from learning.model import ModelConfig
-from learning.search import SearchConfig, SearchError, parse_grid, run_search
-from learning.search_report import f1_score, markdown_summary, mean_expert_distance_px, summarise
+from learning.search import SearchConfig, SearchError, executor_label, parse_grid, run_search
+from learning.search_report import (
+    f1_score,
+    heatmap_figure,
+    markdown_summary,
+    mean_expert_distance_px,
+    summarise,
+)
 from learning.train import TrainConfig
 from typed_config import ConfigError
-from uav_swarm.cli import main
+from uav_swarm.cli import build_parser, main
 from uav_swarm.missions import registry
 
 SMALL = functools.partial(BlobTask, BlobConfig(size_px=16, max_blobs=3))
@@ -72,11 +80,10 @@ def test_local_search_trains_every_point_and_reports(data, local_run):
 
 @pytest.fixture(scope="module")
 def ray_session():
-    ray = pytest.importorskip("ray")
-    pytest.importorskip("ray.tune")
-    ray.init(num_cpus=2, include_dashboard=False, object_store_memory=100 * 2**20, logging_level="ERROR")
-    yield
-    ray.shutdown()
+    import ray
+    assert not ray.is_initialized()
+    with local_ray_session(num_cpus=2, object_store_memory=100 * 2**20, logging_level="ERROR"):
+        yield
 
 
 def test_ray_tune_gives_the_same_numbers_as_local(data, local_run, ray_session, tmp_path):
@@ -146,7 +153,77 @@ def test_grids_parse_inclusively():
     assert parse_grid("20:60:10", "alpha2") == (20, 30, 40, 50, 60)
     assert parse_grid("0.1:0.3:0.1", "sigma2") == (0.1, 0.2, 0.3)
     assert parse_grid("40", "alpha2") == (40,)
-    assert SearchConfig().points[:2] == [(20, 20), (20, 30)] and len(SearchConfig().points) == 25
+    assert SearchConfig().points[:2] == [(20, 5), (20, 15)] and len(SearchConfig().points) == 25
+
+
+def test_the_command_line_default_grid_is_the_readmes_wifi_grid():
+    args = build_parser().parse_args(["search", "--task", "wifi-s1", "--data", "d", "--out", "o"])
+    assert (args.alpha2, args.sigma2) == ("20:60:10", "5:45:10")
+    assert (SearchConfig().alpha2, SearchConfig().sigma2) == (args.alpha2, args.sigma2)
+    assert SearchConfig().sigma2_values == (5, 15, 25, 35, 45)
+
+
+def _trials(out):
+    return json.loads((out / "search.json").read_text())["trials"]
+
+
+def _set_executors(out, executor, drop=None):
+    """Rewrite search.json as if its trials had run on ``executor`` (None: not recorded), less ``drop``."""
+    saved = json.loads((out / "search.json").read_text())
+    trials = [t for t in saved["trials"] if (t["alpha2"], t["sigma2"]) != drop]
+    for t in trials:
+        t.pop("executor", None)
+        if executor is not None:
+            t["executor"] = executor
+    (out / "search.json").write_text(json.dumps({**saved, "trials": trials}))
+
+
+def test_a_resumed_search_names_the_executors_its_trials_ran_on(data, local_run, tmp_path):
+    assert {t["executor"] for t in _trials(local_run[0])} == {"local"}
+    out = tmp_path / "search"
+    shutil.copytree(local_run[0], out)
+    _set_executors(out, "ray")  # every trial ran on Ray; this re-run only writes the report
+    summary = search(data, out)
+    assert summary["executor"] == "ray" and "executor: ray," in (out / "summary.md").read_text()
+    _set_executors(out, "ray", drop=(20, 4))  # one trial is run again, here
+    summary = search(data, out)
+    assert summary["executor"] == "local + ray"
+    assert {(t["alpha2"], t["sigma2"]): t["executor"] for t in _trials(out)}[20, 4] == "local"
+    assert json.loads((out / "summary.json").read_text())["executor"] == "local + ray"
+
+
+def test_trials_recorded_before_executors_were_keep_the_reports_executor(data, local_run, tmp_path):
+    out = tmp_path / "search"
+    shutil.copytree(local_run[0], out)
+    _set_executors(out, None)
+    summary_path = out / "summary.json"
+    summary_path.write_text(json.dumps({**json.loads(summary_path.read_text()), "executor": "ray"}))
+    assert search(data, out)["executor"] == "ray"
+    assert {t["executor"] for t in _trials(out)} == {"ray"}
+    _set_executors(out, None)
+    summary_path.unlink()
+    assert search(data, out)["executor"] == "unrecorded"
+    assert executor_label([{"executor": "ray"}, {"executor": "local"}]) == "local + ray"
+
+
+@pytest.mark.parametrize("shape", [(5, 1), (1, 1), (2, 2), (5, 5)], ids=["5x1", "1x1", "2x2", "5x5"])
+def test_the_heat_map_title_is_whole_on_any_grid(shape):
+    alphas, sigmas = [20.0 + 10 * i for i in range(shape[0])], [5.0 + 10 * j for j in range(shape[1])]
+    corr = np.linspace(0.2, 0.9, shape[0] * shape[1]).reshape(shape)
+    point = {"alpha2": alphas[-1], "sigma2": sigmas[0], "corr": 0.9, "precision": 0.5, "f1": 0.6}
+    summary = {"task": "wifi-s2-with-a-long-name", "grid": {"alpha2": alphas, "sigma2": sigmas},
+               "corr": corr.tolist(), "best": point, "best_f1": {**point, "alpha2": alphas[0]},
+               "alpha2_rise_pts": 70.0, "budget": {"steps_run": 300, "batch_size": 16, "n_train": 3600}}
+    fig = heatmap_figure(summary)
+    renderer = fig.canvas.get_renderer()
+    fig.draw(renderer)
+    frame = fig.bbox
+    title = " ".join(t.get_text().replace("\n", " ") for t in fig.texts)
+    assert "α2-rise +70.0 pts" in title and "on 3600 scenes" in title and "wifi-s2-with-a-long-name" in title
+    for text in fig.texts:
+        box = text.get_window_extent(renderer)
+        assert frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 and box.y1 <= frame.y1, (
+            shape, box, frame)
 
 
 @pytest.mark.parametrize(("field", "text", "message"), [

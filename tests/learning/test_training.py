@@ -28,9 +28,10 @@ def same_weights(a, b):
     return a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
 
 
-def run(data, out, **changes):
+def run(data, out, resume=None, init=None, **changes):
     cfg = TrainConfig(epochs=2, batch_size=8, val_fraction=0.2, device="cpu").replace(**changes)
-    return train(data, out, model_config=TINY_MODEL, train_config=cfg, progress=False)
+    return train(data, out, model_config=TINY_MODEL, train_config=cfg, resume=resume, init=init,
+                 progress=False)
 
 
 def test_training_is_deterministic_on_cpu_and_depends_on_the_seed(data, tmp_path):
@@ -107,3 +108,35 @@ def test_paper_network_has_the_papers_layers():
     assert [c.out_channels for c in convs] == [32, 32, 64, 64, 128, 128]
     transposed = [m.out_channels for m in model.modules() if isinstance(m, torch.nn.ConvTranspose2d)]
     assert transposed == [128, 64, 32]
+
+
+def test_bfloat16_training_is_deterministic_records_its_precision_and_learns(data, tmp_path):
+    a = run(data, tmp_path / "a", precision="bfloat16", epochs=4)
+    b = run(data, tmp_path / "b", precision="bfloat16", epochs=4)
+    f = run(data, tmp_path / "f", precision="float32", epochs=4)
+    assert same_weights(weights(a.checkpoint), weights(b.checkpoint))
+    assert not same_weights(weights(a.checkpoint), weights(f.checkpoint))
+    assert load_checkpoint(a.checkpoint).payload["precision"] == "bfloat16"
+    assert load_checkpoint(f.checkpoint).payload["precision"] == "float32"
+    assert all(p.dtype == torch.float32 for p in load_checkpoint(a.checkpoint).model.parameters())
+    assert a.history[-1]["train_loss"] < a.history[0]["train_loss"]
+    assert [h["samples"] for h in a.history] == [16, 32, 48, 64]
+
+
+def test_patience_stops_when_validation_stops_improving(data, tmp_path):
+    # lr 0 never changes the weights, so the score never improves after epoch 0
+    result = run(data, tmp_path, epochs=20, patience=2, lr=1e-12, schedule="constant")
+    assert [h["epoch"] for h in result.history] == [0, 1, 2]
+
+
+def test_init_starts_a_new_run_from_a_checkpoints_weights(data, tmp_path):
+    first = run(data, tmp_path / "first")
+    tuned = run(data, tmp_path / "tuned", epochs=1, lr=1e-12, schedule="constant", init=first.best_checkpoint)
+    start, after = weights(first.best_checkpoint), weights(tuned.checkpoint)
+    assert all(torch.allclose(start[k], after[k], atol=1e-6) for k in start)  # lr ~0: the weights stay
+    assert [h["epoch"] for h in tuned.history] == [0]
+    assert load_checkpoint(tuned.checkpoint).payload["init"] == "best.pt"
+    scratch = weights(run(data, tmp_path / "scratch", epochs=1, lr=1e-12, schedule="constant").checkpoint)
+    assert not same_weights(scratch, after)
+    with pytest.raises(ValueError, match="either resume"):
+        run(data, tmp_path / "both", resume=first.checkpoint, init=first.best_checkpoint)

@@ -17,7 +17,7 @@ from uav_swarm.world.scenario import (
     random_scenario,
 )
 
-PEDSIM = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "pedsim"
+PEDSIM = Path(__file__).resolve().parents[1] / "data" / "pedsim"
 
 
 def _crossings(start, end, segments):

@@ -19,7 +19,7 @@ from uav_swarm.world.scenario import (
 from uav_swarm.world.scenario_toml import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
-PEDSIM = REPO.parent / "shared" / "data" / "pedsim"
+PEDSIM = REPO / "tests" / "data" / "pedsim"
 SCENARIOS = REPO / "configs" / "scenarios"
 
 

@@ -52,8 +52,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     train.add_argument("--max-steps", type=int, help="override [train] max_steps")
     train.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override [train] device")
     train.add_argument("--torch-threads", type=int, help="override [train] torch_threads (1 on a busy CPU)")
+    train.add_argument("--precision", choices=("auto", "float32", "bfloat16"),
+                       help="override [train] precision ('auto': bfloat16 where native)")
+    train.add_argument("--patience", type=int, help="override [train] patience (epochs without a better "
+                       "validation score before stopping; 0: off)")
     train.add_argument("--arch", choices=("paper", "unet"), help="override [model] arch")
     train.add_argument("--resume", help="checkpoint to continue from")
+    train.add_argument("--init", help="checkpoint whose weights start a new run (fine-tuning)")
 
     evaluate = subparsers.add_parser("evaluate", help="evaluate a checkpoint on fresh test scenes")
     common(evaluate)
@@ -61,6 +66,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate.add_argument("--checkpoint", required=True, help="a .pt file trained on this task")
     evaluate.add_argument("--data", help="test dataset folder (default: OUT/test-data, generated if needed)")
     evaluate.add_argument("--examples", type=int, default=6, help="scenes drawn in examples.png")
+    evaluate.add_argument("--precision", choices=("auto", "float32", "bfloat16"), default="auto",
+                          help="network precision (default: %(default)s, bfloat16 where native)")
+    evaluate.add_argument("--tta", action="store_true",
+                          help="test-time augmentation: average the utility maps of the 8 grid symmetries")
 
 
 def _overrides(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, Any]:
@@ -95,11 +104,12 @@ def _train(args: argparse.Namespace) -> int:
         print(f"uav-swarm: {args.data} was generated with other [task] values for {differ} "
               f"than {args.config}", file=sys.stderr)
         return 2
-    train_fields = ("epochs", "batch_size", "lr", "max_steps", "device", "torch_threads")
+    train_fields = ("epochs", "batch_size", "lr", "max_steps", "device", "torch_threads", "precision",
+                    "patience")
     train_cfg = settings.train.replace(**_overrides(args, train_fields))
     model_cfg = settings.model.replace(**_overrides(args, ("arch",)))
     result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
-                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume)
+                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume, init=args.init)
     last = result.history[-1] if result.history else {}
     print(f"checkpoint: {result.checkpoint} (best: {result.best_checkpoint}); last epoch: "
           + ", ".join(f"{k} {v:.4g}" for k, v in last.items()))
@@ -118,7 +128,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     # peaks: the settings saved with (and validated during the training of) the checkpoint
     summary = evaluate(args.checkpoint, factory, args.n, args.seed, args.out, data_dir=args.data,
                        n_examples=args.examples, executor=args.executor,
-                       workers=args.workers, address=args.address)
+                       workers=args.workers, address=args.address, precision=args.precision, tta=args.tta)
     print(markdown_table(args.task, summary), end="")
     return 0
 

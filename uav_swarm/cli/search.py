@@ -3,8 +3,8 @@ r"""``uav-swarm search``: the (α2, σ2) grid search of the target's wide Gaussi
 Examples::
 
     uav-swarm dataset --task agp --n 1000 --seed 1 --out runs/agp/data
-    uav-swarm search --task agp --data runs/agp/data --out runs/agp/search --alpha2 20:60:10 \
-        --sigma2 20:60:10 --epochs 5
+    uav-swarm search --task agp --data runs/agp/data --out runs/agp/search --alpha2 20:60:20 \
+        --sigma2 5:45:20 --epochs 5
     uav-swarm search --task wifi-s1 --n 1000 --seed 1 --data runs/s1/data --out runs/s1/search \
         --epochs 5 --executor ray --address ray://head:10001
 
@@ -13,7 +13,9 @@ given, generated (or finished, resumably) there first with ``--seed``. Model, tr
 and peak settings come from the task's settings (``--config``) with the options given
 here replacing them; ``[targets]`` gives α1 and σ1. Outputs in ``--out``: ``search.json``
 (resumable: run the same command again after a kill), ``summary.json``, ``summary.md``
-and ``heatmap.png``.
+and ``heatmap.png``. The default grid, α2 20:60:10 by σ2 5:45:10 px, is the one of the
+README's Wi-Fi searches. Without ``--address``, ``--executor ray`` starts a private Ray
+instance on 127.0.0.1 (no dashboard, no usage reporting); ``--address`` joins a cluster.
 """
 
 from __future__ import annotations
@@ -33,8 +35,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", required=True, help="search output folder")
     parser.add_argument("--n", type=int, help="generate (or finish) a dataset of this many scenes in --data")
     parser.add_argument("--seed", type=int, default=0, help="dataset seed with --n (default 0)")
-    parser.add_argument("--alpha2", default="20:60:10", help="alpha2 grid start:stop:step, inclusive")
-    parser.add_argument("--sigma2", default="20:60:10", help="sigma2 grid start:stop:step (px), inclusive")
+    parser.add_argument("--alpha2", default="20:60:10",
+                        help="alpha2 grid start:stop:step, inclusive (default %(default)s)")
+    parser.add_argument("--sigma2", default="5:45:10",
+                        help="sigma2 grid start:stop:step (px), inclusive (default %(default)s)")
     parser.add_argument("--epochs", type=int, help="per-trial epochs (override [train] epochs)")
     parser.add_argument("--max-steps", type=int, help="per-trial steps (override [train] max_steps)")
     parser.add_argument("--batch-size", type=int, help="override [train] batch_size")
@@ -42,7 +46,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override [train] device")
     parser.add_argument("--threads", type=int, default=1, help="torch threads per trial (default 1)")
     parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where trials run")
-    parser.add_argument("--address", help="Ray cluster address (with --executor ray)")
+    parser.add_argument("--address", help="Ray cluster to join (with --executor ray), e.g. ray://head:10001 "
+                                          "or auto; default: a local instance on 127.0.0.1")
     parser.add_argument("--workers", type=int,
                         help="trials at once (local processes, default CPUs/threads; Ray: default all CPUs)")
     parser.set_defaults(func=run)

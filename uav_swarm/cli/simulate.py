@@ -12,7 +12,8 @@ Examples:
   uav-swarm simulate --out out/sim --checkpoint runs/s1/train/best.pt --config sim.toml
   uav-swarm simulate --out out/sim --bridge-config configs/bridge/px4_sitl_10.toml   # upload the missions
 
-Exit codes: 0 done, 1 telemetry or upload failed, 2 bad configuration or checkpoint (before any work).
+Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint or telemetry
+endpoint (e.g. "tcp/127.0.0.1:7447 is in use"), found before the first step and before any output.
 """
 
 from __future__ import annotations
@@ -98,9 +99,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"uav-swarm simulate: {exc}", file=sys.stderr)
         return 2
     except TelemetryConnectionError as exc:
-        print(f"uav-swarm simulate: {exc} (use --no-telemetry, or another [telemetry] listen endpoint)",
+        print(f"uav-swarm simulate: {exc}; use --no-telemetry, or another [telemetry] listen endpoint",
               file=sys.stderr)
-        return 1
+        return 2
     except BridgeError as exc:
         print(f"uav-swarm simulate: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1

@@ -69,6 +69,7 @@ def _config(args: argparse.Namespace) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Subscribe and watch or record until interrupted or the bound is reached."""
     from bridge.telemetry import SwarmSubscriber
+    from bridge.telemetry_config import TelemetryConnectionError
 
     for name in ("duration", "count"):
         value = getattr(args, name)
@@ -76,7 +77,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"uav-swarm telemetry: --{name} = {value} must be > 0", file=sys.stderr)
             return 2
     config = _config(args)
-    with SwarmSubscriber(config) as subscriber:
+    subscriber = SwarmSubscriber(config)
+    try:
+        subscriber.open()
+    except TelemetryConnectionError as exc:
+        print(f"uav-swarm telemetry: {exc}", file=sys.stderr)
+        return 2
+    with subscriber:
         if args.action == "record":
             count = _record(subscriber, args.out, args)
             print(f"recorded {count} messages to {args.out}", file=sys.stderr)
