@@ -178,7 +178,7 @@ def evaluate(
     max_summary = aggregate(max_scores)
     summary: dict[str, Any] = {
         "task": task.name, "checkpoint": _display_path(checkpoint), "seed": seed, "split": split,
-        "eps_px": eps_px, "match_rule": "paper", "precision": resolved, "tta": tta,
+        "eps_px": eps_px, "match_rule": "paper", "network_precision": resolved, "tta": tta,
         **aggregate(scores), **summarise_qos(samples),
         "max_matches": {"corr": max_summary["corr"], "precision": max_summary["precision"]},
     }

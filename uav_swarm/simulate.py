@@ -331,7 +331,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     learned = planners.get("learned")
     if learned is not None:
         summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
-        summary["precision"] = learned.precision  # type: ignore[attr-defined]
+        summary["network_precision"] = learned.precision  # type: ignore[attr-defined]
     files = [write_qos_figure(runs, out_dir / "qos.png"), write_timeseries(runs, out_dir / "timeseries.csv")]
     flown = runs[config.planner]
     if config.gif and flown.frames:
