@@ -1,4 +1,4 @@
-"""Pictures of predictions: a grid of input, utility map, expert and predicted positions.
+"""Pictures of predictions (input, utility map, expert and predicted positions) and of training curves.
 
 Uses matplotlib's object API with the Agg canvas (no pyplot, no global backend change).
 """
@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 
 from learning.files import atomic_path
 
-__all__ = ["plot_examples"]
+__all__ = ["plot_examples", "plot_history"]
 
 
 def plot_examples(
@@ -53,4 +53,40 @@ def plot_examples(
     fig.tight_layout()
     path = Path(path)
     with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+
+
+def plot_history(path: str | Path, history: Sequence[dict[str, float]], title: str = "") -> None:
+    """Write a PNG of a training run's curves against the training samples seen.
+
+    Top: validation correspondence and precision (the paper's matching rule); bottom: training
+    and validation MSE (log scale).
+
+    Args:
+        path: Output ``.png`` (written atomically).
+        history: Per-epoch records of :func:`learning.train.train` (``samples`` or ``step``,
+            ``train_loss`` and, with a validation split, ``val_loss``, ``val_corr``, ``val_precision``).
+        title: Figure title.
+    """
+    x = np.array([h.get("samples", h["step"]) for h in history], dtype=np.float64)
+    fig = Figure(figsize=(6.0, 5.0), dpi=100)
+    FigureCanvasAgg(fig)
+    top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    for key, label in (("val_corr", "validation correspondence"), ("val_precision", "validation precision")):
+        if all(key in h for h in history):
+            top.plot(x, [100 * h[key] for h in history], marker="o", markersize=3, label=label)
+    top.set_ylabel("%")
+    top.grid(alpha=0.3)
+    top.legend(fontsize=8)
+    for key, label in (("train_loss", "training MSE"), ("val_loss", "validation MSE")):
+        if all(key in h for h in history):
+            bottom.plot(x, [h[key] for h in history], marker="o", markersize=3, label=label)
+    bottom.set_yscale("log")
+    bottom.set_xlabel("training samples seen")
+    bottom.grid(alpha=0.3)
+    bottom.legend(fontsize=8)
+    if title:
+        top.set_title(title, fontsize=10)
+    fig.tight_layout()
+    with atomic_path(Path(path)) as tmp:
         fig.savefig(tmp, format="png")

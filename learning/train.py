@@ -6,8 +6,8 @@ the utility map and the target map ``R(ζ)/α1`` with Adam, validate (loss,
 correspondence and precision of the extracted peaks), and write
 ``out_dir/checkpoint.pt`` (the latest, with the optimiser state to resume from) and
 ``out_dir/best.pt`` (best validation corr + precision, weights and metadata only:
-the file to ship). With ``patience`` the run stops once that many epochs pass without a
-better validation score.
+the file to ship) and ``out_dir/history.png`` (the curves so far). With ``patience``
+the run stops once that many epochs pass without a better validation score.
 
 Speed: the forward pass runs under bfloat16 autocast where the device computes it
 natively (``precision = "auto"``, :mod:`learning.precision`; float32 master weights,
@@ -43,6 +43,7 @@ from learning.loader import ShardDataset
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from learning.model import ModelConfig, UtilityNet, build_model
 from learning.peaks import PeakConfig, find_peaks
+from learning.plots import plot_history
 from learning.precision import Precision, autocast, resolve_precision
 from learning.targets import TargetConfig
 from typed_config import Config, param
@@ -309,6 +310,8 @@ def train(
             payload.update(model_state=model.state_dict(), optimizer_state=optimizer.state_dict(),
                            scheduler_state=scheduler.state_dict(), epoch=epoch, step=step, history=history)
             save_checkpoint(ckpt_path, payload)
+            title = f"{manifest['task']}, {model_config.arch}, {precision}"
+            plot_history(out / "history.png", history, title)
             score = record.get("val_corr", 0.0) + record.get("val_precision", 0.0)
             if not n_val or score > best_score or not best_path.exists():
                 best_score, best_epoch = score, epoch

@@ -42,6 +42,7 @@ def test_training_is_deterministic_on_cpu_and_depends_on_the_seed(data, tmp_path
     assert not same_weights(weights(a.checkpoint), weights(c.checkpoint))
     assert [h["epoch"] for h in a.history] == [0, 1] and a.history[-1]["step"] == 4
     assert {"train_loss", "val_loss", "val_corr", "val_precision"} <= a.history[-1].keys()
+    assert (tmp_path / "a" / "history.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_resume_continues_to_the_same_weights(data, tmp_path):
