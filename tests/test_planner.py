@@ -117,7 +117,8 @@ def test_hysteresis_keeps_targets_under_small_crowd_motion():
 
 
 def test_learned_planner_with_a_tiny_checkpoint(tiny_checkpoint):
-    planner = make_planner("learned", 4, WifiConfig(), checkpoint=tiny_checkpoint)
+    planner = make_planner("learned", 4, WifiConfig(), checkpoint=tiny_checkpoint,
+                           config=PlannerConfig(precision="float32"))
     assert isinstance(planner, Planner) and planner.name == "cnn-peaks-hungarian"
     crowd = clusters(np.array([[40.0, 40.0], [160.0, 50.0], [100.0, 160.0]]))
     uavs = np.array([[10.0, 10.0], [190.0, 10.0], [10.0, 190.0], [190.0, 190.0]])
