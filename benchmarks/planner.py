@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from learning.checkpoint import CHECKPOINT_FORMAT, save_checkpoint
+from learning.checkpoint import CHECKPOINT_FORMAT, checkpoint_label, save_checkpoint
 from learning.model import build_model
 from learning.peaks import PeakConfig, find_peaks
 from learning.precision import BF16_CPU_FLAGS, cpu_flags, resolve_precision
@@ -104,7 +104,7 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         path = args.checkpoint or default_checkpoint("wifi-s1")
-        which = f"checkpoint {path}"
+        which = f"checkpoint {checkpoint_label(path)}"
         if not path.is_file():
             path = untrained_checkpoint(Path(tmp))
             which = (f"UNTRAINED {describe(path)} (no shipped checkpoint), permissive peaks: 10 peaks "

@@ -25,7 +25,8 @@ from pathlib import Path
 import torch
 
 from learning.data import generate_dataset
-from learning.search import SearchConfig, run_search
+from learning.search import run_search
+from learning.search_grid import SearchConfig
 from learning.train import TrainConfig
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "learning"))

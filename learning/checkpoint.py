@@ -24,7 +24,8 @@ from learning.peaks import PeakConfig
 from learning.targets import TargetConfig
 from typed_config import ConfigError
 
-__all__ = ["CHECKPOINT_FORMAT", "CheckpointError", "Checkpoint", "save_checkpoint", "load_checkpoint"]
+__all__ = ["CHECKPOINT_FORMAT", "CheckpointError", "Checkpoint", "save_checkpoint", "load_checkpoint",
+           "checkpoint_label"]
 
 CHECKPOINT_FORMAT = "learning-utility/1"
 _REQUIRED = ("format", "model_state", "model_config", "target_config", "peak_config", "train_config",
@@ -122,3 +123,16 @@ def load_checkpoint(
     model.to(device).eval()
     return Checkpoint(path, model, model_config, target_config, peak_config, payload["task_name"],
                       payload["task_config"], shape, float(payload["mission_dimension_px"]), payload)
+
+
+def checkpoint_label(path: str | Path) -> str:
+    """How results name a checkpoint without a path of this machine.
+
+    Relative to the working folder when the file lies below it, else its file name (a relative
+    path is kept as given).
+    """
+    path = Path(path)
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return path.name if path.is_absolute() else str(path)

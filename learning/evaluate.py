@@ -32,7 +32,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from learning.checkpoint import load_checkpoint
+from learning.checkpoint import checkpoint_label, load_checkpoint
 from learning.data import generate_dataset, load_arrays, sample_seed
 from learning.files import write_json_atomic, write_text_atomic
 from learning.inference import utility_maps
@@ -80,15 +80,6 @@ def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
         f"| {task_name} | {pct('corr')} | {pct('precision')} | {pct('qos')} | {pct('qos_relative')} "
         f"| {pct('expert_qos')} | {pct('corr', best)} / {pct('precision', best)} | {summary['n_samples']} |\n"
     )
-
-
-def _display_path(path: str | Path) -> str:
-    """``path`` relative to the working folder when it lies below it (no machine paths in results)."""
-    resolved = Path(path).resolve()
-    try:
-        return str(resolved.relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return Path(path).name if Path(path).is_absolute() else str(path)
 
 
 def _check_disjoint(train_data: dict[str, Any], test_seeds: np.ndarray) -> None:
@@ -177,13 +168,13 @@ def evaluate(
 
     max_summary = aggregate(max_scores)
     summary: dict[str, Any] = {
-        "task": task.name, "checkpoint": _display_path(checkpoint), "seed": seed, "split": split,
+        "task": task.name, "checkpoint": checkpoint_label(checkpoint), "seed": seed, "split": split,
         "eps_px": eps_px, "match_rule": "paper", "network_precision": resolved, "tta": tta,
         **aggregate(scores), **summarise_qos(samples),
         "max_matches": {"corr": max_summary["corr"], "precision": max_summary["precision"]},
     }
     write_json_atomic(out / "results.json", {
-        "task": task.name, "task_config": task.config.to_dict(), "checkpoint": _display_path(checkpoint),
+        "task": task.name, "task_config": task.config.to_dict(), "checkpoint": checkpoint_label(checkpoint),
         "peak_config": peaks.to_dict(), "eps_px": eps_px, "match": "the paper's rule: optimal assignment of "
         "least total distance, then the pairs with distance <= eps_px (n_matched); n_matched_max_matches: "
         "the assignment maximising the number of pairs within eps_px",

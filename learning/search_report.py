@@ -31,7 +31,7 @@ from matplotlib.patches import Rectangle
 from learning.files import atomic_path, write_json_atomic, write_text_atomic
 
 if TYPE_CHECKING:
-    from learning.search import SearchConfig
+    from learning.search_grid import SearchConfig
     from learning.train import TrainConfig
 
 __all__ = ["mean_expert_distance_px", "f1_score", "summarise", "heatmap_figure", "plot_heatmap",

@@ -235,18 +235,12 @@ def _load_bridge(config: SimulateConfig) -> BridgeConfig:
 
 
 def _checkpoint_name(path: Path) -> str:
-    """The checkpoint as a user can name it on any machine (no absolute path of this one).
+    """The checkpoint as a user can name it on any machine: the shipped one by its package path."""
+    from learning.checkpoint import checkpoint_label
 
-    The shipped one by its package path, another relative to the working folder when below it,
-    else as given.
-    """
-    shipped = default_checkpoint(path.stem)
-    if path.resolve() == shipped.resolve():
+    if path.resolve() == default_checkpoint(path.stem).resolve():
         return f"uav_swarm/checkpoints/{path.name} (shipped)"
-    try:
-        return str(path.resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return str(path)
+    return checkpoint_label(path)
 
 
 def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, alt_m: float) -> dict[int, list[tuple]]:

@@ -11,7 +11,8 @@ from blob_task import BlobConfig, BlobTask
 from learning.data import generate_dataset, load_arrays
 from learning.executors import ray_session as local_ray_session
 from learning.model import ModelConfig
-from learning.search import SearchConfig, SearchError, executor_label, parse_grid, run_search
+from learning.search import SearchError, executor_label, run_search
+from learning.search_grid import SearchConfig, parse_grid
 from learning.search_report import (
     f1_score,
     heatmap_figure,

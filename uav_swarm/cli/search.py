@@ -57,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
     """Generate the dataset if asked, run or resume the search, print the summary."""
     from learning.checkpoint import CheckpointError
     from learning.data import DatasetError, generate_dataset, load_manifest
-    from learning.search import SearchConfig, SearchError, run_search
+    from learning.search import SearchError, run_search
+    from learning.search_grid import SearchConfig
     from learning.search_report import markdown_summary
     from uav_swarm.missions.registry import load_settings, make_task, task_factory
 
