@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import sys
+
 import pytest
 
 from learning.data import generate_dataset
@@ -31,3 +34,26 @@ def tiny_checkpoint(tmp_path_factory, small_wifi_task):
                    train_config=TrainConfig(max_steps=2, batch_size=4, device="cpu", torch_threads=1),
                    progress=False)
     return result.best_checkpoint
+
+
+_EXIT_STATUS = pytest.StashKey[int]()
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Remember the session's exit status for :func:`pytest_unconfigure`."""
+    session.config.stash[_EXIT_STATUS] = int(exitstatus)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """End the process with the session's exit status once a Ray driver has run in it.
+
+    After ``ray.shutdown()`` the driver's gRPC threads stay alive, and tearing the interpreter
+    down under them crashed one CI run with a segmentation fault after every test had passed
+    (a known class of gRPC shutdown races). Everything is reported by now; exiting without
+    finalisation keeps the status honest and the crash out.
+    """
+    if "ray" in sys.modules and _EXIT_STATUS in config.stash:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(config.stash[_EXIT_STATUS])

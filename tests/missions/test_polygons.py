@@ -101,14 +101,28 @@ def test_locate_points_inside_boundary_outside():
     np.testing.assert_array_equal(locate_points(points, square), [1, 0, 0, 0, -1, -1, -1])
 
 
-def test_pixel_locations_match_locate_points():
-    polygon = random_polygon(np.random.default_rng(2), PolygonConfig(size_px=32, margin_px=2))
-    codes = polygon.pixel_locations()
-    assert codes.shape == (32, 32)
-    assert codes[10, 3] == locate_points(np.array([[3, 10]]), polygon.vertices_px)[0]
-    assert set(np.unique(codes)) <= {-1, 0, 1}
-    for x, y in polygon.vertices_px.astype(int):
-        assert codes[y, x] == 0
+@pytest.mark.parametrize("size", [32, 64, 100])
+def test_pixel_locations_match_locate_points_on_every_pixel_centre(size):
+    rng = np.random.default_rng(size)
+    rows, cols = np.mgrid[0:size, 0:size]
+    centres = np.stack([cols.ravel(), rows.ravel()], axis=1)
+    for margin in (0, 2):
+        for _ in range(15):
+            polygon = random_polygon(rng, PolygonConfig(size_px=size, margin_px=margin))
+            codes = polygon.pixel_locations()
+            assert codes.shape == (size, size) and codes.dtype == np.int8
+            expected = locate_points(centres, polygon.vertices_px).reshape(size, size)
+            np.testing.assert_array_equal(codes, expected)
+            for x, y in polygon.vertices_px.astype(int):
+                assert codes[y, x] == 0
+
+
+def test_pixel_locations_of_axis_aligned_and_diagonal_edges():
+    diamond = Polygon(np.array([[4, 0], [8, 4], [4, 8], [0, 4]]), size_px=9)
+    codes = diamond.pixel_locations()
+    assert codes[4, 4] == 1 and codes[2, 2] == 0 and codes[1, 1] == -1 and codes[0, 4] == 0
+    square = Polygon(np.array([[1, 1], [5, 1], [5, 5], [1, 5]]), size_px=7)
+    assert square.pixel_locations()[1, 3] == 0 and square.pixel_locations()[3, 3] == 1
 
 
 @pytest.mark.parametrize(

@@ -51,7 +51,7 @@ from uav_swarm.missions.wifi_rules import (
     is_valid_placement,
 )
 
-__all__ = ["WifiExpertConfig", "place_uavs"]
+__all__ = ["WifiExpertConfig", "CandidatePairs", "PlacementSearch", "place_uavs"]
 
 
 @dataclass(frozen=True)
@@ -69,7 +69,7 @@ class WifiExpertConfig(Config):
     refine_passes: int = param(3, ge=0, le=100, doc="passes of the continuous centroid refinement")
 
 
-class _Pairs:
+class CandidatePairs:
     """Sparse (candidate, user) pairs within the coverage radius, over useful candidates only."""
 
     def __init__(self, users_m: np.ndarray, candidates_m: np.ndarray, rules: CoverageRules) -> None:
@@ -89,9 +89,9 @@ class _Pairs:
         self.d2 = d[keep]
         self.r2 = r2
 
-    def restrict(self, keep: np.ndarray) -> _Pairs:
+    def restrict(self, keep: np.ndarray) -> CandidatePairs:
         """The pairs of the candidates where ``keep`` (``(M,)`` bool) is True, re-indexed."""
-        sub = object.__new__(_Pairs)
+        sub = object.__new__(CandidatePairs)
         mask = keep[self.cand]
         index = np.cumsum(keep) - 1
         sub.candidates_m = self.candidates_m[keep]
@@ -103,7 +103,7 @@ class _Pairs:
 
 
 def _best_addition(
-    pairs: _Pairs, state: Assignment, rules: CoverageRules, min_gain: int,
+    pairs: CandidatePairs, state: Assignment, rules: CoverageRules, min_gain: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The candidates whose addition keeps the placement valid, best first.
 
@@ -137,7 +137,7 @@ def _best_addition(
 
 
 def _best_exclusive_addition(
-    pairs: _Pairs, state: Assignment, rules: CoverageRules, min_gain: int,
+    pairs: CandidatePairs, state: Assignment, rules: CoverageRules, min_gain: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_best_addition` when ``min_users`` counts users a UAV alone covers (strategy 1)."""
     m, k = len(pairs.candidates_m), len(state.counts)
@@ -167,10 +167,10 @@ def _spread(candidates_m: np.ndarray, ranked: np.ndarray, count: int, separation
     return taken
 
 
-class _Search:
+class PlacementSearch:
     """Greedy + ruin-and-recreate local search + centroid refinement over one crowd."""
 
-    def __init__(self, users_m: np.ndarray, rules: CoverageRules, pairs: _Pairs) -> None:
+    def __init__(self, users_m: np.ndarray, rules: CoverageRules, pairs: CandidatePairs) -> None:
         self.users_m = users_m
         self.rules = rules
         self.pairs = pairs
@@ -184,7 +184,7 @@ class _Search:
         return state if is_valid_placement(state, self.rules) else None
 
     def _fill(
-        self, uavs_m: np.ndarray, pairs: _Pairs, branching: int = 1,
+        self, uavs_m: np.ndarray, pairs: CandidatePairs, branching: int = 1,
     ) -> tuple[np.ndarray, Assignment] | None:
         """Add UAVs greedily (first repairing an overloaded placement); None if still invalid.
 
@@ -205,6 +205,29 @@ class _Search:
             uavs_m = np.vstack([uavs_m, pairs.candidates_m[ranked[0]]])
             state = assign_users(self.users_m, uavs_m, self.rules.radius_m)
         return (uavs_m, state) if is_valid_placement(state, self.rules) else None
+
+    def adopt(self, uavs_m: np.ndarray) -> None:
+        """Start from a given placement, first made valid.
+
+        While it breaks the rules: beyond the UAV budget or with an unjustified UAV, the least
+        justified UAV is dropped; with only overloaded UAVs (strategy 2), UAVs are added to take
+        users over (:meth:`_fill`), and when no addition can, the most loaded UAV is dropped.
+        """
+        uavs_m = np.asarray(uavs_m, dtype=np.float64).reshape(-1, 2)
+        while True:
+            state = assign_users(self.users_m, uavs_m, self.rules.radius_m)
+            if is_valid_placement(state, self.rules):
+                break
+            justified = state.exclusive_counts if self.rules.exclusive else state.counts
+            if len(uavs_m) > self.rules.max_uavs or np.any(justified < self.rules.min_users):
+                uavs_m = np.delete(uavs_m, int(np.argmin(justified)), axis=0)
+                continue
+            filled = self._fill(uavs_m, self.pairs)
+            if filled is not None:
+                uavs_m, state = filled
+                break
+            uavs_m = np.delete(uavs_m, int(np.argmax(state.counts)), axis=0)
+        self.uavs_m, self.state = uavs_m, state
 
     def _accept(self, result: tuple[np.ndarray, Assignment] | None) -> bool:
         """Keep ``result`` when it serves more users, or as many with fewer UAVs."""
@@ -302,6 +325,7 @@ def place_uavs(
         candidates_m, _ = candidate_grid(width_m, height_m, config.grid_step_m)
     if len(users_m) < rules.min_users or rules.max_uavs == 0:
         return np.zeros((0, 2))
-    search = _Search(users_m, rules, _Pairs(users_m, np.asarray(candidates_m, np.float64), rules))
+    pairs = CandidatePairs(users_m, np.asarray(candidates_m, np.float64), rules)
+    search = PlacementSearch(users_m, rules, pairs)
     uavs_m = search.run(config)
     return uavs_m[np.lexsort((uavs_m[:, 0], uavs_m[:, 1]))] if len(uavs_m) else np.zeros((0, 2))

@@ -1,0 +1,96 @@
+"""Refining learned Wi-Fi placements on the real crowd (strategies 1 and 2).
+
+The network sees a density raster and proposes UAV positions; it knows neither where each
+pedestrian stands nor the missions' rules, so its placements may leave users out, break the
+"more than 30 users per UAV" rule or, under strategy 2, load a UAV with more than 40 users.
+:func:`refine_placement` starts from the proposals and runs the expert's own moves
+(:class:`uav_swarm.missions.wifi_expert.PlacementSearch`), bounded, on the real positions:
+
+1. **Adopt** the proposals, made valid: unjustified UAVs are **dropped** (the least justified
+   first) and overloaded ones relieved by adding a UAV beside them (a **split**).
+2. **Add** UAVs greedily while one newly covers users and the placement stays valid.
+3. **Ruin and recreate**, at most ``max_moves`` improving moves: remove one UAV or two
+   interacting ones and refill nearby (a **merge** when one UAV does the work of two, a **split**
+   when two do better than one, a **move** otherwise).
+4. **Centre** each UAV on the users it serves when that loses nobody (a **move**).
+
+Candidates for additions come from a grid of ``grid_step_m`` (coarser than the expert's, which
+is what makes the refinement cheap); the centring makes the final positions continuous.
+Everything is deterministic, and the result always obeys the strategy's rules.
+
+Example:
+    >>> from uav_swarm.missions.wifi_rules import CoverageRules
+    >>> rules = CoverageRules(radius_m=30.0, min_users=31, max_users=None, max_uavs=10, exclusive=True)
+    >>> users = np.random.default_rng(0).normal(100.0, 5.0, size=(60, 2))
+    >>> refine_placement(users, np.array([[20.0, 20.0]]), rules, 200.0, 200.0).shape
+    (1, 2)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from typed_config import Config, param
+from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch
+from uav_swarm.missions.wifi_rules import CoverageRules, candidate_grid
+
+__all__ = ["WifiRefineConfig", "refine_placement"]
+
+
+@dataclass(frozen=True)
+class WifiRefineConfig(Config):
+    """Settings of the Wi-Fi refinement."""
+
+    grid_step_m: float = param(5.0, gt=0.0, le=50.0, doc="spacing of the grid UAVs may be added from, metres")
+    max_moves: int = param(2, ge=0, le=100, doc="improving ruin-and-recreate moves allowed (0: none)")
+    centre_passes: int = param(3, ge=0, le=100, doc="passes centring each UAV on the users it serves")
+
+
+def refine_placement(
+    users_m: np.ndarray,
+    proposals_m: np.ndarray,
+    rules: CoverageRules,
+    width_m: float,
+    height_m: float,
+    config: WifiRefineConfig | None = None,
+) -> np.ndarray:
+    """Refine proposed UAV positions on the real crowd (see the module docstring).
+
+    Args:
+        users_m: ``(N, 2)`` user positions, metres.
+        proposals_m: ``(k, 2)`` proposed UAV positions, metres (may be empty).
+        rules: The strategy's constraints.
+        width_m: Area width (x extent), metres.
+        height_m: Area height (y extent), metres.
+        config: Search effort; defaults to ``WifiRefineConfig()``.
+
+    Returns:
+        ``(k', 2)`` float64 UAV positions in metres, ``0 <= k' <= rules.max_uavs``, sorted by
+        ``(y, x)``, obeying ``rules``.
+
+    Raises:
+        ValueError: ``users_m`` or ``proposals_m`` is not a finite ``(n, 2)`` array.
+    """
+    config = config or WifiRefineConfig()
+    arrays = []
+    for name, value in (("users_m", users_m), ("proposals_m", proposals_m)):
+        array = np.asarray(value, dtype=np.float64)
+        if array.size == 0:
+            array = array.reshape(0, 2)
+        if array.ndim != 2 or array.shape[1] != 2 or not np.all(np.isfinite(array)):
+            raise ValueError(f"{name} must be a finite (n, 2) array, got shape {array.shape}")
+        arrays.append(array)
+    users, proposals = arrays
+    if len(users) < rules.min_users or rules.max_uavs == 0:
+        return np.zeros((0, 2))
+    proposals = np.clip(proposals, 0.0, [width_m, height_m])
+    candidates, _ = candidate_grid(width_m, height_m, config.grid_step_m)
+    search = PlacementSearch(users, rules, CandidatePairs(users, candidates, rules))
+    search.adopt(proposals)
+    search.greedy()
+    search.ruin_and_recreate(config.max_moves)
+    search.refine(config.centre_passes)
+    uavs = search.uavs_m
+    return uavs[np.lexsort((uavs[:, 0], uavs[:, 1]))] if len(uavs) else np.zeros((0, 2))
