@@ -19,11 +19,19 @@ reported beside it (``max_matches``). Outputs in ``out_dir``:
   precision as in the paper, pooled ratios too; QoS absolute as the mean over scenes
   and relative as mean QoS / mean expert QoS, plus the mean of per-scene ratios);
 - ``examples.png``: the first scenes' input, utility map, expert and predicted positions.
+
+With a ``refiner`` (the mission's repair or local search, :class:`learning.task.Refiner`) every
+scene is also refined from its learned positions, and each pipeline is timed on its own: the
+learned one (network on that scene alone, then peaks), the refined one (the same plus the
+refinement) and the expert solving the scene from scratch (``Refiner.solve``). ``summary.json``
+then holds ``learned`` and ``refined`` side by side (corr, precision, QoS, relative QoS,
+positions, median and p95 time) and ``expert`` (positions, QoS, times).
 """
 
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
@@ -36,13 +44,13 @@ from learning.checkpoint import checkpoint_label, load_checkpoint
 from learning.data import generate_dataset, load_arrays, sample_seed
 from learning.files import write_json_atomic, write_text_atomic
 from learning.inference import utility_maps
-from learning.metrics import MATCH_FRACTION, aggregate, score_sample
+from learning.metrics import MATCH_FRACTION, SampleScore, aggregate, score_sample
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_examples
 from learning.precision import resolve_precision
-from learning.task import Task
+from learning.task import Refiner, Task
 
-__all__ = ["evaluate", "summarise_qos", "markdown_table"]
+__all__ = ["evaluate", "summarise_qos", "summarise_pipeline", "markdown_table"]
 
 log = logging.getLogger(__name__)
 
@@ -63,8 +71,29 @@ def summarise_qos(samples: list[dict[str, Any]]) -> dict[str, float]:
     return out
 
 
+def summarise_pipeline(scores: list[SampleScore], samples: list[dict[str, Any]], key: str
+                       ) -> dict[str, Any]:
+    """One pipeline's row: corr, precision, QoS (``samples[i][key]["qos"]``), positions and times.
+
+    Args:
+        scores: The pipeline's per-scene scores against the expert.
+        samples: Per-scene records holding ``key`` (``{"positions", "qos", "time_ms"}``) and ``expert_qos``.
+        key: ``"learned"`` or ``"refined"``.
+    """
+    qos = summarise_qos([{"qos": s[key]["qos"], "expert_qos": s["expert_qos"]} for s in samples])
+    times = np.array([s[key]["time_ms"] for s in samples])
+    n_positions = int(sum(len(s[key]["positions"]) for s in samples))
+    n_expert = int(sum(len(s["expert"]) for s in samples))
+    summary = aggregate(scores)
+    return {"corr": summary["corr"], "precision": summary["precision"], "qos": qos["qos"],
+            "qos_relative": qos["qos_relative"], **{k: v for k, v in qos.items() if k.startswith("seen")},
+            "n_positions": n_positions,
+            "positions_vs_expert": n_positions / n_expert if n_expert else float("nan"),
+            "time_median_ms": float(np.median(times)), "time_p95_ms": float(np.percentile(times, 95))}
+
+
 def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
-    """The paper-style results table (percentages).
+    """The paper-style results table (percentages); with a refinement, the learned, refined and expert rows.
 
     Corr and precision by the paper's matching rule, then by the rule that maximises the matches.
     """
@@ -73,13 +102,28 @@ def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
         return f"{100 * value:.1f}" if value == value else "n/a"
 
     best = summary.get("max_matches", {})
-    return (
+    table = (
         "| Task | Corr % | Precision % | QoS % | QoS rel. % | expert QoS % "
         "| corr / precision, max-matches rule % | scenes |\n"
         "|---|---|---|---|---|---|---|---|\n"
         f"| {task_name} | {pct('corr')} | {pct('precision')} | {pct('qos')} | {pct('qos_relative')} "
         f"| {pct('expert_qos')} | {pct('corr', best)} / {pct('precision', best)} | {summary['n_samples']} |\n"
     )
+    if "refined" not in summary:
+        return table
+    rows = ["| Placement | Corr % | Precision % | QoS % | QoS rel. % | positions (x expert) "
+            "| median / p95 time, ms | speed-up vs expert (median) |", "|---|---|---|---|---|---|---|---|"]
+    expert = summary["expert"]
+    for name in ("learned", "refined"):
+        row = summary[name]
+        rows.append(f"| {name} | {pct('corr', row)} | {pct('precision', row)} | {pct('qos', row)} "
+                    f"| {pct('qos_relative', row)} "
+                    f"| {row['n_positions']} ({row['positions_vs_expert']:.3f}x) "
+                    f"| {row['time_median_ms']:.2f} / {row['time_p95_ms']:.2f} "
+                    f"| {expert['time_median_ms'] / row['time_median_ms']:.1f}x |")
+    rows.append(f"| expert | 100.0 | 100.0 | {pct('qos', expert)} | 100.0 | {expert['n_positions']} (1.000x) "
+                f"| {expert['time_median_ms']:.2f} / {expert['time_p95_ms']:.2f} | 1.0x |")
+    return table + "\n" + "\n".join(rows) + "\n"
 
 
 def _check_disjoint(train_data: dict[str, Any], test_seeds: np.ndarray) -> None:
@@ -106,6 +150,7 @@ def evaluate(
     address: str | None = None,
     precision: str = "auto",
     tta: bool = False,
+    refiner: Refiner | None = None,
     progress: bool = True,
 ) -> dict[str, Any]:
     """Evaluate a checkpoint on ``n`` test scenes; write the results files into ``out_dir``.
@@ -125,6 +170,8 @@ def evaluate(
         address: Ray address.
         precision: Network precision, ``"auto"`` (bfloat16 where native), ``"float32"`` or ``"bfloat16"``.
         tta: Average the utility maps of the 8 grid symmetries (test-time augmentation).
+        refiner: The mission's refinement: report and time the refined placement beside the learned
+            one (see the module docstring).
         progress: Show progress bars.
 
     Returns:
@@ -149,22 +196,46 @@ def evaluate(
 
     resolved = resolve_precision(precision, next(ckpt.model.parameters()).device)
     ckpt.model.to(memory_format=torch.channels_last)
-    utilities = list(utility_maps(ckpt.model, arrays["inputs"][:n], resolved, tta))  # n × (h, w)
-    samples, scores, max_scores = [], [], []
+    inputs = arrays["inputs"][:n]
+    utilities: list[np.ndarray] = []  # n × (h, w)
+    if refiner is None:
+        utilities = list(utility_maps(ckpt.model, inputs, resolved, tta))
+    samples, scores, max_scores, refined_scores = [], [], [], []
     for i in tqdm(range(n), disable=not progress, desc="qos", unit="scene"):
         expert = arrays["positions"][i][arrays["mask"][i]]
-        predicted = find_peaks(utilities[i], peaks)
+        scene = task.sample(np.random.default_rng(int(arrays["seeds"][i])))
+        if refiner is not None:  # each pipeline timed on this scene alone
+            start = time.perf_counter()
+            utilities.append(utility_maps(ckpt.model, inputs[i:i + 1], resolved, tta)[0])
+            predicted = find_peaks(utilities[i], peaks)
+            learned_ms = (time.perf_counter() - start) * 1e3
+        else:
+            predicted = find_peaks(utilities[i], peaks)
         score = score_sample(expert, predicted, eps_px)
         max_scores.append(score_sample(expert, predicted, eps_px, rule="max-matches"))
-        scene = task.sample(np.random.default_rng(int(arrays["seeds"][i])))
         scores.append(score)
-        samples.append({
+        sample = {
             "index": int(arrays["indices"][i]), "seed": int(arrays["seeds"][i]),
             "expert": expert.tolist(), "predicted": predicted.tolist(), **score.to_dict(),
             "n_matched_max_matches": max_scores[-1].n_matched,
             "qos": {k: float(v) for k, v in task.qos(scene, predicted).items()},
             "expert_qos": {k: float(v) for k, v in task.qos(scene, expert).items()},
-        })
+        }
+        if refiner is not None:
+            start = time.perf_counter()
+            refined = refiner.refine(scene, predicted)
+            refine_ms = (time.perf_counter() - start) * 1e3
+            start = time.perf_counter()
+            refiner.solve(scene)
+            expert_ms = (time.perf_counter() - start) * 1e3
+            refined_scores.append(score_sample(expert, refined, eps_px))
+            sample["learned"] = {"positions": sample["predicted"], "qos": sample["qos"],
+                                 "time_ms": learned_ms}
+            sample["refined"] = {"positions": refined.tolist(), **refined_scores[-1].to_dict(),
+                                 "qos": {k: float(v) for k, v in task.qos(scene, refined).items()},
+                                 "time_ms": learned_ms + refine_ms, "refine_ms": refine_ms}
+            sample["expert_time_ms"] = expert_ms
+        samples.append(sample)
 
     max_summary = aggregate(max_scores)
     summary: dict[str, Any] = {
@@ -173,6 +244,13 @@ def evaluate(
         **aggregate(scores), **summarise_qos(samples),
         "max_matches": {"corr": max_summary["corr"], "precision": max_summary["precision"]},
     }
+    if refiner is not None:
+        expert_times = np.array([s["expert_time_ms"] for s in samples])
+        summary["learned"] = summarise_pipeline(scores, samples, "learned")
+        summary["refined"] = summarise_pipeline(refined_scores, samples, "refined")
+        summary["expert"] = {"n_positions": int(sum(len(s["expert"]) for s in samples)),
+                             "qos": summary["expert_qos"], "time_median_ms": float(np.median(expert_times)),
+                             "time_p95_ms": float(np.percentile(expert_times, 95))}
     write_json_atomic(out / "results.json", {
         "task": task.name, "task_config": task.config.to_dict(), "checkpoint": checkpoint_label(checkpoint),
         "peak_config": peaks.to_dict(), "eps_px": eps_px, "match": "the paper's rule: optimal assignment of "

@@ -17,7 +17,7 @@ import numpy as np
 
 from typed_config import Config
 
-__all__ = ["Task", "MAX_POSITIONS"]
+__all__ = ["Task", "Refiner", "MAX_POSITIONS"]
 
 MAX_POSITIONS = 10
 """The largest number of positions (UAVs, guards) an expert may place."""
@@ -60,4 +60,21 @@ class Task(Protocol):
         Returns a dict with at least the key ``"qos"`` (in [0, 1]); tasks may add
         more (e.g. mean throughput, mean seen fraction).
         """
+        ...
+
+
+@runtime_checkable
+class Refiner(Protocol):
+    """Mission knowledge that turns learned positions into a placement obeying the mission's rules.
+
+    Evaluation (``evaluate(..., refiner=...)``) reports the refined placement beside the pure
+    learned one, and times both against the expert solving the scene from scratch.
+    """
+
+    def refine(self, scene: Any, positions_px: np.ndarray) -> np.ndarray:
+        """The refined ``(k, 2)`` float64 pixel positions ``(x, y)`` starting from ``positions_px``."""
+        ...
+
+    def solve(self, scene: Any) -> np.ndarray:
+        """The expert's placement computed from scratch (what the refinement is timed against)."""
         ...

@@ -7,6 +7,10 @@ Two planners share one interface (:class:`Planner`) and one assignment step:
   the utility network of a checkpoint -> the local maxima of the utility map
   (:func:`learning.peaks.find_peaks` with the checkpoint's peak settings; at most ``n`` UAVs,
   the ``n`` highest kept) -> metres.
+  With ``PlannerConfig.refine`` the peaks are then refined on the live crowd
+  (:func:`uav_swarm.missions.wifi_refine.refine_placement`: drop, split, add, merge, centre under
+  the strategy's rules, for at most ``n`` UAVs); the planner is then named
+  ``cnn-peaks-refine-hungarian``.
 - :class:`ExpertPlanner` (``"expert"``, the reference): the Wi-Fi expert optimiser
   (:meth:`uav_swarm.missions.wifi.WifiTask.expert_placement_m`) for at most ``n`` UAVs.
 
@@ -51,7 +55,8 @@ from learning.peaks import find_peaks
 from typed_config import Config, ConfigError, param
 from uav_swarm.assignment import assign_targets
 from uav_swarm.env_config import MAX_UAVS
-from uav_swarm.missions.wifi import WifiConfig, WifiTask, crowd_raster
+from uav_swarm.missions.wifi import WifiConfig, WifiTask, coverage_rules, crowd_raster
+from uav_swarm.missions.wifi_refine import WifiRefineConfig, refine_placement
 
 if TYPE_CHECKING:
     import torch
@@ -80,6 +85,9 @@ class PlannerConfig(Config):
     precision: Literal["auto", "float32", "bfloat16"] = param(
         "auto", doc="learned: network precision ('auto': bfloat16 where the CPU or GPU computes it natively, "
         "about 2x faster; float32 elsewhere)")
+    refine: bool = param(False, doc="learned: refine the peaks on the live crowd under the strategy's rules")
+    refinement: WifiRefineConfig = param(WifiRefineConfig(), doc="learned: the refinement's effort "
+                                         "([planning.refinement])")
 
 
 @dataclass(frozen=True)
@@ -279,6 +287,9 @@ class LearnedPlanner(AssigningPlanner):
             torch.set_num_threads(self.config.torch_threads)
         self.checkpoint = ckpt
         self.checkpoint_path = path
+        if self.config.refine:
+            self.name = "cnn-peaks-refine-hungarian"
+        self._rules = coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
         self.peak_config = ckpt.peak_config
         self.precision = resolve_precision(self.config.precision, next(ckpt.model.parameters()).device)
         dtype = torch.bfloat16 if self.precision == "bfloat16" else torch.float32
@@ -295,10 +306,13 @@ class LearnedPlanner(AssigningPlanner):
             return self._model(self._input)[0, 0].float().numpy()  # (h, w)
 
     def propose(self, pedestrians_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The ``n_uavs`` highest peaks of the utility map (metres) and the map."""
+        """The ``n_uavs`` highest peaks of the utility map (metres), refined if configured, and the map."""
         utility = self.utility_map(crowd_raster(pedestrians_m, self.task.config))
-        peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
-        return self.task.to_metres(peaks_px), utility
+        peaks_m = self.task.to_metres(find_peaks(utility, self.peak_config, max_peaks=self.n_uavs))
+        if self.config.refine:
+            peaks_m = refine_placement(pedestrians_m, peaks_m, self._rules, self.task.width_m,
+                                       self.task.height_m, self.config.refinement)
+        return peaks_m, utility
 
 
 def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | None = None, *,

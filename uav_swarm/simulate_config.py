@@ -84,7 +84,7 @@ class SimulateConfig(Config):
 
 def load_simulate_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None
                          ) -> SimulateConfig:
-    """The config from an optional TOML file, then ``overrides`` (top-level keys).
+    """The config from an optional TOML file, then ``overrides`` (top-level keys; a table's dict is merged).
 
     Raises:
         ConfigError: Unreadable file, unknown key or table, or an invalid value (named).
@@ -93,7 +93,9 @@ def load_simulate_config(path: str | Path | None = None, overrides: dict[str, An
     if not overrides:
         return config
     data = config.to_dict()
-    data.update(overrides)
+    for key, value in overrides.items():
+        nested = isinstance(value, dict) and isinstance(data.get(key), dict)
+        data[key] = {**data[key], **value} if nested else value
     where = f"{path}: " if path is not None else ""
     try:
         return SimulateConfig.from_dict(data)

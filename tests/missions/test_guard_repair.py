@@ -62,12 +62,13 @@ def test_no_redundant_guard_survives():
         assert task.qos(scene, rest)["qos"] == 0.0
 
 
-def test_a_far_proposal_is_replaced_by_added_guards():
-    square = Polygon(np.array([[10, 10], [30, 10], [30, 30], [10, 30]]), size_px=40)
-    witnesses = np.argwhere(square.pixel_locations() >= 0)[:, ::-1].astype(float)
-    far = np.array([[1.0, 1.0]])
-    result = repair_guards(square, "interior", witnesses, far, RepairConfig(move_radius_px=2))
-    assert len(result.guards_px) == 1 and result.n_added == 1
+def test_witnesses_out_of_the_proposals_reach_are_covered_by_added_guards():
+    u_shape = Polygon(np.array([[0, 0], [12, 0], [12, 12], [8, 12], [8, 4], [4, 4], [4, 12], [0, 12]]),
+                      size_px=16)
+    witnesses = np.argwhere(u_shape.pixel_locations() >= 0)[:, ::-1].astype(float)
+    proposal = np.array([[6.0, 2.0]])
+    result = repair_guards(u_shape, "interior", witnesses, proposal, RepairConfig(move_radius_px=1))
+    assert len(result.guards_px) == 2 and result.n_added >= 1  # one guard cannot see both arms
 
 
 def test_repair_is_deterministic():

@@ -26,7 +26,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     def common(parser: argparse.ArgumentParser) -> None:
         parser.add_argument("--task", required=True, help="wifi-s1, wifi-s2, agp or fp")
-        parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks)")
+        parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
+                            "refine)")
         parser.add_argument("--out", required=True, help="output folder")
         parser.set_defaults(func=run)
 
@@ -70,6 +71,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                           help="network precision (default: %(default)s, bfloat16 where native)")
     evaluate.add_argument("--tta", action="store_true",
                           help="test-time augmentation: average the utility maps of the 8 grid symmetries")
+    evaluate.add_argument("--refine", action="store_true",
+                          help="also refine the learned placements (AGP, FP: repaired to full coverage; "
+                          "Wi-Fi: local search on the crowd); time learned, refined and expert side by side")
 
 
 def _overrides(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, Any]:
@@ -119,16 +123,20 @@ def _train(args: argparse.Namespace) -> int:
 def _evaluate(args: argparse.Namespace) -> int:
     from learning.checkpoint import load_checkpoint
     from learning.evaluate import evaluate, markdown_table
-    from uav_swarm.missions.registry import TaskFactory, make_task, task_factory
+    from uav_swarm.missions.registry import TaskFactory, build_refiner, load_settings, make_task, task_factory
 
     if args.config is not None:  # must describe the task the checkpoint was trained on
         factory = task_factory(make_task(args.task, args.config))
     else:  # the task exactly as trained
         factory = TaskFactory(args.task, load_checkpoint(args.checkpoint, task_name=args.task).task_config)
+    refiner = None
+    if args.refine:  # the [refine] table of --config, else the defaults
+        table = load_settings(args.task, args.config).refine if args.config is not None else {}
+        refiner = build_refiner(factory(), table)
     # peaks: the settings saved with (and validated during the training of) the checkpoint
     summary = evaluate(args.checkpoint, factory, args.n, args.seed, args.out, data_dir=args.data,
-                       n_examples=args.examples, executor=args.executor,
-                       workers=args.workers, address=args.address, precision=args.precision, tta=args.tta)
+                       n_examples=args.examples, executor=args.executor, workers=args.workers,
+                       address=args.address, precision=args.precision, tta=args.tta, refiner=refiner)
     print(markdown_table(args.task, summary), end="")
     return 0
 

@@ -37,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                     "[telemetry]); flags override it")
     add("--planner", choices=("learned", "expert"), help="the planner flown (default: learned)")
     add("--checkpoint", help="learned planner checkpoint (default: uav_swarm/checkpoints/wifi-s1.pt)")
+    add("--refine", action="store_true", help="refine the learned peaks on the crowd ([planning] refine)")
     add("--duration-s", type=float, help="simulated seconds (default: 180)")
     add("--n-uavs", type=int, help="number of UAVs, 1..10 (default: 10)")
     add("--seed", type=int, help="sequence seed (default: 0)")
@@ -54,6 +55,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
               "n_uavs": args.n_uavs, "seed": args.seed, "replan_every": args.replan_every,
               "bridge_config": args.bridge_config}
     overrides = {key: value for key, value in values.items() if value is not None}
+    if args.refine:
+        overrides["planning"] = {"refine": True}
     if args.no_expert:
         overrides["compare_expert"] = False
     if args.no_telemetry:

@@ -47,8 +47,8 @@ from uav_swarm.missions.visibility import Region, visibility_matrix
 
 __all__ = ["RepairConfig", "RepairResult", "repair_guards"]
 
-_DISTANCE_WEIGHT = 1.0
-"""Cost per pixel of distance from a candidate to its nearest proposal (tie-break of the move stage)."""
+_FAR_COST = 1000.0
+"""Tie-break cost of a candidate when there are no proposals (costs are pixels to the nearest proposal)."""
 
 
 @dataclass(frozen=True)
@@ -144,30 +144,34 @@ def repair_guards(
     to_proposals = np.full(len(candidates), np.inf)
     snapped = np.zeros(0, dtype=np.int64)
     if len(proposals):
-        d = np.hypot(*(candidates[:, None, :] - proposals[None, :, :]).transpose(2, 0, 1))  # (G, k)
-        snapped = np.unique(np.argmin(d, axis=0))
-        to_proposals = d.min(axis=1)
+        d2 = ((candidates[:, None, :] - proposals[None, :, :]) ** 2).sum(axis=2)  # (G, k)
+        snapped = np.unique(np.argmin(d2, axis=0))
+        to_proposals = np.sqrt(d2.min(axis=1))
     on_stride = np.all(candidates % config.move_stride_px == 0, axis=1)
     near = np.flatnonzero((to_proposals <= config.move_radius_px) & on_stride)
     pool = np.union1d(near, snapped)
     chosen = np.zeros(0, dtype=np.int64)
+    seen_by = np.zeros((0, len(witnesses)), dtype=bool)
     if len(pool):
-        subset = witnesses[_spread(len(witnesses), config.move_witnesses)]
-        sees = visibility_matrix(polygon, candidates[pool], subset, region)
+        spread = _spread(len(witnesses), config.move_witnesses)
+        sees = visibility_matrix(polygon, candidates[pool], witnesses[spread], region)
         reachable = np.any(sees, axis=0)
         if np.any(reachable):
-            picks = min_set_cover(sees[:, reachable].T, _DISTANCE_WEIGHT * np.rint(to_proposals[pool]))
+            picks = min_set_cover(sees[:, reachable].T, np.rint(to_proposals[pool]), single_solve=True)
             chosen = pool[picks]
+            complete = len(spread) == len(witnesses)  # the judged witnesses were all of them
+            seen_by = sees[picks] if complete else visibility_matrix(
+                polygon, candidates[chosen], witnesses, region)
     n_moved = int(np.count_nonzero(~np.isin(chosen, snapped)))
 
     # 3. complete: cover what is still unseen with the candidates that see it.
-    seen_by = visibility_matrix(polygon, candidates[chosen], witnesses, region)
     unseen = ~np.any(seen_by, axis=0)
     n_added = 0
     if np.any(unseen):
         sees_unseen = visibility_matrix(polygon, candidates, witnesses[unseen], region)
         useful = np.flatnonzero(np.any(sees_unseen, axis=1))
-        added = useful[min_set_cover(sees_unseen[useful].T, np.rint(to_proposals[useful]).clip(max=1e6))]
+        cost = np.rint(to_proposals[useful]).clip(max=_FAR_COST)
+        added = useful[min_set_cover(sees_unseen[useful].T, cost, single_solve=True)]
         n_added = len(added)
         chosen = np.concatenate([chosen, added])
         seen_by = np.concatenate([seen_by, visibility_matrix(polygon, candidates[added], witnesses, region)])

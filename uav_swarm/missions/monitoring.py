@@ -42,6 +42,7 @@ import numpy as np
 
 from learning.task import MAX_POSITIONS
 from typed_config import Config, param
+from uav_swarm.missions.guard_repair import RepairConfig, repair_guards
 from uav_swarm.missions.guards import (
     GuardProblem,
     art_gallery_problem,
@@ -66,6 +67,7 @@ __all__ = [
     "MonitoringScene",
     "ArtGalleryTask",
     "FortressTask",
+    "GuardRefiner",
     "rasterize_polygon",
 ]
 
@@ -134,6 +136,7 @@ class _MonitoringTask:
     config_class: type[MonitoringConfig]
     region: Region
     channels = 2
+    refiner_class: type[GuardRefiner]
 
     def __init__(self, config: MonitoringConfig | None = None) -> None:
         config = self.config_class() if config is None else config
@@ -215,12 +218,39 @@ class _MonitoringTask:
         return {"qos": float(bool(np.all(seen))), "seen_fraction": fraction}
 
 
+class GuardRefiner:
+    """Learned guard positions repaired until they see every witness (:mod:`uav_swarm.missions.guard_repair`).
+
+    Args:
+        task: The Art Gallery or Fortress task.
+        config: The repair's radii and effort; default ``RepairConfig()``.
+    """
+
+    config_class = RepairConfig
+
+    def __init__(self, task: _MonitoringTask, config: RepairConfig | None = None) -> None:
+        self.task = task
+        self.config = config or RepairConfig()
+
+    def refine(self, scene: MonitoringScene, positions_px: np.ndarray) -> np.ndarray:
+        """``(k, 2)`` guards ``(x, y)`` that see every witness of the building, near ``positions_px``."""
+        polygon = scene.polygon
+        witnesses = self.task.witnesses(polygon)
+        return repair_guards(polygon, self.task.region, witnesses, positions_px, self.config).guards_px
+
+    def solve(self, scene: MonitoringScene) -> np.ndarray:
+        """The exact expert from scratch: the visibility of every candidate, then the set cover."""
+        problem = self.task.problem(scene.polygon)
+        return problem.candidates_px[solve_guards(problem)]
+
+
 class ArtGalleryTask(_MonitoringTask):
     """Art Gallery: fewest guards inside the building seeing all of its interior pixel centres."""
 
     name = "agp"
     config_class = MonitoringConfig
     region: Region = "interior"
+    refiner_class = GuardRefiner
 
     def problem(self, polygon: Polygon) -> GuardProblem:
         """Interior pixel centres guarding interior pixel centres."""
@@ -237,6 +267,7 @@ class FortressTask(_MonitoringTask):
     name = "fp"
     config_class = FortressConfig
     region: Region = "exterior"
+    refiner_class = GuardRefiner
     config: FortressConfig
 
     def problem(self, polygon: Polygon) -> GuardProblem:

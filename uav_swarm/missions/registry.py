@@ -8,7 +8,8 @@ constructed as ``cls(config)``.
 
 A task settings file (``configs/tasks/<name>.toml``) may hold the tables
 ``[task]`` (the task's own config), ``[targets]`` (:class:`learning.targets.TargetConfig`),
-``[model]``, ``[train]`` and ``[peaks]`` (learning's configs); every table is optional.
+``[model]``, ``[train]`` and ``[peaks]`` (learning's configs) and ``[refine]`` (the mission's
+refinement of learned placements, :func:`build_refiner`); every table is optional.
 Without a ``[targets]`` table a task gets the paper's best (α2, σ2) from its grid search:
 S1 (50, 50), S2 (30, 30), AGP (40, 40), FP (40, 20) (pixels of the paper's rasters).
 
@@ -24,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from learning.task import Task
+from learning.task import Refiner, Task
 from typed_config import Config, ConfigError, read_toml
 
 if TYPE_CHECKING:  # torch-importing modules are loaded only by load_settings
@@ -34,7 +35,7 @@ if TYPE_CHECKING:  # torch-importing modules are loaded only by load_settings
     from learning.train import TrainConfig
 
 __all__ = ["TASKS", "TaskEntry", "TaskSettings", "TaskFactory", "make_task", "build_task", "task_factory",
-           "load_settings"]
+           "build_refiner", "load_settings"]
 
 
 @dataclass(frozen=True)
@@ -53,7 +54,7 @@ TASKS: dict[str, TaskEntry] = {
     "agp": TaskEntry("uav_swarm.missions.monitoring:ArtGalleryTask", alpha2=40.0, sigma2=40.0),
     "fp": TaskEntry("uav_swarm.missions.monitoring:FortressTask", alpha2=40.0, sigma2=20.0),
 }
-_SECTIONS = ("task", "targets", "model", "train", "peaks")
+_SECTIONS = ("task", "targets", "model", "train", "peaks", "refine")
 
 
 def _entry(name: str) -> TaskEntry:
@@ -112,6 +113,24 @@ class TaskSettings:
     model: ModelConfig
     train: TrainConfig
     peaks: PeakConfig
+    refine: dict[str, Any] = field(default_factory=dict)
+
+
+def build_refiner(task: Task, refine_table: Mapping[str, Any] | None = None) -> Refiner:
+    """The refinement of ``task``'s learned placements, its config from a ``[refine]`` table.
+
+    Art Gallery and Fortress: :class:`uav_swarm.missions.monitoring.GuardRefiner` (repair to full
+    coverage); Wi-Fi: :class:`uav_swarm.missions.wifi.WifiRefiner` (local search on the crowd).
+
+    Raises:
+        ConfigError: An invalid ``[refine]`` value.
+        TypeError: ``task`` is not a registered mission (it has no ``refiner_class``).
+    """
+    refiner_class = getattr(type(task), "refiner_class", None)
+    if refiner_class is None:
+        raise TypeError(f"{type(task).__name__} has no refinement (not a registered mission)")
+    config = refiner_class.config_class.from_dict(dict(refine_table or {}), where="[refine]")
+    return refiner_class(task, config)
 
 
 def _read_tables(config_path: str | Path | None) -> dict[str, Any]:
@@ -147,7 +166,12 @@ def load_settings(name: str, config_path: str | Path | None = None) -> TaskSetti
         peaks = PeakConfig.from_dict(tables.get("peaks", {}), where="[peaks]")
     except ConfigError as exc:
         raise ConfigError(f"{where}{exc}") from None
-    return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks)
+    refine = dict(tables.get("refine", {}))
+    try:
+        _task_class(name).refiner_class.config_class.from_dict(refine, where="[refine]")
+    except ConfigError as exc:
+        raise ConfigError(f"{where}{exc}") from None
+    return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine)
 
 
 def make_task(name: str, config_path: str | Path | None = None, overrides: Mapping[str, Any] | None = None

@@ -45,13 +45,14 @@ import numpy as np
 from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi_expert import WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi_refine import WifiRefineConfig, refine_placement
 from uav_swarm.missions.wifi_rules import CoverageRules
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
 from uav_swarm.world.crowd import CrowdConfig, CrowdSim
 from uav_swarm.world.raster import density_map, metres_to_pixels, pixels_to_metres
 from uav_swarm.world.scenario import ScenarioConfig, random_scenario
 
-__all__ = ["WifiConfig", "WifiScene", "WifiTask", "coverage_rules", "crowd_raster"]
+__all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster"]
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,33 @@ def crowd_raster(users_m: np.ndarray, config: WifiConfig) -> np.ndarray:
     return (density / np.float32(config.density_scale))[None]
 
 
+class WifiRefiner:
+    """Learned UAV positions refined on the real crowd (:mod:`uav_swarm.missions.wifi_refine`).
+
+    Args:
+        task: The Wi-Fi task (strategy 1 or 2).
+        config: The refinement's effort; default ``WifiRefineConfig()``.
+    """
+
+    config_class = WifiRefineConfig
+
+    def __init__(self, task: WifiTask, config: WifiRefineConfig | None = None) -> None:
+        self.task = task
+        self.config = config or WifiRefineConfig()
+
+    def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
+        """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""
+        task = self.task
+        refined_m = refine_placement(scene.users_m, task.to_metres(positions_px), task.rules, task.width_m,
+                                     task.height_m, self.config)
+        return task.to_pixels(refined_m)
+
+    def solve(self, scene: WifiScene) -> np.ndarray:
+        """The expert's placement (pixels), computed from the crowd."""
+        return self.task.expert(scene)
+
+
+
 class WifiTask:
     """Wi-Fi placement over a moving crowd, strategy 1 or 2 (see the module docstring).
 
@@ -127,6 +155,7 @@ class WifiTask:
 
     config_class = WifiConfig
     channels = 1
+    refiner_class = WifiRefiner
 
     def __init__(self, config: WifiConfig | None = None) -> None:
         config = WifiConfig() if config is None else config

@@ -14,8 +14,9 @@ pedestrian stands nor the missions' rules, so its placements may leave users out
    when two do better than one, a **move** otherwise).
 4. **Centre** each UAV on the users it serves when that loses nobody (a **move**).
 
-Candidates for additions come from a grid of ``grid_step_m`` (coarser than the expert's, which
-is what makes the refinement cheap); the centring makes the final positions continuous.
+Candidates for additions come from a grid of ``grid_step_m`` (10 m by default, four times the
+expert's step, which is what makes the refinement cheap); the centring makes the final positions
+continuous. Greedy fills try ``branching`` separated first candidates, as the expert does.
 Everything is deterministic, and the result always obeys the strategy's rules.
 
 Example:
@@ -43,8 +44,11 @@ __all__ = ["WifiRefineConfig", "refine_placement"]
 class WifiRefineConfig(Config):
     """Settings of the Wi-Fi refinement."""
 
-    grid_step_m: float = param(5.0, gt=0.0, le=50.0, doc="spacing of the grid UAVs may be added from, metres")
+    grid_step_m: float = param(
+        10.0, gt=0.0, le=50.0, doc="spacing of the grid UAVs may be added from, metres")
     max_moves: int = param(2, ge=0, le=100, doc="improving ruin-and-recreate moves allowed (0: none)")
+    branching: int = param(
+        3, ge=1, le=50, doc="greedy fills try this many separated first candidates and keep the best")
     centre_passes: int = param(3, ge=0, le=100, doc="passes centring each UAV on the users it serves")
 
 
@@ -88,6 +92,7 @@ def refine_placement(
     proposals = np.clip(proposals, 0.0, [width_m, height_m])
     candidates, _ = candidate_grid(width_m, height_m, config.grid_step_m)
     search = PlacementSearch(users, rules, CandidatePairs(users, candidates, rules))
+    search.branching = config.branching
     search.adopt(proposals)
     search.greedy()
     search.ruin_and_recreate(config.max_moves)
