@@ -18,7 +18,8 @@ Fitting (:func:`fit_to_raster`): the outline is scaled uniformly so that its lar
 raster less ``margin_px`` on each side (the room Fortress guards need outside), vertices are rounded
 to pixel centres (the missions' exact geometry needs them) and vertices the rounding makes
 repeated or straight are dropped. A building needing more than ``max_pixel_m`` metres per pixel,
-or whose rounded outline is no longer simple (detail finer than a pixel), is refused.
+or whose rounded outline is no longer simple or lost a part (an input vertex farther than half a
+pixel diagonal from it: detail finer than a pixel), is refused.
 :meth:`FittedFootprint.to_metres` maps raster positions back to the input's metres.
 
 Example:
@@ -39,12 +40,17 @@ from typing import Any
 import numpy as np
 
 from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
-from uav_swarm.missions.polygons import Polygon, is_simple, signed_area
+from uav_swarm.missions.polygons import Polygon, is_simple
+from uav_swarm.world.geometry import point_segment_distances
 
 __all__ = ["FootprintError", "Footprint", "FittedFootprint", "read_footprint", "fit_to_raster"]
 
 DEFAULT_MAX_VERTICES = 64
 """Most vertices a footprint may have (the exact experts' cost grows with them)."""
+
+
+_ROUNDING_PX = 0.5 * 2 ** 0.5 + 1e-9
+"""Farthest an input vertex may lie from the rounded outline (rounding moves a vertex this far at most)."""
 
 
 class FootprintError(ValueError):
@@ -185,8 +191,8 @@ def read_footprint(path: str | Path, max_vertices: int = DEFAULT_MAX_VERTICES) -
     if len(points) > max_vertices:
         raise FootprintError(f"{path}: {len(points)} vertices; allowed at most {max_vertices}")
     scale = float(np.ptp(points, axis=0).max())
-    if scale == 0.0 or abs(signed_area(points)) <= 1e-9 * scale * scale:
-        raise FootprintError(f"{path}: the outline encloses no area (degenerate)")
+    if scale == 0.0 or np.linalg.matrix_rank(points - points.mean(axis=0), tol=1e-9 * scale) < 2:
+        raise FootprintError(f"{path}: the outline encloses no area (degenerate: its vertices are collinear)")
     if not is_simple(points):
         raise FootprintError(f"{path}: the outline is not a simple polygon (it crosses or touches itself, or "
                              "repeats a vertex)")
@@ -228,8 +234,11 @@ def fit_to_raster(footprint: Footprint, size_px: int = 64, margin_px: int = 4, m
             f"the building spans {extent_m:.1f} m: on the {size_px} px raster that is {metres_per_px:.2f} m "
             f"per pixel, above max_pixel_m = {max_pixel_m} (too large to resolve at that accuracy)")
     offset_m = low - margin_px * metres_per_px
-    rounded = _clean_ring(np.rint((vertices - offset_m) / metres_per_px))
-    if len(rounded) < 3 or not is_simple(rounded):
+    exact_px = (vertices - offset_m) / metres_per_px
+    rounded = _clean_ring(np.rint(exact_px))
+    edges = np.concatenate([rounded, np.roll(rounded, -1, axis=0)], axis=1)
+    lost = len(rounded) == 0 or point_segment_distances(exact_px, edges).min(axis=1).max() > _ROUNDING_PX
+    if len(rounded) < 3 or lost or not is_simple(rounded):
         raise FootprintError(
             f"at {metres_per_px:.2f} m per pixel the outline of {len(vertices)} vertices touches itself once "
             "rounded to pixel centres: it has detail finer than a pixel (simplify it, or place a part of it)")
