@@ -214,3 +214,26 @@ def test_plan_rejects_wrong_shapes():
         planner.plan(np.zeros((5, 2)), np.zeros((3, 2)))
     with pytest.raises(ValueError, match="pedestrians_m must have shape"):
         planner.plan(np.zeros((5, 3)), np.zeros((2, 2)))
+
+
+def test_the_refining_planner_proposes_placements_that_obey_strategy_2():
+    from uav_swarm.missions.wifi import WifiTask, coverage_rules
+    from uav_swarm.missions.wifi_rules import assign_users, is_valid_placement
+
+    config = WifiConfig(strategy=2)
+    planner = make_planner("learned", n_uavs=6, task_config=config, config=PlannerConfig(refine=True))
+    plain = make_planner("learned", n_uavs=6, task_config=config)
+    assert planner.name == "cnn-peaks-refine-hungarian" and plain.name == "cnn-peaks-hungarian"
+    rules = coverage_rules(config, max_uavs=6)
+    rng = np.random.default_rng(5)
+    task = WifiTask(config)
+    for _ in range(3):
+        crowd = task.sample(rng).users_m
+        result = planner.plan(crowd, np.zeros((6, 2)) + np.arange(6)[:, None])
+        assert len(result.peaks_m) <= 6
+        assert is_valid_placement(assign_users(crowd, result.peaks_m, rules.radius_m), rules)
+        served = assign_users(crowd, result.peaks_m, rules.radius_m).n_served
+        raw = plain.plan(crowd, np.zeros((6, 2)) + np.arange(6)[:, None]).peaks_m
+        raw_state = assign_users(crowd, raw, rules.radius_m)
+        if is_valid_placement(raw_state, rules):  # refining a valid placement never serves fewer users
+            assert served >= raw_state.n_served
