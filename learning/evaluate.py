@@ -85,7 +85,12 @@ def summarise_pipeline(scores: list[SampleScore], samples: list[dict[str, Any]],
     n_positions = int(sum(len(s[key]["positions"]) for s in samples))
     n_expert = int(sum(len(s["expert"]) for s in samples))
     summary = aggregate(scores)
-    return {"corr": summary["corr"], "precision": summary["precision"], "qos": qos["qos"],
+    row: dict[str, Any] = {}
+    if "refine_ms" in samples[0][key]:  # the refinement alone, without the network and peaks before it
+        refine = np.array([s[key]["refine_ms"] for s in samples])
+        row = {"refine_time_median_ms": float(np.median(refine)),
+               "refine_time_p95_ms": float(np.percentile(refine, 95))}
+    return {**row, "corr": summary["corr"], "precision": summary["precision"], "qos": qos["qos"],
             "qos_relative": qos["qos_relative"], **{k: v for k, v in qos.items() if k.startswith("seen")},
             "n_positions": n_positions,
             "positions_vs_expert": n_positions / n_expert if n_expert else float("nan"),
@@ -114,13 +119,20 @@ def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
     rows = ["| Placement | Corr % | Precision % | QoS % | QoS rel. % | positions (x expert) "
             "| median / p95 time, ms | speed-up vs expert (median) |", "|---|---|---|---|---|---|---|---|"]
     expert = summary["expert"]
+
+    def alone(row: dict[str, Any]) -> str:
+        if "refine_time_median_ms" not in row:
+            return ""
+        return (f" (refinement alone: {row['refine_time_median_ms']:.2f} ms, "
+                f"{expert['time_median_ms'] / row['refine_time_median_ms']:.1f}x)")
+
     for name in ("learned", "refined"):
         row = summary[name]
         rows.append(f"| {name} | {pct('corr', row)} | {pct('precision', row)} | {pct('qos', row)} "
                     f"| {pct('qos_relative', row)} "
                     f"| {row['n_positions']} ({row['positions_vs_expert']:.3f}x) "
                     f"| {row['time_median_ms']:.2f} / {row['time_p95_ms']:.2f} "
-                    f"| {expert['time_median_ms'] / row['time_median_ms']:.1f}x |")
+                    f"| {expert['time_median_ms'] / row['time_median_ms']:.1f}x{alone(row)} |")
     rows.append(f"| expert | 100.0 | 100.0 | {pct('qos', expert)} | 100.0 | {expert['n_positions']} (1.000x) "
                 f"| {expert['time_median_ms']:.2f} / {expert['time_p95_ms']:.2f} | 1.0x |")
     return table + "\n" + "\n".join(rows) + "\n"

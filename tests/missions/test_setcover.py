@@ -49,3 +49,17 @@ def test_no_rows_gives_no_columns_and_errors_are_precise():
         min_set_cover(np.ones((2, 3), dtype=bool), np.zeros(2))
     with pytest.raises(ValueError, match="2-D"):
         min_set_cover(np.ones(3, dtype=bool))
+
+
+def test_single_solve_reaches_the_same_count_and_cost_as_the_two_stages():
+    rng = np.random.default_rng(17)
+    for _ in range(30):
+        cover = rng.random((25, 18)) < 0.2
+        cover[np.arange(25), rng.integers(0, 18, size=25)] = True  # every row coverable
+        cost = rng.integers(0, 9, size=18).astype(float)
+        two = min_set_cover(cover, cost)
+        one = min_set_cover(cover, cost, single_solve=True)
+        assert np.all(np.any(cover[:, one], axis=1))
+        assert len(one) == len(two) and cost[one].sum() == cost[two].sum()
+    with pytest.raises(ValueError, match="non-negative"):
+        min_set_cover(np.ones((2, 2), dtype=bool), np.array([-1.0, 0.0]), single_solve=True)

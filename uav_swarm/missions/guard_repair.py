@@ -9,13 +9,15 @@ guarantee and most of the speed by looking only where the proposals point:
    inside the building for the Art Gallery, strictly outside for the Fortress).
 2. **Move.** The candidates within ``move_radius_px`` of a proposal (every ``move_stride_px``-th
    pixel, plus the snapped ones) are judged against a spread subset of at most
-   ``move_witnesses`` witnesses; an exact set cover on that small instance picks the fewest of
-   them seeing the subset, preferring candidates near the proposals. Proposals therefore move
+   ``move_witnesses`` witnesses; a set cover on that small instance picks the fewest of them
+   seeing the subset, preferring candidates near the proposals (a greedy cover when a packing of
+   witnesses proves it minimal, else the exact one). Proposals therefore move
    within the match radius, merge when one candidate does the work of two, and disappear when
    they add nothing.
 3. **Complete.** The chosen guards are checked against every witness. The witnesses still unseen
-   are covered by an exact set cover restricted to the candidates that see at least one of them
-   (the only visibility computed against the whole candidate set is against those few witnesses).
+   are covered by the fewest candidates that see them: candidates of the move stage's lattice first,
+   every pixel centre only for witnesses no lattice point sees (the only visibility computed against
+   the whole candidate set is against those few witnesses).
 4. **Prune.** Guards whose witnesses are all seen by the others are dropped, the guard seeing
    the fewest first, re-checking after each drop.
 
@@ -26,7 +28,7 @@ see :func:`uav_swarm.missions.guards.solve_guards`) raises
 :class:`uav_swarm.missions.setcover.InfeasibleCoverError`, as the expert does.
 
 Example:
-    >>> from uav_swarm.missions.polygons import Polygon
+    >>> from uav_swarm.missions.polygons import Polygon, locate_points
     >>> from uav_swarm.missions.guards import interior_pixels
     >>> square = Polygon(np.array([[10, 10], [30, 10], [30, 30], [10, 30]]), size_px=40)
     >>> witnesses = interior_pixels(square)
@@ -41,8 +43,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from typed_config import Config, param
-from uav_swarm.missions.polygons import Polygon
-from uav_swarm.missions.setcover import min_set_cover
+from uav_swarm.missions.polygons import Polygon, locate_points
+from uav_swarm.missions.setcover import InfeasibleCoverError, min_set_cover
 from uav_swarm.missions.visibility import Region, visibility_matrix
 
 __all__ = ["RepairConfig", "RepairResult", "repair_guards"]
@@ -81,11 +83,11 @@ class RepairResult:
     n_pruned: int
 
 
-def _candidates(polygon: Polygon, region: Region) -> np.ndarray:
-    """``(G, 2)`` pixel centres ``(x, y)`` where the mission allows a guard, row-major order."""
+def _candidates(polygon: Polygon, region: Region) -> tuple[np.ndarray, np.ndarray]:
+    """``(G, 2)`` pixel centres ``(x, y)`` allowed to hold a guard (row-major), and their location codes."""
     codes = polygon.pixel_locations()
     rows, cols = np.nonzero(codes >= 0 if region == "interior" else codes < 0)
-    return np.stack([cols, rows], axis=1).astype(np.float64)
+    return np.stack([cols, rows], axis=1).astype(np.float64), codes[rows, cols]
 
 
 def _spread(count: int, limit: int) -> np.ndarray:
@@ -93,6 +95,44 @@ def _spread(count: int, limit: int) -> np.ndarray:
     if count <= limit:
         return np.arange(count)
     return np.unique(np.linspace(0, count - 1, limit).round().astype(np.int64))
+
+
+def _greedy_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Rows of ``sees`` (candidates) covering every column (witness): most newly seen first, then cheapest."""
+    order = np.lexsort((np.arange(len(cost)), cost))
+    uncovered = np.ones(sees.shape[1], dtype=bool)
+    picks: list[int] = []
+    while np.any(uncovered):
+        gains = np.count_nonzero(sees[order][:, uncovered], axis=1)
+        best = int(order[np.argmax(gains)])  # argmax takes the first, i.e. cheapest, of the best gains
+        picks.append(best)
+        uncovered &= ~sees[best]
+    return np.array(picks, dtype=np.int64)
+
+
+def _disjoint_witnesses(sees: np.ndarray) -> int:
+    """Size of a set of witnesses no two of which share a candidate (a lower bound on any cover)."""
+    m = sees.astype(np.float32)
+    shared = (m.T @ m) > 0  # (W, W)
+    free = np.ones(sees.shape[1], dtype=bool)
+    count = 0
+    for w in np.argsort(m.sum(axis=0), kind="stable"):  # the most constrained witnesses first
+        if free[w]:
+            count += 1
+            free &= ~shared[w]
+    return count
+
+
+def _cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Fewest candidates (rows) seeing every witness (column), ties to the lower total cost.
+
+    The greedy cover is kept when it is provably as small as any, i.e. when as many witnesses as it
+    has guards pairwise share no candidate; otherwise the exact set cover decides (HiGHS).
+    """
+    greedy = _greedy_cover(sees, cost)
+    if len(greedy) <= _disjoint_witnesses(sees):
+        return np.sort(greedy)
+    return min_set_cover(sees.T, cost, single_solve=True)
 
 
 def _prune(seen_by: np.ndarray) -> np.ndarray:
@@ -136,9 +176,17 @@ def repair_guards(
     if proposals.ndim != 2 or proposals.shape[1] != 2 or not np.all(np.isfinite(proposals)):
         raise ValueError(f"proposals_px must be a finite (k, 2) array, got shape {proposals.shape}")
     witnesses = np.asarray(witnesses_px, dtype=np.float64).reshape(-1, 2)
-    candidates = _candidates(polygon, region)
+    candidates, candidate_codes = _candidates(polygon, region)
     if len(candidates) == 0:
         raise ValueError(f"the building leaves no pixel centre in the {region} region for a guard")
+    witness_codes = locate_points(witnesses, polygon.vertices_px)
+    if np.any(witness_codes == (-1 if region == "interior" else 1)):
+        raise ValueError(f"witnesses_px must lie in the closed {region} region of the polygon")
+
+    def sees(rows: np.ndarray, columns: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Visibility of candidates ``rows`` to witnesses ``columns`` (locations known: not re-checked)."""
+        return visibility_matrix(polygon, candidates[rows], witnesses[columns], region,
+                                 guard_codes=candidate_codes[rows], witness_codes=witness_codes[columns])
 
     # 1. snap; 2. move within the radius against a spread of witnesses.
     to_proposals = np.full(len(candidates), np.inf)
@@ -154,27 +202,38 @@ def repair_guards(
     seen_by = np.zeros((0, len(witnesses)), dtype=bool)
     if len(pool):
         spread = _spread(len(witnesses), config.move_witnesses)
-        sees = visibility_matrix(polygon, candidates[pool], witnesses[spread], region)
-        reachable = np.any(sees, axis=0)
+        pool_sees = sees(pool, spread)
+        reachable = np.any(pool_sees, axis=0)
         if np.any(reachable):
-            picks = min_set_cover(sees[:, reachable].T, np.rint(to_proposals[pool]), single_solve=True)
+            picks = _cover(pool_sees[:, reachable], np.rint(to_proposals[pool]))
             chosen = pool[picks]
             complete = len(spread) == len(witnesses)  # the judged witnesses were all of them
-            seen_by = sees[picks] if complete else visibility_matrix(
-                polygon, candidates[chosen], witnesses, region)
+            seen_by = pool_sees[picks] if complete else sees(chosen)
     n_moved = int(np.count_nonzero(~np.isin(chosen, snapped)))
 
     # 3. complete: cover what is still unseen with the candidates that see it.
     unseen = ~np.any(seen_by, axis=0)
     n_added = 0
     if np.any(unseen):
-        sees_unseen = visibility_matrix(polygon, candidates, witnesses[unseen], region)
+        missing = np.flatnonzero(unseen)
+        lattice = np.flatnonzero(on_stride)  # the lattice first; every candidate only where it sees nothing
+        sees_unseen = np.zeros((len(candidates), len(missing)), dtype=bool)
+        sees_unseen[lattice] = sees(lattice, missing)
+        blind = ~np.any(sees_unseen, axis=0)
+        if np.any(blind):
+            others = np.flatnonzero(~on_stride)
+            sees_unseen[np.ix_(others, np.flatnonzero(blind))] = sees(others, missing[blind])
+            blind = ~np.any(sees_unseen, axis=0)
+        if np.any(blind):
+            raise InfeasibleCoverError(
+                f"{np.count_nonzero(blind)} witness(es) seen by no pixel centre of the {region} region "
+                f"(first: {tuple(witnesses[missing[np.argmax(blind)]])})")
         useful = np.flatnonzero(np.any(sees_unseen, axis=1))
         cost = np.rint(to_proposals[useful]).clip(max=_FAR_COST)
-        added = useful[min_set_cover(sees_unseen[useful].T, cost, single_solve=True)]
+        added = useful[_cover(sees_unseen[useful], cost)]
         n_added = len(added)
         chosen = np.concatenate([chosen, added])
-        seen_by = np.concatenate([seen_by, visibility_matrix(polygon, candidates[added], witnesses, region)])
+        seen_by = np.concatenate([seen_by, sees(added)])
 
     # 4. prune.
     keep = _prune(seen_by)

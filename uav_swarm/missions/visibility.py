@@ -103,6 +103,9 @@ def visibility_matrix(
     guards_px: np.ndarray,
     witnesses_px: np.ndarray,
     region: Region,
+    *,
+    guard_codes: np.ndarray | None = None,
+    witness_codes: np.ndarray | None = None,
 ) -> np.ndarray:
     """Which guard sees which witness (see the module docstring for the exact rule).
 
@@ -111,6 +114,9 @@ def visibility_matrix(
         guards_px: ``(G, 2)`` guard points ``(x, y)`` in the closed ``region``.
         witnesses_px: ``(W, 2)`` witness points in the closed ``region``.
         region: ``"interior"`` (Art Gallery) or ``"exterior"`` (Fortress).
+        guard_codes: The guards' :func:`~uav_swarm.missions.polygons.locate_points` codes when the
+            caller already has them (e.g. from ``Polygon.pixel_locations``); they are trusted, not checked.
+        witness_codes: The same for the witnesses.
 
     Returns:
         ``(G, W)`` bool: ``True`` where the segment guard-witness lies in the closed region.
@@ -123,8 +129,12 @@ def visibility_matrix(
     guards = np.asarray(guards_px, dtype=np.float64).reshape(-1, 2)
     witnesses = np.asarray(witnesses_px, dtype=np.float64).reshape(-1, 2)
     vertices = polygon.vertices_px
-    g_strict = _strictly_in(_check_points("guards_px", guards, vertices, region), region)
-    w_strict = _strictly_in(_check_points("witnesses_px", witnesses, vertices, region), region)
+    if guard_codes is None:
+        guard_codes = _check_points("guards_px", guards, vertices, region)
+    if witness_codes is None:
+        witness_codes = _check_points("witnesses_px", witnesses, vertices, region)
+    g_strict = _strictly_in(np.asarray(guard_codes), region)
+    w_strict = _strictly_in(np.asarray(witness_codes), region)
     visible = np.ones((len(guards), len(witnesses)), dtype=bool)
     if len(guards) == 0 or len(witnesses) == 0:
         return visible
