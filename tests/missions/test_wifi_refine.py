@@ -17,12 +17,14 @@ def _crowd(seed: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("rules", [S1, S2], ids=["s1", "s2"])
-def test_refined_placements_obey_the_strategy_whatever_the_proposals(rules):
+@pytest.mark.parametrize("config", [WifiRefineConfig(), WifiRefineConfig(grid_step_m=5.0, fine_radius_m=15.0)],
+                         ids=["coarse", "fine"])
+def test_refined_placements_obey_the_strategy_whatever_the_proposals(rules, config):
     rng = np.random.default_rng(0)
     for seed in range(4):
         users = _crowd(seed)
         for proposals in (np.zeros((0, 2)), rng.uniform(0, 200, size=(10, 2)), users[:3], users[:1] + 500.0):
-            placed = refine_placement(users, proposals, rules, 200.0, 200.0)
+            placed = refine_placement(users, proposals, rules, 200.0, 200.0, config)
             assert placed.shape[1] == 2 and len(placed) <= rules.max_uavs
             state = assign_users(users, placed, rules.radius_m)
             assert is_valid_placement(state, rules)

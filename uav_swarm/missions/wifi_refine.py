@@ -15,8 +15,10 @@ pedestrian stands nor the missions' rules, so its placements may leave users out
 4. **Centre** each UAV on the users it serves when that loses nobody (a **move**).
 
 Candidates for additions come from a grid of ``grid_step_m`` (10 m by default, four times the
-expert's step, which is what makes the refinement cheap); the centring makes the final positions
-continuous. Greedy fills try ``branching`` separated first candidates, as the expert does.
+expert's step, which is what makes the refinement cheap), plus, within ``fine_radius_m`` of each
+proposal, a grid of ``fine_step_m`` (strategy 2 splits groups between UAVs and needs the finer
+positions: ``configs/tasks/wifi-s2.toml``); the centring makes the final positions continuous.
+Greedy fills try ``branching`` separated first candidates, as the expert does.
 Everything is deterministic, and the result always obeys the strategy's rules.
 
 Example:
@@ -46,6 +48,10 @@ class WifiRefineConfig(Config):
 
     grid_step_m: float = param(
         10.0, gt=0.0, le=50.0, doc="spacing of the grid UAVs may be added from, metres")
+    fine_step_m: float = param(
+        2.5, gt=0.0, le=50.0, doc="spacing of the finer grid around each proposal, metres")
+    fine_radius_m: float = param(
+        0.0, ge=0.0, le=100.0, doc="the finer grid covers this radius around each proposal (0: none), metres")
     max_moves: int = param(2, ge=0, le=100, doc="improving ruin-and-recreate moves allowed (0: none)")
     branching: int = param(
         3, ge=1, le=50, doc="greedy fills try this many separated first candidates and keep the best")
@@ -91,6 +97,10 @@ def refine_placement(
         return np.zeros((0, 2))
     proposals = np.clip(proposals, 0.0, [width_m, height_m])
     candidates, _ = candidate_grid(width_m, height_m, config.grid_step_m)
+    if config.fine_radius_m > 0 and len(proposals):
+        fine, _ = candidate_grid(width_m, height_m, config.fine_step_m)
+        distance2 = ((fine[:, None, :] - proposals[None, :, :]) ** 2).sum(axis=2).min(axis=1)
+        candidates = np.concatenate([candidates, fine[distance2 <= config.fine_radius_m ** 2]])
     search = PlacementSearch(users, rules, CandidatePairs(users, candidates, rules))
     search.branching = config.branching
     search.adopt(proposals)
