@@ -7,6 +7,7 @@ from uav_swarm.missions.wifi_rules import CoverageRules, assign_users, is_valid_
 
 S1 = CoverageRules(radius_m=30.0, min_users=31, max_users=None, max_uavs=10, exclusive=True)
 S2 = CoverageRules(radius_m=30.0, min_users=31, max_users=40, max_uavs=10, exclusive=False)
+FINE_AND_COARSE = [WifiRefineConfig(), WifiRefineConfig(grid_step_m=5.0, fine_radius_m=15.0)]
 
 
 def _crowd(seed: int) -> np.ndarray:
@@ -17,7 +18,7 @@ def _crowd(seed: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("rules", [S1, S2], ids=["s1", "s2"])
-@pytest.mark.parametrize("config", [WifiRefineConfig(), WifiRefineConfig(grid_step_m=5.0, fine_radius_m=15.0)],
+@pytest.mark.parametrize("config", FINE_AND_COARSE,
                          ids=["coarse", "fine"])
 def test_refined_placements_obey_the_strategy_whatever_the_proposals(rules, config):
     rng = np.random.default_rng(0)
