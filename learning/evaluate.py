@@ -23,7 +23,8 @@ reported beside it (``max_matches``). Outputs in ``out_dir``:
 With a ``refiner`` (the mission's repair or local search, :class:`learning.task.Refiner`) every
 scene is also refined from its learned positions, and each pipeline is timed on its own: the
 learned one (network on that scene alone, then peaks), the refined one (the same plus the
-refinement) and the expert solving the scene from scratch (``Refiner.solve``). ``summary.json``
+refinement) and the expert solving the scene from scratch (``Refiner.solve``); the network then
+runs on one thread, as the planner runs it. ``summary.json``
 then holds ``learned`` and ``refined`` side by side (corr, precision, QoS, relative QoS,
 positions, median and p95 time) and ``expert`` (positions, QoS, times).
 """
@@ -210,8 +211,11 @@ def evaluate(
     ckpt.model.to(memory_format=torch.channels_last)
     inputs = arrays["inputs"][:n]
     utilities: list[np.ndarray] = []  # n × (h, w)
+    threads = torch.get_num_threads()
     if refiner is None:
         utilities = list(utility_maps(ckpt.model, inputs, resolved, tta))
+    else:  # one scene at a time, as the planner runs it: one thread, none left spinning beside the timed code
+        torch.set_num_threads(1)
     samples, scores, max_scores, refined_scores = [], [], [], []
     for i in tqdm(range(n), disable=not progress, desc="qos", unit="scene"):
         expert = arrays["positions"][i][arrays["mask"][i]]
@@ -248,6 +252,7 @@ def evaluate(
                                  "time_ms": learned_ms + refine_ms, "refine_ms": refine_ms}
             sample["expert_time_ms"] = expert_ms
         samples.append(sample)
+    torch.set_num_threads(threads)
 
     max_summary = aggregate(max_scores)
     summary: dict[str, Any] = {
