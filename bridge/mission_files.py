@@ -41,11 +41,22 @@ PLAN_SUFFIXES = (".plan",)
 WPL_SUFFIXES = (".waypoints", ".txt")
 
 
+def _default_mode() -> int:
+    """The mode ``open()`` gives a new file: 0o666 less the process's umask (0644 under the usual 022)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then ``os.replace``)."""
+    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then ``os.replace``).
+
+    The file gets the permissions of any other new file (not ``mkstemp``'s private 0600).
+    """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(fd, _default_mode())
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
             handle.write(text)
             handle.flush()

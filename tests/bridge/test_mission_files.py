@@ -1,5 +1,7 @@
 import json
 import math
+import os
+import stat
 
 import pytest
 from pymavlink import mavwp
@@ -75,6 +77,18 @@ def test_writes_are_atomic_and_replace_existing_files(tmp_path):
     save_mission(path, _mission(mavlink.MAV_AUTOPILOT_PX4))
     assert json.loads(path.read_text())["fileType"] == "Plan"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.plan"]  # no temporary file left
+
+
+def test_mission_files_get_the_permissions_of_any_other_output(tmp_path):
+    umask = os.umask(0o022)
+    try:
+        for name in ("m.plan", "m.waypoints"):
+            save_mission(tmp_path / name, _mission(mavlink.MAV_AUTOPILOT_PX4))
+            assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o644
+        (tmp_path / "other.json").write_text("{}")
+        assert stat.S_IMODE((tmp_path / "other.json").stat().st_mode) == 0o644
+    finally:
+        os.umask(umask)
 
 
 def test_failed_write_leaves_the_old_file(tmp_path):
