@@ -167,8 +167,12 @@ def load_settings(name: str, config_path: str | Path | None = None) -> TaskSetti
     except ConfigError as exc:
         raise ConfigError(f"{where}{exc}") from None
     refine = dict(tables.get("refine", {}))
+    refiner_class = getattr(_task_class(name), "refiner_class", None)
+    if refiner_class is None and refine:
+        raise ConfigError(f"{where}[refine]: task {name!r} has no refinement")
     try:
-        _task_class(name).refiner_class.config_class.from_dict(refine, where="[refine]")
+        if refiner_class is not None:
+            refiner_class.config_class.from_dict(refine, where="[refine]")
     except ConfigError as exc:
         raise ConfigError(f"{where}{exc}") from None
     return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine)
