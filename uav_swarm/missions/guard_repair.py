@@ -100,10 +100,11 @@ def _spread(count: int, limit: int) -> np.ndarray:
 def _greedy_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
     """Rows of ``sees`` (candidates) covering every column (witness): most newly seen first, then cheapest."""
     order = np.lexsort((np.arange(len(cost)), cost))
+    ordered = sees[order]
     uncovered = np.ones(sees.shape[1], dtype=bool)
     picks: list[int] = []
     while np.any(uncovered):
-        gains = np.count_nonzero(sees[order][:, uncovered], axis=1)
+        gains = np.count_nonzero(ordered[:, uncovered], axis=1)
         best = int(order[np.argmax(gains)])  # argmax takes the first, i.e. cheapest, of the best gains
         picks.append(best)
         uncovered &= ~sees[best]
@@ -124,10 +125,11 @@ def _disjoint_witnesses(sees: np.ndarray) -> int:
 
 
 def _cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
-    """Fewest candidates (rows) seeing every witness (column), ties to the lower total cost.
+    """Fewest candidates (rows) seeing every witness (column), preferring cheap candidates.
 
-    The greedy cover is kept when it is provably as small as any, i.e. when as many witnesses as it
-    has guards pairwise share no candidate; otherwise the exact set cover decides (HiGHS).
+    The greedy cover (cheapest first among equal gains) is kept when it is provably as small as any,
+    i.e. when as many witnesses as it has guards pairwise share no candidate; otherwise the exact set
+    cover decides (HiGHS; among the smallest covers, the one of least total cost).
     """
     greedy = _greedy_cover(sees, cost)
     if len(greedy) <= _disjoint_witnesses(sees):
