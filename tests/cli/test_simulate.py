@@ -227,3 +227,18 @@ def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
         sock.bind(("127.0.0.1", 0))
         return sock.getsockname()[1]
+
+
+def test_refine_flag_merges_into_the_planning_table_of_the_file(tmp_path):
+    from uav_swarm.cli import build_parser
+    from uav_swarm.cli.simulate import _overrides
+    from uav_swarm.simulate_config import load_simulate_config
+
+    path = tmp_path / "sim.toml"
+    path.write_text("[planning]\nhysteresis_m = 7.0\n\n[planning.refinement]\ngrid_step_m = 5.0\n")
+    args = build_parser().parse_args(["simulate", "--config", str(path), "--refine", "--n-uavs", "4"])
+    config = load_simulate_config(args.config, _overrides(args))
+    assert config.planning.refine and config.planning.hysteresis_m == 7.0
+    assert config.planning.refinement.grid_step_m == 5.0 and config.n_uavs == 4
+    plain_args = build_parser().parse_args(["simulate", "--config", str(path)])
+    assert not load_simulate_config(path, _overrides(plain_args)).planning.refine
