@@ -1,5 +1,7 @@
 import json
+import time
 
+import pytest
 from lossy_relay import free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import SimVehicle, endpoint_pair
@@ -114,3 +116,39 @@ def test_upload_download_clear_against_vehicles(tmp_path, capsys):
     finally:
         for v in vehicles:
             v.close()
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--target", "0:10,10"], "vehicle id 0 is out of range: allowed 1-255 (0 is MAVLink's broadcast id)"),
+    (["--target", "256:10,10"], "vehicle id 256 is out of range"),
+    (["--target", "1:10,10", "--target", "1:20,20"], "vehicle 1 already has a target"),
+    (["--waypoint", "1:5,5"], "vehicle 1 has no --target"),
+])
+def test_malformed_targets_are_refused_at_once(tmp_path, capsys, args, message):
+    config = _config(tmp_path, {1: free_udp_port()})
+    assert main(["mission", "export", "--config", str(config), *args, "--out-dir", str(tmp_path / "o")]) == 2
+    assert message in capsys.readouterr().err and not (tmp_path / "o").exists()
+
+
+def test_waypoints_come_in_order_before_the_target(tmp_path):
+    config = _config(tmp_path, {1: free_udp_port()})
+    out = tmp_path / "o"
+    assert main(["mission", "export", "--config", str(config), "--waypoint", "1:5,5",
+                 "--waypoint", "1:6,7,25", "--target", "1:10,20", "--out-dir", str(out)]) == 0
+    items = load_plan(out / "vehicle_1.plan").items
+    waypoint = mavlink.MAV_CMD_NAV_WAYPOINT
+    assert [i.command for i in items] == [mavlink.MAV_CMD_NAV_TAKEOFF, waypoint, waypoint, waypoint,
+                                          mavlink.MAV_CMD_NAV_LOITER_UNLIM]  # target: waypoint + loiter
+    assert items[2].z == pytest.approx(25.0) and items[3].x == items[4].x
+
+
+@pytest.mark.parametrize(("target", "message"), [
+    ("7:10,10", "vehicle(s) [7] are not in the bridge config; configured vehicle ids: [1, 2]"),
+    ("1:9000,0", "outside the geofence"),
+])
+def test_upload_refuses_bad_plans_before_waiting_for_any_vehicle(tmp_path, capsys, target, message):
+    config = _config(tmp_path, {1: free_udp_port(), 2: free_udp_port()})  # nobody listens: waiting times out
+    start = time.monotonic()
+    assert main(["mission", "upload", "--config", str(config), "--target", target]) == 2
+    assert time.monotonic() - start < 2.0
+    assert message in capsys.readouterr().err

@@ -2,7 +2,8 @@
 
 Vehicles, home, mission shape, geofence and protocol timing come from a bridge config
 (``configs/bridge/*.toml``). Plans are local East-North-Up metres around home, the last
-point of each plan the target: ``--target ID:X,Y[,Z]`` (repeatable) or ``--plans FILE``
+point of each plan the target: ``--target ID:X,Y[,Z]`` (once per vehicle, after its
+``--waypoint ID:X,Y[,Z]`` points in order) or ``--plans FILE``
 with JSON ``{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]}``. Mission files are named
 ``vehicle_<ID>.plan`` (QGroundControl) or ``vehicle_<ID>.waypoints`` (QGC WPL 110).
 
@@ -47,7 +48,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="ID:X,Y[,Z]",
-        help="plan of one vehicle: its target in ENU metres (repeatable)",
+        help="the target of one vehicle in ENU metres (once per vehicle; repeat for other vehicles)",
+    )
+    add(
+        "--waypoint",
+        action="append",
+        default=[],
+        metavar="ID:X,Y[,Z]",
+        help="an intermediate point of one vehicle, flown before its target (repeatable, in order)",
     )
     add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]}')
     add("--from-dir", type=Path, help="upload: the vehicle_<ID>.plan/.waypoints files of this folder")
@@ -71,31 +79,62 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def parse_target(text: str) -> tuple[int, list[float]]:
-    """``"ID:X,Y[,Z]"`` -> ``(ID, [x_m, y_m(, z_m)])``.
+def parse_target(text: str, option: str = "--target") -> tuple[int, list[float]]:
+    """``"ID:X,Y[,Z]"`` -> ``(ID, [x_m, y_m(, z_m)])``, ``ID`` a MAVLink system id 1-255.
 
     Raises:
-        ValueError: Malformed text.
+        ValueError: Malformed text, or an id outside 1-255 (0 is MAVLink's broadcast id).
     """
     try:
         system_id, coords = text.split(":", 1)
         values = [float(v) for v in coords.split(",")]
         if len(values) not in (2, 3):
             raise ValueError
-        return int(system_id), values
+        sid = int(system_id)
     except ValueError:
-        raise ValueError(f"--target {text!r}: expected ID:X,Y or ID:X,Y,Z (metres East, North, Up)") from None
+        raise ValueError(f"{option} {text!r}: expected ID:X,Y or ID:X,Y,Z (metres East, North, Up)") from None
+    if not 1 <= sid <= 255:
+        raise ValueError(f"{option} {text!r}: vehicle id {sid} is out of range: allowed 1-255 "
+                         "(0 is MAVLink's broadcast id)")
+    return sid, values
 
 
 def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
+    """Each vehicle's plan: its ``--waypoint`` points in order, then its one ``--target`` (or ``--plans``)."""
     plans: dict[int, list[list[float]]] = {}
     if args.plans is not None:
         data = json.loads(args.plans.read_text(encoding="utf-8"))
         plans.update({int(sid): [list(map(float, p)) for p in points] for sid, points in data.items()})
+    targets: dict[int, list[float]] = {}
     for text in args.target:
         system_id, point = parse_target(text)
-        plans.setdefault(system_id, []).append(point)
+        if system_id in targets or system_id in plans:
+            raise ValueError(f"--target {text!r}: vehicle {system_id} already has a target; give one "
+                             "--target per vehicle and its intermediate points as "
+                             f"--waypoint {system_id}:X,Y[,Z]")
+        targets[system_id] = point
+    waypoints: dict[int, list[list[float]]] = {}
+    for text in args.waypoint:
+        system_id, point = parse_target(text, "--waypoint")
+        if system_id not in targets:
+            raise ValueError(f"--waypoint {text!r}: vehicle {system_id} has no --target to fly to after it")
+        waypoints.setdefault(system_id, []).append(point)
+    for system_id, point in targets.items():
+        plans[system_id] = [*waypoints.get(system_id, []), point]
     return plans
+
+
+def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: ANN001 - BridgeConfig
+    """Refuse, before any network wait, plans for vehicles the config lacks or outside the fence."""
+    from bridge.mission import build_mission
+
+    configured = sorted(v.system_id for v in config.vehicles)
+    unknown = sorted(set(plans) - set(configured))
+    if unknown:
+        raise ValueError(f"vehicle(s) {unknown} are not in the bridge config; configured vehicle ids: "
+                         f"{configured}")
+    for points in plans.values():
+        build_mission(points, config.home, config.mission, config.geofence)  # GeofenceError before any wait
 
 
 def _mission_files(folder: Path) -> dict[int, Path]:
@@ -162,6 +201,8 @@ def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
     plans = _plans(args)
     if bool(plans) == (args.from_dir is not None):
         raise ValueError("upload needs either --target/--plans or --from-dir")
+    if plans:
+        _check_plans(plans, config)
     with Fleet(config) as fleet:
         if plans:
             missions = fleet.build_missions(plans)
