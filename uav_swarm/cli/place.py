@@ -120,14 +120,14 @@ def _geojson(fitted: Any, guards_m: np.ndarray, seen_share: np.ndarray, method: 
     return {"type": "FeatureCollection", "coordinates": coordinates, "features": features}
 
 
-def _plot(path: Path, task: Any, fitted: Any, guards_px: np.ndarray, seen_by: np.ndarray, title: str) -> None:
+def _plot(path: Path, witnesses: np.ndarray, fitted: Any, guards_px: np.ndarray, seen_by: np.ndarray,
+          title: str) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     from learning.files import atomic_path
 
     polygon = fitted.polygon
-    witnesses = task.witnesses(polygon)
     fig = Figure(figsize=(6.0, 6.0), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
@@ -161,10 +161,8 @@ def run(args: argparse.Namespace) -> int:
     from typed_config import ConfigError
     from uav_swarm.missions.footprint import FootprintError, fit_to_raster, read_footprint
     from uav_swarm.missions.monitoring import MonitoringScene
-    from uav_swarm.missions.polygons import locate_points
     from uav_swarm.missions.registry import build_task
     from uav_swarm.missions.setcover import InfeasibleCoverError
-    from uav_swarm.missions.visibility import visibility_matrix
 
     task = build_task(args.task)
     try:
@@ -184,13 +182,9 @@ def run(args: argparse.Namespace) -> int:
     except BridgeError as exc:  # the geofence refuses a guard: nothing is written
         print(f"uav-swarm place: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 2
-    quality = task.qos(scene, guards_px)
-    allowed = task.region == "interior"
-    valid = (locate_points(guards_px, fitted.polygon.vertices_px) >= 0) == allowed
-    seen_by = np.zeros((len(guards_px), len(task.witnesses(fitted.polygon))), dtype=bool)
-    if np.any(valid):
-        seen_by[valid] = visibility_matrix(fitted.polygon, guards_px[valid], task.witnesses(fitted.polygon),
-                                           task.region)
+    seen_by = task.seen_by(fitted.polygon, guards_px)  # (guards, witnesses)
+    seen = np.any(seen_by, axis=0)
+    quality = {"qos": float(np.all(seen)), "seen_fraction": float(np.mean(seen)) if seen.size else 1.0}
     args.out.mkdir(parents=True, exist_ok=True)
     geojson = _geojson(fitted, guards_m, seen_by.mean(axis=1), args.method)
     write_json_atomic(args.out / "guards.geojson", geojson)
@@ -210,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
     write_json_atomic(args.out / "placement.json", summary)
     title = (f"{footprint.name}: {task.name} {args.method}, {len(guards_px)} guards, "
              f"{100 * quality['seen_fraction']:.1f} % seen")
-    _plot(args.out / "placement.png", task, fitted, guards_px, seen_by, title)
+    _plot(args.out / "placement.png", task.witnesses(fitted.polygon), fitted, guards_px, seen_by, title)
     print(f"{footprint.name}: {len(guards_px)} {args.method} guards ({task.name}), "
           f"{100 * quality['seen_fraction']:.1f} % of the witnesses seen, {seconds * 1e3:.1f} ms; "
           f"wrote {', '.join(files)} in {args.out}")

@@ -208,14 +208,25 @@ class _MonitoringTask:
             positions = positions.reshape(0, 2)
         if positions.ndim != 2 or positions.shape[1] != 2 or not np.all(np.isfinite(positions)):
             raise ValueError(f"positions_px must be a finite (k, 2) array, got shape {positions.shape}")
-        polygon = scene.polygon
-        guards = np.unique(np.clip(np.rint(positions), 0, polygon.size_px - 1), axis=0)
-        codes = locate_points(guards, polygon.vertices_px)
-        guards = guards[codes >= 0] if self.region == "interior" else guards[codes < 0]
-        witnesses = self.witnesses(polygon)
-        seen = np.any(visibility_matrix(polygon, guards, witnesses, self.region), axis=0)
-        fraction = float(np.mean(seen)) if len(witnesses) else 1.0
+        guards = np.unique(np.clip(np.rint(positions), 0, scene.polygon.size_px - 1), axis=0)
+        seen = np.any(self.seen_by(scene.polygon, guards), axis=0)
+        fraction = float(np.mean(seen)) if seen.size else 1.0
         return {"qos": float(bool(np.all(seen))), "seen_fraction": fraction}
+
+    def seen_by(self, polygon: Polygon, guards_px: np.ndarray) -> np.ndarray:
+        """``(k, W)`` bool: the witnesses each guard sees; a guard where the mission allows none sees nothing.
+
+        Args:
+            polygon: The building.
+            guards_px: ``(k, 2)`` guard positions on pixel centres (rounded, within the raster).
+        """
+        guards = np.asarray(guards_px, dtype=np.float64).reshape(-1, 2)
+        witnesses = self.witnesses(polygon)
+        codes = locate_points(guards, polygon.vertices_px)
+        allowed = codes >= 0 if self.region == "interior" else codes < 0
+        seen = np.zeros((len(guards), len(witnesses)), dtype=bool)
+        seen[allowed] = visibility_matrix(polygon, guards[allowed], witnesses, self.region)
+        return seen
 
 
 class GuardRefiner:

@@ -164,15 +164,12 @@ def load_settings(name: str, config_path: str | Path | None = None) -> TaskSetti
         model = ModelConfig.from_dict(tables.get("model", {}), where="[model]")
         train = TrainConfig.from_dict(tables.get("train", {}), where="[train]")
         peaks = PeakConfig.from_dict(tables.get("peaks", {}), where="[peaks]")
-    except ConfigError as exc:
-        raise ConfigError(f"{where}{exc}") from None
-    refine = dict(tables.get("refine", {}))
-    refiner_class = getattr(_task_class(name), "refiner_class", None)
-    if refiner_class is None and refine:
-        raise ConfigError(f"{where}[refine]: task {name!r} has no refinement")
-    try:
-        if refiner_class is not None:
+        refine = dict(tables.get("refine", {}))
+        refiner_class = getattr(_task_class(name), "refiner_class", None)
+        if refiner_class is not None:  # validated here, built by build_refiner
             refiner_class.config_class.from_dict(refine, where="[refine]")
+        elif refine:
+            raise ConfigError(f"[refine]: task {name!r} has no refinement")
     except ConfigError as exc:
         raise ConfigError(f"{where}{exc}") from None
     return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine)

@@ -145,7 +145,6 @@ class WifiRefiner:
         return self.task.expert(scene)
 
 
-
 class WifiTask:
     """Wi-Fi placement over a moving crowd, strategy 1 or 2 (see the module docstring).
 
