@@ -1,6 +1,6 @@
-"""Commands to a vehicle: guided replanning with ``MAV_CMD_DO_REPOSITION`` over COMMAND_INT.
+"""Commands to a vehicle (COMMAND_INT, COMMAND_LONG) and guided replanning with ``MAV_CMD_DO_REPOSITION``.
 
-A COMMAND_INT is sent again when no COMMAND_ACK arrives within the handshake
+A command is sent again when no COMMAND_ACK arrives within the handshake
 timeout (up to ``max_retries`` times); ``MAV_RESULT_IN_PROGRESS`` keeps waiting,
 ``MAV_RESULT_ACCEPTED`` succeeds, any other result raises
 :class:`~bridge.errors.CommandRejectedError`.
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import queue
 import time
+from collections.abc import Callable
 
 from bridge.config import ProtocolConfig
 from bridge.errors import CommandRejectedError, CommandTimeoutError
@@ -18,7 +19,39 @@ from bridge.geofence import GeofenceConfig, check_geofence
 from bridge.mavlink import MavlinkLink
 from bridge.mission import DEG_E7
 
-__all__ = ["command_int", "reposition"]
+__all__ = ["command_int", "command_long", "reposition"]
+
+
+def _await_ack(
+    link: MavlinkLink, system_id: int, command: int, send: Callable[[], None], protocol: ProtocolConfig
+) -> None:
+    """Send with ``send()`` and wait for ``command``'s final COMMAND_ACK, re-sending on silence."""
+    m = link.mavlink
+    with link.inbox(system_id) as box:
+        send()
+        tries = 0
+        deadline_s = time.monotonic() + protocol.handshake_timeout_s
+        while True:
+            try:
+                msg = box.get(timeout=max(0.0, deadline_s - time.monotonic()))
+            except queue.Empty:
+                tries += 1
+                if tries > protocol.max_retries:
+                    raise CommandTimeoutError(
+                        system_id, command, protocol.handshake_timeout_s * tries
+                    ) from None
+                deadline_s = time.monotonic() + protocol.handshake_timeout_s
+                send()
+                continue
+            if msg.get_type() != "COMMAND_ACK" or msg.command != command:
+                continue
+            if msg.result == m.MAV_RESULT_ACCEPTED:
+                return
+            if msg.result == m.MAV_RESULT_IN_PROGRESS:
+                tries = 0
+                deadline_s = time.monotonic() + protocol.handshake_timeout_s
+                continue
+            raise CommandRejectedError(system_id, command, msg.result)
 
 
 def command_int(
@@ -52,8 +85,6 @@ def command_int(
         CommandRejectedError: The ACK's result is not accepted (nor in progress).
         CommandTimeoutError: No final ACK after every retry.
     """
-    protocol = protocol or ProtocolConfig()
-    m = link.mavlink
     p = (*params, 0.0, 0.0, 0.0, 0.0)[:4]
 
     def send() -> None:
@@ -75,31 +106,48 @@ def command_int(
             )
         )
 
-    with link.inbox(system_id) as box:
-        send()
-        tries = 0
-        deadline_s = time.monotonic() + protocol.handshake_timeout_s
-        while True:
-            try:
-                msg = box.get(timeout=max(0.0, deadline_s - time.monotonic()))
-            except queue.Empty:
-                tries += 1
-                if tries > protocol.max_retries:
-                    raise CommandTimeoutError(
-                        system_id, command, protocol.handshake_timeout_s * tries
-                    ) from None
-                deadline_s = time.monotonic() + protocol.handshake_timeout_s
-                send()
-                continue
-            if msg.get_type() != "COMMAND_ACK" or msg.command != command:
-                continue
-            if msg.result == m.MAV_RESULT_ACCEPTED:
-                return
-            if msg.result == m.MAV_RESULT_IN_PROGRESS:
-                tries = 0
-                deadline_s = time.monotonic() + protocol.handshake_timeout_s
-                continue
-            raise CommandRejectedError(system_id, command, msg.result)
+    _await_ack(link, system_id, command, send, protocol or ProtocolConfig())
+
+
+def command_long(
+    link: MavlinkLink,
+    system_id: int,
+    *,
+    command: int,
+    params: tuple[float, ...] = (),
+    protocol: ProtocolConfig | None = None,
+    component_id: int = 1,
+) -> None:
+    """Send a COMMAND_LONG and wait for its final COMMAND_ACK.
+
+    A re-send after silence carries an incremented ``confirmation`` field, as the command
+    protocol asks, so the vehicle can tell a retry from a new command.
+
+    Args:
+        link: The connection reaching the vehicle.
+        system_id: The vehicle.
+        command: ``MAV_CMD_*``.
+        params: param1..param7 (missing ones are 0).
+        protocol: Timeouts and retries.
+        component_id: The vehicle's autopilot component.
+
+    Raises:
+        CommandRejectedError: The ACK's result is not accepted (nor in progress).
+        CommandTimeoutError: No final ACK after every retry.
+    """
+    p = (*params, *([0.0] * 7))[:7]
+    confirmation = -1
+
+    def send() -> None:
+        nonlocal confirmation
+        confirmation = min(confirmation + 1, 255)
+        link.send(
+            lambda mav: mav.command_long_send(
+                system_id, component_id, command, confirmation, p[0], p[1], p[2], p[3], p[4], p[5], p[6]
+            )
+        )
+
+    _await_ack(link, system_id, command, send, protocol or ProtocolConfig())
 
 
 def reposition(

@@ -5,7 +5,9 @@ Loaded from ``configs/bridge/*.toml`` with ``typed_config.load_toml(BridgeConfig
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any, Literal
 
 from bridge.geo import Home
 from bridge.geofence import GeofenceConfig
@@ -36,6 +38,16 @@ class ProtocolConfig(Config):
         3, ge=1, le=10, doc="whole-transfer attempts when one breaks off after the handshake"
     )
     heartbeat_timeout_s: float = param(5.0, gt=0.0, le=600.0, doc="vehicle discovery time, seconds")
+    busy_retry_s: float = param(
+        20.0,
+        ge=0.0,
+        le=600.0,
+        doc="keep asking, with back-off, a vehicle that answers MISSION_COUNT with MAV_MISSION_NO_SPACE "
+        "or MAV_MISSION_DENIED (still booting, or busy), seconds (0: no retry)",
+    )
+    home_timeout_s: float = param(
+        10.0, gt=0.0, le=600.0, doc="wait for a vehicle's home (HOME_POSITION or a position fix), seconds"
+    )
 
 
 @dataclass(frozen=True)
@@ -79,9 +91,25 @@ class VehicleEndpoint(Config):
 
 @dataclass(frozen=True)
 class BridgeConfig(Config):
-    """Everything the MAVLink bridge needs for a fleet of up to 10 vehicles."""
+    """Everything the MAVLink bridge needs for a fleet of up to 10 vehicles.
+
+    In TOML, ``home = "vehicle"`` (instead of a ``[home]`` table) is short for
+    ``home_source = "vehicle"``: each mission is built around its vehicle's own home.
+    """
 
     home: Home = param(Home(), doc="geodetic origin of the local ENU frame")
+    home_source: Literal["config", "vehicle"] = param(
+        "config",
+        doc="the home missions are built around: 'config' ([home], checked against each vehicle's "
+        "reported home) or 'vehicle' (each vehicle's own reported home)",
+    )
+    max_home_offset_m: float = param(
+        100.0,
+        ge=0.0,
+        le=20_000_000.0,
+        doc="refuse an upload when a vehicle's reported home is farther than this from the mission's "
+        "home, metres (0: do not check)",
+    )
     mission: MissionConfig = param(MissionConfig(), doc="how plans become missions")
     geofence: GeofenceConfig = param(GeofenceConfig(), doc="allowed area and altitude band")
     protocol: ProtocolConfig = param(ProtocolConfig(), doc="mission protocol timing")
@@ -89,6 +117,18 @@ class BridgeConfig(Config):
     source_system: int = param(255, ge=1, le=255, doc="our (ground station) MAVLink system id")
     source_component: int = param(190, ge=1, le=255, doc="our MAVLink component id (190: mission planner)")
     vehicles: tuple[VehicleEndpoint, ...] = param((), doc="the vehicles, one table each")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> BridgeConfig:
+        """Like :meth:`Config.from_dict`, reading ``home = "vehicle"`` as ``home_source = "vehicle"``."""
+        if data.get("home") == "vehicle":
+            if data.get("home_source", "vehicle") != "vehicle":
+                raise ConfigError(
+                    f"{where or cls.__name__}: home = \"vehicle\" contradicts home_source = "
+                    f"{data['home_source']!r}"
+                )
+            data = {**{k: v for k, v in data.items() if k != "home"}, "home_source": "vehicle"}
+        return super().from_dict(data, where=where)
 
     def check(self) -> None:
         """At most 10 vehicles, distinct system ids, none equal to ours."""

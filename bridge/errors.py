@@ -5,7 +5,12 @@ Every ``MAV_MISSION_RESULT`` error code has its own exception class, a subclass 
 number the vehicle refused (``None`` when the refusal was not about one item).
 Timeouts raise :class:`MissionTimeoutError`; refused commands
 :class:`CommandRejectedError`; waypoints outside the fence :class:`GeofenceError`
-(raised before anything is sent).
+(raised before anything is sent). The bridge's own safety refusals, raised before
+anything is sent to the vehicle, are :class:`RefusedError` subclasses:
+:class:`HomeMismatchError` and :class:`MissionRunningError`.
+
+Every message of a per-vehicle error starts with ``vehicle <id>``; what the vehicle
+said meanwhile (STATUSTEXT) is appended with :meth:`BridgeError.add_detail`.
 """
 
 from __future__ import annotations
@@ -15,6 +20,12 @@ from pymavlink.dialects.v20 import common as mavlink
 __all__ = [
     "BridgeError",
     "GeofenceError",
+    "PlanError",
+    "RefusedError",
+    "HomeMismatchError",
+    "HomeUnknownError",
+    "MissionRunningError",
+    "VehicleUnreachableError",
     "MissionResultError",
     "MissionGenericError",
     "MissionUnsupportedFrameError",
@@ -43,9 +54,31 @@ __all__ = [
 class BridgeError(Exception):
     """Base class of every error raised by the bridge."""
 
+    def add_detail(self, detail: str) -> None:
+        """Append ``detail`` (what the vehicle said, a hint) to the message, once."""
+        message = str(self.args[0]) if self.args else ""
+        if detail and detail not in message:
+            self.args = (f"{message}; {detail}" if message else detail, *self.args[1:])
+
 
 class GeofenceError(BridgeError, ValueError):
     """A waypoint lies outside the configured area or altitude band; nothing was sent."""
+
+
+class PlanError(BridgeError, ValueError):
+    """A plan or mission file cannot become this vehicle's mission; nothing was sent."""
+
+
+class RefusedError(BridgeError):
+    """The bridge refused, for safety, to send anything to the vehicle (the user can fix or override it)."""
+
+
+class VehicleUnreachableError(BridgeError):
+    """The connection to a vehicle could not be opened (e.g. nothing listens on its TCP port)."""
+
+    def __init__(self, system_id: int, endpoint: str, reason: BaseException) -> None:
+        self.system_id = system_id
+        super().__init__(f"vehicle {system_id}: cannot connect to {endpoint}: {reason}")
 
 
 class MissionResultError(BridgeError):
@@ -176,7 +209,8 @@ class MissionMismatchError(BridgeError):
     def __init__(self, system_id: int, seq: int | None, detail: str) -> None:
         self.system_id = system_id
         self.seq = seq
-        super().__init__(f"vehicle {system_id}: downloaded mission differs at item {seq}: {detail}")
+        where = f"item {seq}" if seq is not None else "its length"
+        super().__init__(f"vehicle {system_id}: the mission read back differs in {where}: {detail}")
 
 
 class MissionTimeoutError(BridgeError, TimeoutError):
@@ -197,7 +231,7 @@ class MissionTimeoutError(BridgeError, TimeoutError):
 
 
 class CommandRejectedError(BridgeError):
-    """A COMMAND_INT was answered with a COMMAND_ACK result other than accepted."""
+    """A command was answered with a COMMAND_ACK result other than accepted."""
 
     def __init__(self, system_id: int, command: int, result: int) -> None:
         self.system_id = system_id
@@ -211,12 +245,13 @@ class CommandRejectedError(BridgeError):
 
 
 class CommandTimeoutError(BridgeError, TimeoutError):
-    """A COMMAND_INT got no final COMMAND_ACK after every retry."""
+    """A command got no final COMMAND_ACK after every retry."""
 
     def __init__(self, system_id: int, command: int, waited_s: float) -> None:
         self.system_id = system_id
         self.command = command
-        super().__init__(f"vehicle {system_id}: no COMMAND_ACK for command {command} after {waited_s:.2f} s")
+        name = mavlink.enums["MAV_CMD"][command].name if command in mavlink.enums["MAV_CMD"] else str(command)
+        super().__init__(f"vehicle {system_id}: no COMMAND_ACK for {name} in {waited_s:.2f} s, all retries")
 
 
 class HeartbeatTimeoutError(BridgeError, TimeoutError):
@@ -224,4 +259,42 @@ class HeartbeatTimeoutError(BridgeError, TimeoutError):
 
     def __init__(self, system_id: int, endpoint: str, waited_s: float) -> None:
         self.system_id = system_id
-        super().__init__(f"no HEARTBEAT from vehicle {system_id} on {endpoint} within {waited_s:.1f} s")
+        super().__init__(f"vehicle {system_id}: no HEARTBEAT on {endpoint} within {waited_s:.1f} s")
+
+
+class HomeUnknownError(BridgeError, TimeoutError):
+    """A vehicle reported neither HOME_POSITION nor a position fix in time, so its home cannot be checked."""
+
+    def __init__(self, system_id: int, waited_s: float) -> None:
+        self.system_id = system_id
+        super().__init__(
+            f"vehicle {system_id}: no HOME_POSITION and no position fix within {waited_s:.1f} s, so its "
+            "home cannot be compared with the configured one; nothing was sent (wait for a GPS fix, or set "
+            "max_home_offset_m = 0 to upload without this check)"
+        )
+
+
+class HomeMismatchError(RefusedError, ValueError):
+    """A vehicle's reported home is farther from the mission's home than ``max_home_offset_m``.
+
+    Attributes:
+        system_id: The vehicle.
+        offset_m: Horizontal distance between the two homes, metres.
+    """
+
+    def __init__(self, system_id: int, offset_m: float, detail: str) -> None:
+        self.system_id = system_id
+        self.offset_m = offset_m
+        super().__init__(f"vehicle {system_id}: {detail}")
+
+
+class MissionRunningError(RefusedError):
+    """The vehicle flies its mission (armed, in AUTO, past item 0): clearing or replacing it needs force."""
+
+    def __init__(self, system_id: int, operation: str, mode: str, seq: int) -> None:
+        self.system_id = system_id
+        super().__init__(
+            f"vehicle {system_id}: is flying its mission (armed, mode {mode}, at item {seq}); refusing to "
+            f"{operation} it: a new or empty mission changes what it flies now. Switch it out of "
+            f"{mode} first, or force it (--force)"
+        )

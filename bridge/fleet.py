@@ -2,7 +2,9 @@
 
 Vehicles that share a connection string share one :class:`~bridge.mavlink.MavlinkLink`;
 each vehicle's transfers run in their own thread, so uploads to every vehicle proceed
-at once.
+at once. Each vehicle is on its own: one that cannot be reached, stays silent or fails
+is reported by name (:class:`FleetError`) while every other one gets its mission
+(:meth:`Fleet.deliver`: heartbeat, home check, mission, upload, verification, per vehicle).
 
 Example (the planner's path from ENU targets to flying vehicles)::
 
@@ -19,19 +21,37 @@ import logging
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import TypeVar
 
 from bridge.commands import reposition
 from bridge.config import BridgeConfig
-from bridge.errors import BridgeError, HeartbeatTimeoutError
-from bridge.mavlink import LinkReader, MavlinkLink
-from bridge.mission import Mission, MissionItem, build_mission
+from bridge.errors import (
+    BridgeError,
+    MissionResultError,
+    MissionRunningError,
+    PlanError,
+    VehicleUnreachableError,
+)
+from bridge.geo import Home
+from bridge.mavlink import LinkReader, MavlinkLink, use_mavlink2
+from bridge.mission import ARDUPILOT, Mission, MissionItem, build_mission
 from bridge.mission_protocol import MissionClient
 from bridge.mission_upload import upload_concurrently
 from bridge.signing import SigningKey, load_signing_key
+from bridge.vehicle_home import HomeWatcher, ReportedHome, check_home_offset
 from bridge.vehicle_state import VehicleState, VehicleStateTracker
 
-__all__ = ["Fleet", "FleetError"]
+__all__ = ["Fleet", "FleetError", "Delivery", "MissionBuilder"]
+
+MissionBuilder = Callable[[int, int, Home], Mission]
+"""``build(system_id, autopilot, home)``: a vehicle's mission around ``home``, as its autopilot wants it."""
+
+_AUTO_MODES = frozenset({"AUTO", "MISSION"})  # ArduPilot's and PX4's mission-flying modes
+_CLEAR_HINT = (
+    "ArduPilot refuses (MAV_MISSION_ERROR) to clear the mission it is flying in AUTO: switch the "
+    "vehicle to another mode (e.g. LOITER or GUIDED) first"
+)
 
 log = logging.getLogger(__name__)
 
@@ -51,10 +71,25 @@ class FleetError(BridgeError):
     ) -> None:
         self.errors = dict(errors)
         self.results = dict(results)
-        lines = "; ".join(
-            f"vehicle {sid}: {type(exc).__name__}: {exc}" for sid, exc in sorted(self.errors.items())
-        )
+        lines = "; ".join(f"{type(exc).__name__}: {exc}" for _, exc in sorted(self.errors.items()))
         super().__init__(f"{operation} failed on {len(self.errors)} vehicle(s): {lines}")
+
+
+@dataclass(frozen=True)
+class Delivery:
+    """One vehicle's successful upload (:meth:`Fleet.deliver`).
+
+    Attributes:
+        mission: The mission it now holds.
+        reported_home: Its home as it reported it (``None``: not asked, the check is off).
+        upload_s: Seconds spent sending the mission (all attempts).
+        verify_s: Seconds spent reading it back and comparing (``None``: not verified).
+    """
+
+    mission: Mission
+    reported_home: ReportedHome | None
+    upload_s: float
+    verify_s: float | None
 
 
 class Fleet:
@@ -69,34 +104,62 @@ class Fleet:
         self.config = config
         key = signing_key if signing_key is not None else load_signing_key(config.signing)
         self.tracker = VehicleStateTracker(config.home)
+        self._homes = HomeWatcher()
         self._autopilots: dict[int, int] = {}
         self._pool = ThreadPoolExecutor(max_workers=max(1, len(config.vehicles)), thread_name_prefix="fleet")
         self._reader = LinkReader("fleet mavlink reader")
         self._links: dict[str, MavlinkLink] = {}
         self._link_of: dict[int, MavlinkLink] = {}
+        self._link_errors: dict[int, VehicleUnreachableError] = {}
         try:
-            for vehicle in config.vehicles:
-                if vehicle.url not in self._links:
-                    link = MavlinkLink(
-                        vehicle.url,
-                        source_system=config.source_system,
-                        source_component=config.source_component,
-                        signing_key=key,
-                        signing_link_id=config.signing.link_id,
-                        allow_unsigned=config.signing.allow_unsigned,
-                        reader=self._reader,
-                    )
-                    link.add_listener(self.tracker.update)
-                    self._links[vehicle.url] = link
-                self._link_of[vehicle.system_id] = self._links[vehicle.url]
+            self._open_links(key)
         except BaseException:
             self.close()
             raise
 
+    def _open_links(self, key: SigningKey | None) -> None:
+        """Open every connection at once; one that cannot be opened fails only its vehicles."""
+        use_mavlink2()  # once, before the threads
+
+        def open_link(url: str) -> MavlinkLink:
+            link = MavlinkLink(
+                url,
+                source_system=self.config.source_system,
+                source_component=self.config.source_component,
+                signing_key=key,
+                signing_link_id=self.config.signing.link_id,
+                allow_unsigned=self.config.signing.allow_unsigned,
+                reader=self._reader,
+            )
+            link.add_listener(self.tracker.update)
+            link.add_listener(self._homes.update)
+            return link
+
+        urls = dict.fromkeys(v.url for v in self.config.vehicles)
+        futures = {url: self._pool.submit(open_link, url) for url in urls}
+        failures: dict[str, OSError] = {}
+        unexpected: BaseException | None = None
+        for url, future in futures.items():
+            try:
+                self._links[url] = future.result()
+            except OSError as exc:  # refused TCP connection, port in use, unknown host
+                failures[url] = exc
+            except BaseException as exc:
+                unexpected = unexpected or exc
+        if unexpected is not None:
+            raise unexpected
+        for vehicle in self.config.vehicles:
+            if vehicle.url in failures:
+                error = VehicleUnreachableError(vehicle.system_id, vehicle.url, failures[vehicle.url])
+                log.warning("%s", error)
+                self._link_errors[vehicle.system_id] = error
+            else:
+                self._link_of[vehicle.system_id] = self._links[vehicle.url]
+
     @property
     def system_ids(self) -> tuple[int, ...]:
-        """The configured vehicles' system ids."""
-        return tuple(self._link_of)
+        """The configured vehicles' system ids (reachable or not)."""
+        return tuple(v.system_id for v in self.config.vehicles)
 
     def close(self) -> None:
         """Close every connection."""
@@ -112,45 +175,77 @@ class Fleet:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def link(self, system_id: int) -> MavlinkLink:
+        """The connection reaching one vehicle (shared with the vehicles on the same connection string).
+
+        Raises:
+            KeyError: ``system_id`` is not a configured vehicle.
+            VehicleUnreachableError: Its connection could not be opened.
+        """
+        if system_id in self._link_errors:
+            raise self._link_errors[system_id]
+        if system_id not in self._link_of:
+            raise KeyError(f"vehicle {system_id} is not configured; configured: {sorted(self.system_ids)}")
+        return self._link_of[system_id]
+
     def client(self, system_id: int) -> MissionClient:
         """The mission protocol client of one vehicle.
 
         Raises:
             KeyError: ``system_id`` is not a configured vehicle.
+            VehicleUnreachableError: Its connection could not be opened.
         """
-        if system_id not in self._link_of:
-            raise KeyError(f"vehicle {system_id} is not configured; configured: {sorted(self._link_of)}")
-        return MissionClient(self._link_of[system_id], system_id, self.config.protocol)
+        return MissionClient(self.link(system_id), system_id, self.config.protocol)
+
+    def _configured(self, system_id: int) -> None:
+        """Raise KeyError naming the configured ids unless ``system_id`` is one of them."""
+        if system_id not in self.system_ids:
+            raise KeyError(f"vehicle {system_id} is not configured; configured: {sorted(self.system_ids)}")
 
     def wait_for_vehicles(
         self, system_ids: Sequence[int] | None = None, timeout_s: float | None = None
     ) -> dict[int, int]:
-        """Wait for a HEARTBEAT of each vehicle; returns each one's ``MAV_AUTOPILOT_*``.
+        """Wait for a HEARTBEAT of each vehicle, all at once; returns each one's ``MAV_AUTOPILOT_*``.
 
         Raises:
-            FleetError: Holding a :class:`HeartbeatTimeoutError` per silent vehicle.
+            FleetError: Holding a :class:`HeartbeatTimeoutError` (or :class:`VehicleUnreachableError`)
+                per absent vehicle, and the autopilots of the others in ``results``.
         """
         ids = list(system_ids or self.system_ids)
         timeout_s = self.config.protocol.heartbeat_timeout_s if timeout_s is None else timeout_s
-        deadline = time.monotonic() + timeout_s
-        errors: dict[int, BaseException] = {}
-        for sid in ids:
-            try:
-                heartbeat = self._link_of[sid].wait_heartbeat(sid, max(0.0, deadline - time.monotonic()))
-                self._autopilots[sid] = heartbeat.autopilot
-            except HeartbeatTimeoutError as exc:
-                errors[sid] = exc
-        if errors:
-            raise FleetError(
-                "discovery", errors, {sid: self._autopilots[sid] for sid in ids if sid not in errors}
-            )
-        return {sid: self._autopilots[sid] for sid in ids}
+        return self._each("discovery", ids, lambda sid: self._discover(sid, timeout_s))
+
+    def _discover(self, system_id: int, timeout_s: float) -> int:
+        """The vehicle's ``MAV_AUTOPILOT_*`` from its first HEARTBEAT, waiting at most ``timeout_s``."""
+        if system_id not in self._autopilots:
+            self._autopilots[system_id] = self.link(system_id).wait_heartbeat(system_id, timeout_s).autopilot
+        return self._autopilots[system_id]
 
     def autopilot(self, system_id: int) -> int:
         """The vehicle's ``MAV_AUTOPILOT_*``, waiting for its heartbeat if needed."""
         if system_id not in self._autopilots:
             self.wait_for_vehicles([system_id])
         return self._autopilots[system_id]
+
+    def vehicle_home(self, system_id: int) -> ReportedHome:
+        """The vehicle's own home: its HOME_POSITION (asked for) or its first position fix.
+
+        Raises:
+            HomeUnknownError: Neither arrived within ``protocol.home_timeout_s``.
+        """
+        return self._homes.wait(self.link(system_id), system_id, self.config.protocol)
+
+    def check_home(self, system_id: int) -> ReportedHome:
+        """The vehicle's home, refused beyond ``max_home_offset_m`` from ``[home]`` (0: not checked).
+
+        Raises:
+            HomeMismatchError: Naming both positions and the distance.
+            HomeUnknownError: The vehicle reported no home in time.
+        """
+        reported = self.vehicle_home(system_id)
+        if self.config.max_home_offset_m > 0:
+            check_home_offset(system_id, self.config.home, reported, self.config.max_home_offset_m)
+        return reported
 
     def build_missions(self, plans_m: Mapping[int, Sequence[Sequence[float]]]) -> dict[int, Mission]:
         """Missions from ENU plans (``{system_id: [(x_m, y_m[, z_m]), ...]}``, the last point the target).
@@ -161,16 +256,63 @@ class Fleet:
             GeofenceError: A point is outside the fence (naming the vehicle).
             KeyError: An unknown vehicle.
         """
-        missions = {}
+        self.check_plans(plans_m)
+        home = self.config.home
+        return {sid: self._build(sid, self.autopilot(sid), home, points) for sid, points in plans_m.items()}
+
+    def check_plans(self, plans_m: Mapping[int, Sequence[Sequence[float]]]) -> None:
+        """Refuse, without waiting for or sending anything, unknown vehicles and points outside the fence.
+
+        Raises:
+            KeyError: An unknown vehicle (naming the configured ids).
+            GeofenceError: A point is outside the fence (naming the vehicle and the user's point).
+            ValueError: A malformed plan.
+        """
         for sid, points in plans_m.items():
-            autopilot = self.autopilot(sid)
-            try:
-                missions[sid] = build_mission(
-                    points, self.config.home, self.config.mission, self.config.geofence, autopilot
-                )
-            except ValueError as exc:
-                raise type(exc)(f"vehicle {sid}: {exc}") from None
-        return missions
+            self._configured(sid)
+            self._build(sid, 0, self.config.home, points)
+
+    def _build(
+        self, system_id: int, autopilot: int, home: Home, points: Sequence[Sequence[float]]
+    ) -> Mission:
+        try:
+            return build_mission(points, home, self.config.mission, self.config.geofence, autopilot)
+        except ValueError as exc:
+            raise type(exc)(f"vehicle {system_id}: {exc}") from None
+
+    def _flying_mission(self, system_id: int) -> VehicleState | None:
+        """The vehicle's state when it flies its mission (armed, AUTO, past item 0), else ``None``.
+
+        Waits for its HEARTBEAT first (a state not heard yet is not "not flying"); armed in AUTO
+        with no MISSION_CURRENT heard yet, waits up to one handshake timeout for it.
+
+        Raises:
+            HeartbeatTimeoutError: The vehicle is silent.
+        """
+        self._discover(system_id, self.config.protocol.heartbeat_timeout_s)
+        deadline_s = time.monotonic() + self.config.protocol.handshake_timeout_s
+        while True:
+            state = self.tracker.state(system_id)
+            if state is None or state.armed is None:  # its heartbeat is not folded into the state yet
+                if time.monotonic() >= deadline_s:
+                    return None
+                time.sleep(0.02)
+                continue
+            if not state.armed or state.mode not in _AUTO_MODES:
+                return None
+            if state.mission_seq_current is not None:
+                return state if state.mission_seq_current > 0 else None
+            if time.monotonic() >= deadline_s:
+                return None
+            time.sleep(0.02)
+
+    def _refuse_if_flying(self, system_id: int, operation: str, force: bool) -> VehicleState | None:
+        """Raise :class:`MissionRunningError` when the vehicle flies its mission, unless ``force``."""
+        state = self._flying_mission(system_id)
+        if state is not None and not force:
+            seq = int(state.mission_seq_current or 0)
+            raise MissionRunningError(system_id, operation, str(state.mode), seq)
+        return state
 
     def _each(self, operation: str, system_ids: Sequence[int], work: Callable[[int], T]) -> dict[int, T]:
         results: dict[int, T] = {}
@@ -192,50 +334,138 @@ class Fleet:
         return results
 
     def upload(
-        self, missions: Mapping[int, Mission | Sequence[MissionItem]], verify: bool = True
+        self,
+        missions: Mapping[int, Mission | Sequence[MissionItem]],
+        verify: bool = True,
+        *,
+        strict: bool = False,
+        force: bool = False,
     ) -> dict[int, float]:
-        """Upload missions to their vehicles concurrently; returns each vehicle's upload time in seconds.
+        """Upload ready-made missions as they are (no home check); returns each vehicle's seconds.
 
         Without ``verify`` every upload runs from the calling thread (see
-        :func:`~bridge.mission_upload.upload_concurrently`); with it, one thread per vehicle
-        uploads, downloads and compares.
+        :func:`~bridge.mission_upload.upload_concurrently`) and the time is the upload's;
+        with it, one thread per vehicle uploads, downloads and compares, and the time is both.
 
         Args:
             missions: Mission (or its items) per system id.
             verify: Download each mission back and compare it with what was sent.
+            strict: Compare exactly (see :func:`~bridge.mission.compare_missions`).
+            force: Replace a mission the vehicle is flying (otherwise :class:`MissionRunningError`).
 
         Raises:
+            KeyError: An unknown vehicle (before anything is sent).
             FleetError: With each failed vehicle's named exception; the others succeeded.
         """
         items = {sid: m.items if isinstance(m, Mission) else tuple(m) for sid, m in missions.items()}
         for sid in items:
-            self.client(sid)  # raises KeyError for an unknown vehicle
+            self._configured(sid)
         if not verify:  # all from this thread, requests answered on the reader thread
-            links = {sid: self._link_of[sid] for sid in items}
-            seconds, errors = upload_concurrently(links, items, self.config.protocol)
-            if errors:
-                raise FleetError("upload", errors, seconds)
+            links: dict[int, MavlinkLink] = {}
+            refused: dict[int, BridgeError] = {}
+            for sid in items:
+                try:
+                    self._refuse_if_flying(sid, "replace", force)
+                    links[sid] = self.link(sid)
+                except BridgeError as exc:
+                    refused[sid] = exc
+            to_send = {sid: items[sid] for sid in links}
+            seconds, errors = upload_concurrently(links, to_send, self.config.protocol)
+            if errors or refused:
+                raise FleetError("upload", {**refused, **errors}, seconds)
             return seconds
 
         def work(sid: int) -> float:
             start_s = time.monotonic()
-            self.client(sid).upload_verified(items[sid])
+            self._refuse_if_flying(sid, "replace", force)
+            home = self._autopilots.get(sid) == ARDUPILOT
+            self.client(sid).upload_verified(items[sid], strict=strict, vehicle_home=home)
             return time.monotonic() - start_s
 
         return self._each("upload", list(items), work)
 
     def upload_plans(
-        self, plans_m: Mapping[int, Sequence[Sequence[float]]], verify: bool = True
+        self,
+        plans_m: Mapping[int, Sequence[Sequence[float]]],
+        verify: bool = True,
+        *,
+        strict: bool = False,
+        force: bool = False,
     ) -> dict[int, Mission]:
-        """Build missions from ENU plans (geofence first, nothing sent on refusal) and upload them.
+        """Build missions from ENU plans and give each vehicle its own (:meth:`deliver`).
+
+        Every plan is checked first (:meth:`check_plans`): a refusal sends nothing to any vehicle.
 
         Raises:
+            KeyError: An unknown vehicle.
             GeofenceError: A point is outside the fence.
-            FleetError: With each failed vehicle's named exception.
+            FleetError: With each failed vehicle's named exception; ``results`` holds the
+                missions of the vehicles that got theirs.
         """
-        missions = self.build_missions(plans_m)
-        self.upload(missions, verify=verify)
-        return missions
+        self.check_plans(plans_m)
+        builders = {
+            sid: (lambda sid, autopilot, home, points=points: self._build(sid, autopilot, home, points))
+            for sid, points in plans_m.items()
+        }
+        try:
+            deliveries = self.deliver(builders, verify=verify, strict=strict, force=force)
+        except FleetError as exc:
+            missions = {sid: delivery.mission for sid, delivery in exc.results.items()}
+            raise FleetError("upload", exc.errors, missions) from None
+        return {sid: delivery.mission for sid, delivery in deliveries.items()}
+
+    def deliver(
+        self,
+        builders: Mapping[int, MissionBuilder],
+        *,
+        verify: bool = True,
+        strict: bool = False,
+        force: bool = False,
+    ) -> dict[int, Delivery]:
+        """Give each vehicle its mission, every vehicle on its own and all at once.
+
+        Per vehicle, in its own thread, each step bounded in time: its HEARTBEAT (for its
+        autopilot); its home (HOME_POSITION or first fix, unless ``max_home_offset_m = 0``
+        with ``home_source = "config"``); its mission, ``builders[sid](sid, autopilot, home)``
+        with ``home`` the configured one or, with ``home_source = "vehicle"``, the vehicle's;
+        the mission's home against the vehicle's (:class:`HomeMismatchError` beyond
+        ``max_home_offset_m``); the vehicle must not be flying its mission
+        (:class:`MissionRunningError` unless ``force``); the upload and, with ``verify``, the
+        read-back comparison (``strict``: exact). A vehicle that is absent or fails is reported
+        while the others get theirs.
+
+        Raises:
+            KeyError: An unknown vehicle (before anything is sent).
+            FleetError: ``errors`` per failed vehicle, ``results`` a :class:`Delivery` per other one.
+        """
+        for sid in builders:
+            self._configured(sid)
+        config, protocol = self.config, self.config.protocol
+        ask_home = config.home_source == "vehicle" or config.max_home_offset_m > 0
+
+        def work(sid: int) -> Delivery:
+            autopilot = self._discover(sid, protocol.heartbeat_timeout_s)
+            reported = self._homes.wait(self.link(sid), sid, protocol) if ask_home else None
+            home = reported.home if reported is not None and config.home_source == "vehicle" else config.home
+            try:
+                mission = builders[sid](sid, autopilot, home)
+            except BridgeError:
+                raise
+            except ValueError as exc:
+                raise PlanError(f"vehicle {sid}: {exc}") from None
+            if reported is not None and config.max_home_offset_m > 0:
+                check_home_offset(sid, mission.home, reported, config.max_home_offset_m)
+            self._refuse_if_flying(sid, "replace", force)
+            client = self.client(sid)
+            if verify:
+                ardupilot = autopilot == ARDUPILOT
+                times = client.upload_verified(mission.items, strict=strict, vehicle_home=ardupilot)
+                return Delivery(mission, reported, times.upload_s, times.verify_s)
+            start_s = time.monotonic()
+            client.upload(mission.items)
+            return Delivery(mission, reported, time.monotonic() - start_s, None)
+
+        return self._each("upload", list(builders), work)
 
     def download(self, system_ids: Sequence[int] | None = None) -> dict[int, Mission]:
         """Download the missions of some (default: all) vehicles concurrently."""
@@ -246,15 +476,33 @@ class Fleet:
 
         return self._each("download", list(system_ids or self.system_ids), work)
 
-    def clear(self, system_ids: Sequence[int] | None = None) -> None:
-        """Clear the missions of some (default: all) vehicles concurrently."""
-        self._each("clear", list(system_ids or self.system_ids), lambda sid: self.client(sid).clear())
+    def clear(self, system_ids: Sequence[int] | None = None, *, force: bool = False) -> None:
+        """Clear the missions of some (default: all) vehicles concurrently.
+
+        Args:
+            system_ids: The vehicles (default: all).
+            force: Clear a mission the vehicle is flying (otherwise :class:`MissionRunningError`);
+                ArduPilot itself refuses that in AUTO, and the error says so.
+
+        Raises:
+            FleetError: With each failed vehicle's named exception.
+        """
+
+        def work(sid: int) -> None:
+            flying = self._refuse_if_flying(sid, "clear", force)
+            try:
+                self.client(sid).clear()
+            except MissionResultError as exc:
+                if flying is not None:
+                    exc.add_detail(_CLEAR_HINT)
+                raise
+
+        self._each("clear", list(system_ids or self.system_ids), work)
 
     def reposition(self, system_id: int, x_m: float, y_m: float, z_m: float, speed_m_s: float = -1.0) -> None:
         """Guided replanning: send one vehicle to an ENU point now (``MAV_CMD_DO_REPOSITION``)."""
-        self.client(system_id)  # raises KeyError for an unknown vehicle
         reposition(
-            self._link_of[system_id],
+            self.link(system_id),
             system_id,
             self.config.home,
             self.config.geofence,

@@ -15,10 +15,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import pymap3d
+import pymap3d.vincenty
 
 from typed_config import Config, param
 
-__all__ = ["Home", "enu_to_geodetic", "geodetic_to_enu"]
+__all__ = ["Home", "enu_to_geodetic", "geodetic_to_enu", "ground_distance_m"]
 
 
 @dataclass(frozen=True)
@@ -64,3 +65,11 @@ def geodetic_to_enu(home: Home, lat_deg: float, lon_deg: float, alt_m: float) ->
         lat_deg, lon_deg, alt_m, home.lat_deg, home.lon_deg, home.alt_m, deg=True
     )
     return float(x_m), float(y_m), float(z_m)
+
+
+def ground_distance_m(a: Home, b: Home) -> float:
+    """The distance along the WGS84 ellipsoid between two positions' latitude/longitude, metres."""
+    if (a.lat_deg, a.lon_deg) == (b.lat_deg, b.lon_deg):
+        return 0.0
+    distance_m, _ = pymap3d.vincenty.vdist(a.lat_deg, a.lon_deg, b.lat_deg, b.lon_deg)
+    return float(distance_m)

@@ -35,17 +35,24 @@ class GeofenceConfig(Config):
                 )
 
 
-def check_geofence(points_m: Sequence[tuple[float, float, float]], fence: GeofenceConfig) -> None:
+def check_geofence(
+    points_m: Sequence[tuple[float, float, float]],
+    fence: GeofenceConfig,
+    labels: Sequence[str] | None = None,
+) -> None:
     """Refuse any point outside the fence.
 
     Args:
         points_m: ``(x_m, y_m, z_m)`` points, East/North/Up metres from home (``z_m`` above home).
         fence: The allowed area and altitude band.
+        labels: How the user knows each point (``"target"``, ``"waypoint 2"``); default
+            ``"waypoint <index>"``.
 
     Raises:
         GeofenceError: Naming the first offending point, its value and the allowed range.
     """
     for index, (x_m, y_m, z_m) in enumerate(points_m):
+        label = labels[index] if labels is not None else f"waypoint {index}"
         for name, value, low, high in (
             ("x_m", x_m, fence.x_min_m, fence.x_max_m),
             ("y_m", y_m, fence.y_min_m, fence.y_max_m),
@@ -53,6 +60,6 @@ def check_geofence(points_m: Sequence[tuple[float, float, float]], fence: Geofen
         ):
             if not low <= value <= high:
                 raise GeofenceError(
-                    f"waypoint {index}: {name} = {value:.2f} is outside the geofence: "
+                    f"{label}: {name} = {value:.2f} is outside the geofence: "
                     f"allowed {low} <= {name} <= {high}"
                 )

@@ -7,7 +7,9 @@ HEARTBEAT once a second; every send goes through the link's send lock. A fleet
 shares one reader among its links (no thread per link competing for the GIL); a
 link made alone gets its own. Received messages go to the state listeners and, for
 the mission and command protocols, to the handler of the operation running with
-that vehicle, which can answer at once on the reader thread.
+that vehicle, which can answer at once on the reader thread. Each vehicle's recent
+STATUSTEXT messages are kept (:meth:`MavlinkLink.status_texts`) so that an error can
+show what the vehicle said.
 
 Works over ``udpin:``, ``udpout:`` and ``tcp:`` connection strings. The process
 speaks MAVLink 2 (pymavlink selects the protocol through the ``MAVLINK20``
@@ -16,6 +18,7 @@ environment variable, which :class:`MavlinkLink` sets before its first connectio
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import logging
 import os
@@ -50,6 +53,7 @@ _HEARTBEAT_PERIOD_S = 1.0
 _POLL_S = 0.02
 _RECV_BYTES = 65536
 _MAX_READS = 64  # datagrams read from one link before looking at the others
+_STATUS_TEXTS_KEPT = 32  # per vehicle
 
 
 def use_mavlink2():  # noqa: ANN201 - the pymavlink module
@@ -160,6 +164,7 @@ class MavlinkLink:
         self._handlers: dict[int, Callable[[object], None]] = {}
         self._busy: dict[int, threading.Lock] = {}
         self._listeners: list[Callable[[object], None]] = []
+        self._status_texts: dict[int, collections.deque[tuple[float, str]]] = {}
         self._recv_lock = threading.Lock()
         self._closed = False
         self._tcp = url.startswith("tcp:")
@@ -198,6 +203,12 @@ class MavlinkLink:
                     raise HeartbeatTimeoutError(system_id, self.url, timeout_s)
                 self._state_lock.wait(remaining)
             return self._heartbeats[system_id]
+
+    def status_texts(self, system_id: int, since_s: float) -> list[str]:
+        """The vehicle's STATUSTEXT texts received since ``since_s`` (``time.monotonic()``), oldest first."""
+        with self._state_lock:
+            kept = list(self._status_texts.get(system_id, ()))
+        return [text for time_s, text in kept if time_s >= since_s]
 
     @contextlib.contextmanager
     def protocol_handler(self, system_id: int, handler: Callable[[object], None]) -> Iterator[None]:
@@ -299,6 +310,11 @@ class MavlinkLink:
             with self._state_lock:
                 self._heartbeats[system_id] = msg
                 self._state_lock.notify_all()
+        elif kind == "STATUSTEXT":
+            text = str(msg.text).rstrip("\x00").strip()
+            with self._state_lock:
+                kept = self._status_texts.setdefault(system_id, collections.deque(maxlen=_STATUS_TEXTS_KEPT))
+                kept.append((time.monotonic(), text))
         handler = self._handlers.get(system_id)  # dict reads are atomic; writes hold the lock
         listeners = self._listeners
         if (

@@ -19,11 +19,20 @@ placeholder): a waypoint's ``z_m`` is used as its height above home as is (the
 Earth-curvature gap between ENU Up and height, under 1 cm within 350 m, is ignored).
 Item 0 is the only one marked current. Parameters and altitudes are stored as
 float32 values, exactly what travels in the MAVLink message.
+
+Altitudes (one model, :func:`takeoff_altitude`): 2-D waypoints fly at ``cruise_alt_m``;
+the take-off climbs to ``takeoff_alt_m``, or to the first waypoint's altitude when that
+is lower, so a mission never descends after take-off unless the user's own points do.
+The user numbers points as ``waypoint 1 .. k`` (intermediate, in order) and ``target``
+(the last); refusals use those names.
+
+Verification (:func:`compare_missions`) accepts what ArduPilot legitimately changes
+when it stores a mission, unless ``strict``: see its docstring.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,7 +51,10 @@ __all__ = [
     "home_placeholder",
     "mark_current",
     "waypoints_enu",
+    "point_labels",
+    "takeoff_altitude",
     "compare_missions",
+    "POSITIONAL_COMMANDS",
     "DEG_E7",
 ]
 
@@ -50,6 +62,38 @@ DEG_E7 = 10_000_000
 """Scale of MISSION_ITEM_INT latitude/longitude integers (degrees * 1e7)."""
 
 ARDUPILOT = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+
+POSITIONAL_COMMANDS = frozenset(
+    getattr(mavlink, name)
+    for name in (
+        "MAV_CMD_NAV_WAYPOINT",
+        "MAV_CMD_NAV_LOITER_UNLIM",
+        "MAV_CMD_NAV_LOITER_TURNS",
+        "MAV_CMD_NAV_LOITER_TIME",
+        "MAV_CMD_NAV_LAND",
+        "MAV_CMD_NAV_TAKEOFF",
+        "MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT",
+        "MAV_CMD_NAV_LOITER_TO_ALT",
+        "MAV_CMD_NAV_SPLINE_WAYPOINT",
+        "MAV_CMD_NAV_GUIDED_ENABLE",
+        "MAV_CMD_DO_SET_HOME",
+        "MAV_CMD_DO_LAND_START",
+        "MAV_CMD_DO_GO_AROUND",
+        "MAV_CMD_DO_SET_ROI",
+        "MAV_CMD_NAV_VTOL_TAKEOFF",
+        "MAV_CMD_NAV_VTOL_LAND",
+        "MAV_CMD_NAV_PAYLOAD_PLACE",
+    )
+    if hasattr(mavlink, name)
+)
+"""Commands whose item carries a position (ArduPilot stores x, y, z only for these)."""
+
+_NON_INT_FRAME = {
+    mavlink.MAV_FRAME_GLOBAL_INT: mavlink.MAV_FRAME_GLOBAL,
+    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+}
+_ALT_TOLERANCE_M = 0.01  # ArduPilot stores altitudes in centimetres
 
 
 def _f32(value: float) -> float:
@@ -158,6 +202,19 @@ class MissionConfig(Config):
             )
 
 
+def point_labels(count: int) -> list[str]:
+    """The user's names of a plan's points: ``waypoint 1 .. count-1``, then ``target``."""
+    return [f"waypoint {i}" for i in range(1, count)] + ["target"] if count else []
+
+
+def takeoff_altitude(points: Sequence[tuple[float, float, float]], config: MissionConfig) -> float:
+    """The take-off altitude: ``config.takeoff_alt_m``, or the first point's altitude when that is lower.
+
+    So a mission never descends after take-off unless the user's own points do.
+    """
+    return min(config.takeoff_alt_m, points[0][2]) if points else config.takeoff_alt_m
+
+
 def waypoints_enu(
     points_m: Sequence[Sequence[float]], cruise_alt_m: float
 ) -> list[tuple[float, float, float]]:
@@ -167,10 +224,13 @@ def waypoints_enu(
         ValueError: A point with other than 2 or 3 coordinates, or no point at all.
     """
     out = []
+    labels = point_labels(len(points_m))
     for index, point in enumerate(points_m):
         values = [float(v) for v in point]
         if len(values) not in (2, 3):
-            raise ValueError(f"waypoint {index} = {tuple(point)} must be (x_m, y_m) or (x_m, y_m, z_m)")
+            raise ValueError(
+                f"{labels[index]} = {tuple(point)}: a waypoint must be (x_m, y_m) or (x_m, y_m, z_m)"
+            )
         out.append((values[0], values[1], values[2] if len(values) == 3 else cruise_alt_m))
     if not out:
         raise ValueError("a plan needs at least one waypoint (the target)")
@@ -220,7 +280,8 @@ def build_mission(
 
     Args:
         points_m: Waypoints ``(x_m, y_m)`` or ``(x_m, y_m, z_m)``, East/North/Up metres from home;
-            the last is where the UAV loiters. 2-D points fly at ``config.cruise_alt_m``.
+            the last is where the UAV loiters. 2-D points fly at ``config.cruise_alt_m``; the
+            take-off altitude is :func:`takeoff_altitude`.
         home: Geodetic origin of the ENU frame.
         config: Take-off, loiter and return settings.
         fence: The allowed area and altitude band; checked before anything is built.
@@ -234,7 +295,8 @@ def build_mission(
         ValueError: Malformed waypoints.
     """
     points = waypoints_enu(points_m, config.cruise_alt_m)
-    check_geofence([(0.0, 0.0, config.takeoff_alt_m), *points], fence)
+    takeoff_alt_m = takeoff_altitude(points, config)
+    check_geofence([*points, (0.0, 0.0, takeoff_alt_m)], fence, [*point_labels(len(points)), "take-off"])
     items: list[MissionItem] = []
     if autopilot == ARDUPILOT:
         items.append(home_placeholder(home))
@@ -243,7 +305,7 @@ def build_mission(
             len(items),
             mavlink.MAV_CMD_NAV_TAKEOFF,
             home,
-            (0.0, 0.0, config.takeoff_alt_m),
+            (0.0, 0.0, takeoff_alt_m),
             param4=float("nan"),
         )
     )
@@ -289,15 +351,107 @@ def build_mission(
     return Mission(home=home, items=mark_current(items), autopilot=autopilot)
 
 
-def compare_missions(system_id: int, sent: Sequence[MissionItem], received: Sequence[MissionItem]) -> None:
-    """Raise :class:`MissionMismatchError` unless ``received`` equals ``sent`` item for item.
+def _float32_tolerance_e7(value_e7: int) -> int:
+    """degE7 error of a position sent as float32 degrees (MISSION_ITEM): half a float32 step, plus 1."""
+    step_deg = float(np.spacing(np.float32(abs(value_e7) / DEG_E7)))
+    return int(np.ceil(step_deg / 2 * DEG_E7)) + 1
 
-    ``current`` is not compared: vehicles report their own current item on download.
+
+def _same(a: float, b: float) -> bool:
+    return a == b or (a != a and b != b)
+
+
+def _differences(
+    a: MissionItem, b: MissionItem, *, strict: bool, vehicle_home: bool, float_position: bool
+) -> list[str]:
+    """What differs between item ``a`` (sent) and ``b`` (read back) that matters; empty when none."""
+    changes: list[str] = []
+
+    def differ(name: str, sent: object, back: object) -> None:
+        changes.append(f"{name} sent {sent}, read back {back}")
+
+    exact = ("command", "mission_type", "autocontinue")
+    if strict:
+        exact += ("frame", "param1", "param2", "param3", "param4", "x", "y", "z")
+    for name in exact:
+        if not _same(getattr(a, name), getattr(b, name)):
+            differ(name, getattr(a, name), getattr(b, name))
+    if strict:
+        return changes
+    positional = a.command in POSITIONAL_COMMANDS and not vehicle_home
+    frames = {a.frame, _NON_INT_FRAME.get(a.frame, a.frame)}
+    if not positional:
+        frames.add(mavlink.MAV_FRAME_GLOBAL)
+    if b.frame not in frames:
+        differ("frame", a.frame, b.frame)
+    for index in range(1, 5):
+        sent, back = getattr(a, f"param{index}"), getattr(b, f"param{index}")
+        accepted = _same(sent, back) or (sent != sent and back == 0.0)  # NaN stored as 0
+        if a.command == mavlink.MAV_CMD_NAV_WAYPOINT and index in (2, 4):
+            accepted = accepted or back == 0.0  # Copter: acceptance radius and yaw not stored
+        if a.command == mavlink.MAV_CMD_NAV_LOITER_TIME and index == 3:
+            accepted = accepted or back == (-1.0 if sent < 0 else 1.0)  # only the direction is stored
+        if vehicle_home:
+            accepted = True
+        if not accepted:
+            differ(f"param{index}", sent, back)
+    if positional:
+        tolerance_e7 = _float32_tolerance_e7(a.x), _float32_tolerance_e7(a.y)
+        for name, tol in zip(("x", "y"), tolerance_e7, strict=True):
+            if abs(getattr(a, name) - getattr(b, name)) > (tol if float_position else 0):
+                differ(name, getattr(a, name), getattr(b, name))
+        if not abs(a.z - b.z) <= _ALT_TOLERANCE_M:
+            differ("z", a.z, b.z)
+    return changes
+
+
+def compare_missions(
+    system_id: int,
+    sent: Sequence[MissionItem],
+    received: Sequence[MissionItem],
+    *,
+    strict: bool = False,
+    vehicle_home: bool = False,
+    float_positions: Collection[int] = (),
+) -> None:
+    """Raise :class:`MissionMismatchError` unless ``received`` holds the mission ``sent``.
+
+    ``current`` is never compared (vehicles report their own current item). Unless ``strict``
+    (every other field exact), what ArduPilot legitimately changes when it stores a mission
+    is accepted:
+
+    * item 0 is the vehicle's real home (``vehicle_home``): any position, frame ``GLOBAL``;
+    * ``_INT`` frames read back as their non-``_INT`` frame (6 -> 3, 5 -> 0, 11 -> 10);
+    * items without a position (commands outside :data:`POSITIONAL_COMMANDS`) read back in
+      frame 0 with any x, y, z;
+    * NaN parameters read back as 0; ``NAV_WAYPOINT``'s acceptance radius (param2) and yaw
+      (param4) read back as 0 (Copter); ``NAV_LOITER_TIME``'s param3 read back as 1 (or -1);
+    * altitudes within 1 cm (stored in centimetres); positions exact in degE7, or within
+      float32 rounding for the items in ``float_positions`` (read back as ``MISSION_ITEM``).
+
+    Args:
+        system_id: The vehicle (named in the error).
+        sent: The items uploaded.
+        received: The items read back.
+        strict: Compare exactly.
+        vehicle_home: Item 0 is the vehicle's home (ArduPilot).
+        float_positions: Sequence numbers read back with float32 degrees.
+
+    Raises:
+        MissionMismatchError: Naming the first differing item and each difference.
     """
     if len(sent) != len(received):
         raise MissionMismatchError(system_id, None, f"{len(received)} items instead of {len(sent)}")
     for a, b in zip(sent, received, strict=True):
-        fields_a, fields_b = a.message_fields(), b.message_fields()
-        fields_a.pop("current"), fields_b.pop("current")
-        if MissionItem(**fields_a, current=0) != MissionItem(**fields_b, current=0):
-            raise MissionMismatchError(system_id, a.seq, f"sent {a}, received {b}")
+        changes = _differences(
+            a,
+            b,
+            strict=strict,
+            vehicle_home=vehicle_home and a.seq == 0,
+            float_position=a.seq in float_positions,
+        )
+        if changes:
+            known = a.command in mavlink.enums["MAV_CMD"]
+            name = mavlink.enums["MAV_CMD"][a.command].name if known else f"command {a.command}"
+            mode = "strict comparison" if strict else "ArduPilot's known changes accepted"
+            raise MissionMismatchError(system_id, a.seq, f"{name}: {'; '.join(changes)} ({mode})")

@@ -19,19 +19,33 @@ import logging
 import queue
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TypeVar
 
 from bridge.config import ProtocolConfig
-from bridge.errors import MissionMismatchError, MissionTimeoutError, mission_result_error
+from bridge.errors import BridgeError, MissionMismatchError, MissionTimeoutError, mission_result_error
 from bridge.mavlink import MavlinkLink
 from bridge.mission import DEG_E7, MissionItem, compare_missions
-from bridge.mission_upload import is_mission_message, upload_concurrently
+from bridge.mission_upload import is_mission_message, upload_concurrently, vehicle_says
 
-__all__ = ["MissionClient"]
+__all__ = ["MissionClient", "UploadTimes"]
 
 log = logging.getLogger(__name__)
 
 T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class UploadTimes:
+    """Seconds spent by a verified upload, over all its attempts.
+
+    Attributes:
+        upload_s: Sending the mission (MISSION_COUNT to the final MISSION_ACK).
+        verify_s: Reading it back and comparing (0 when not verified).
+    """
+
+    upload_s: float
+    verify_s: float = 0.0
 
 
 class _Exchange:
@@ -103,9 +117,10 @@ class MissionClient:
         if errors:
             raise errors[self.system_id]
 
-    def _download_once(self) -> tuple[MissionItem, ...]:
-        """One download attempt."""
+    def _download_once(self) -> tuple[tuple[MissionItem, ...], frozenset[int]]:
+        """One download attempt: the items, and the seqs the vehicle sent as float MISSION_ITEM."""
         m = self._m
+        as_float = set()
         with self.link.inbox(self.system_id) as box:
             ex = _Exchange(self, box)
             ex.expect(
@@ -138,12 +153,14 @@ class MissionClient:
                     ),
                 )
                 items.append(self._item_from(msg))
+                if msg.get_type() == "MISSION_ITEM":
+                    as_float.add(seq)
             self.link.send(
                 lambda mav: mav.mission_ack_send(
                     type=m.MAV_MISSION_ACCEPTED, mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets()
                 )
             )
-        return tuple(items)
+        return tuple(items), frozenset(as_float)
 
     def _await(self, ex: _Exchange, wanted: Callable[[object], bool]) -> object:
         """The next message satisfying ``wanted``; error acknowledgements raise."""
@@ -222,23 +239,29 @@ class MissionClient:
 
         A transfer breaks off mid-way when the vehicle answered the handshake and then fell
         silent for every retry, or when a verified upload read back something else. A vehicle
-        that never answers, or that refuses with an error code, is not asked again.
+        that never answers, or that refuses with an error code, is not asked again. The error
+        raised carries what the vehicle said meanwhile (STATUSTEXT).
         """
-        for attempt in range(1, self.protocol.transfer_attempts + 1):
-            try:
-                return transfer()
-            except (MissionTimeoutError, MissionMismatchError) as exc:
-                mid_way = isinstance(exc, MissionMismatchError) or exc.seq is not None
-                if not mid_way or attempt == self.protocol.transfer_attempts:
-                    raise
-                log.warning("vehicle %d: %s; transfer attempt %d", self.system_id, exc, attempt + 1)
+        start_s = time.monotonic()
+        try:
+            for attempt in range(1, self.protocol.transfer_attempts + 1):
+                try:
+                    return transfer()
+                except (MissionTimeoutError, MissionMismatchError) as exc:
+                    mid_way = isinstance(exc, MissionMismatchError) or exc.seq is not None
+                    if not mid_way or attempt == self.protocol.transfer_attempts:
+                        raise
+                    log.warning("%s; transfer attempt %d", exc, attempt + 1)
+        except BridgeError as exc:
+            exc.add_detail(vehicle_says(self.link.status_texts(self.system_id, start_s)))
+            raise
         raise AssertionError("unreachable")  # pragma: no cover
 
     def upload(self, items: Sequence[MissionItem]) -> None:
         """Upload a mission (MISSION_COUNT, answer each request, MISSION_ACK).
 
-        Answers MISSION_REQUEST_INT with MISSION_ITEM_INT and the legacy MISSION_REQUEST
-        with MISSION_ITEM, in whatever order the vehicle asks.
+        Answers MISSION_REQUEST_INT and the legacy MISSION_REQUEST alike with MISSION_ITEM_INT
+        (positions exact in degE7), in whatever order the vehicle asks.
 
         Raises:
             MissionResultError: A named subclass for the vehicle's error code.
@@ -253,27 +276,54 @@ class MissionClient:
             MissionResultError: A named subclass for the vehicle's error code.
             MissionTimeoutError: The vehicle stopped answering.
         """
-        return self._attempts(self._download_once)
+        return self._attempts(self._download_once)[0]
 
-    def upload_verified(self, items: Sequence[MissionItem]) -> None:
-        """Upload, then download and compare.
+    def upload_verified(
+        self, items: Sequence[MissionItem], *, strict: bool = False, vehicle_home: bool = False
+    ) -> UploadTimes:
+        """Upload, then download and compare (:func:`~bridge.mission.compare_missions`).
 
         A final MISSION_ACK lost on the way back is not an error when the vehicle's
         mission, read back, is the one sent.
+
+        Args:
+            items: The mission.
+            strict: Compare every field exactly, accepting none of ArduPilot's changes.
+            vehicle_home: Item 0 is the vehicle's home (ArduPilot): read back as its own.
+
+        Returns:
+            The time spent uploading and verifying, over all attempts.
 
         Raises:
             MissionMismatchError: The vehicle holds something else.
             MissionResultError: A named subclass for the vehicle's error code.
             MissionTimeoutError: The vehicle stopped answering.
         """
+        spent = {"upload_s": 0.0, "verify_s": 0.0}
 
         def transfer() -> None:
+            start_s = time.monotonic()
             try:
                 self._upload_once(items)
             except MissionTimeoutError as exc:
                 if exc.stage != "MISSION_ACK":
                     raise
-                log.warning("vehicle %d: final MISSION_ACK lost; checking by download", self.system_id)
-            compare_missions(self.system_id, items, self._download_once())
+                log.warning("%s; the final MISSION_ACK may be lost: checking by download", exc)
+            finally:
+                spent["upload_s"] += time.monotonic() - start_s
+            start_s = time.monotonic()
+            try:
+                received, as_float = self._download_once()
+                compare_missions(
+                    self.system_id,
+                    items,
+                    received,
+                    strict=strict,
+                    vehicle_home=vehicle_home,
+                    float_positions=as_float,
+                )
+            finally:
+                spent["verify_s"] += time.monotonic() - start_s
 
         self._attempts(transfer)
+        return UploadTimes(**spent)

@@ -12,13 +12,25 @@ and a vehicle that restarts its own timer on every message (MAVSDK does) would t
 never re-request the item it is missing. ``MAV_MISSION_INVALID_SEQUENCE`` during the
 transfer, which vehicles (ArduPilot among them) send for a duplicated item while the
 transfer goes on, is raised only if the vehicle then stops answering; every other
-error acknowledgement raises its named exception at once.
+error acknowledgement raises its named exception at once, except during the handshake:
+
+Every item is sent as MISSION_ITEM_INT (degE7 positions, exact), whether the vehicle
+asks with MISSION_REQUEST_INT or with the legacy MISSION_REQUEST (as ArduPilot does):
+MAVLink deprecated the float MISSION_ITEM, and QGroundControl answers the same way.
+
+A vehicle that answers MISSION_COUNT with ``MAV_MISSION_NO_SPACE`` (ArduPilot does
+for a few seconds after boot, saying "Only 0 items are supported") or
+``MAV_MISSION_DENIED`` (busy with another transfer; MAVLink has no BUSY code) is
+asked again with back-off (0.25 s, doubling, at most 2 s) for up to
+``busy_retry_s``; a NO_SPACE whose STATUSTEXT gives a real capacity (more than 0
+items) is final at once. Errors carry the STATUSTEXT the vehicle sent during the transfer.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import re
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -26,13 +38,21 @@ from collections.abc import Callable, Mapping, Sequence
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionResultError, MissionTimeoutError, mission_result_error
 from bridge.mavlink import MavlinkLink
-from bridge.mission import DEG_E7, MissionItem
+from bridge.mission import MissionItem
 
-__all__ = ["upload_concurrently", "is_mission_message"]
+__all__ = ["upload_concurrently", "is_mission_message", "vehicle_says"]
 
 log = logging.getLogger(__name__)
 
 _MISSION = 0  # MAV_MISSION_TYPE_MISSION
+_BACKOFF_FIRST_S = 0.25
+_BACKOFF_MAX_S = 2.0
+_CAPACITY = re.compile(r"Only (\d+) items are supported")
+
+
+def vehicle_says(texts: Sequence[str]) -> str:
+    """``vehicle says: "..."; "..."`` for an error message, or ``""`` when there is nothing."""
+    return "vehicle says: " + "; ".join(f'"{t}"' for t in dict.fromkeys(texts)) if texts else ""
 
 
 def is_mission_message(msg: object) -> bool:
@@ -59,6 +79,9 @@ class _Upload:
         self.done = False
         self.error: MissionResultError | None = None
         self.deferred: MissionResultError | None = None
+        self.started_s = time.monotonic()
+        self.busy_since_s: float | None = None
+        self.backoff_s = _BACKOFF_FIRST_S
         self.sent_last = not self.fields
         self.stage, self.seq, self.tries = "MISSION_REQUEST", None, 0
         self.timeout_s = protocol.handshake_timeout_s
@@ -69,12 +92,22 @@ class _Upload:
         count = len(self.fields)
         self.link.send(lambda mav: mav.mission_count_send(count=count, mission_type=_MISSION, **self.targets))
 
-    def _send_item(self, fields: dict[str, float | int], legacy: bool) -> None:
-        if legacy:  # MISSION_ITEM carries degrees as float32
-            fields = {**fields, "x": fields["x"] / DEG_E7, "y": fields["y"] / DEG_E7}
-            self.link.send(lambda mav: mav.mission_item_send(**fields))
-        else:
-            self.link.send(lambda mav: mav.mission_item_int_send(**fields))
+    def _send_item(self, fields: dict[str, float | int]) -> None:
+        self.link.send(lambda mav: mav.mission_item_int_send(**fields))
+
+    def _transient(self, result: int) -> bool:
+        """True when a refusal of MISSION_COUNT is worth asking again (booting or busy vehicle)."""
+        m = self.link.mavlink
+        if self.seq is not None or result not in (m.MAV_MISSION_NO_SPACE, m.MAV_MISSION_DENIED):
+            return False
+        if result == m.MAV_MISSION_NO_SPACE:
+            said = self.link.status_texts(self.system_id, self.started_s)
+            capacities = [int(found.group(1)) for text in said if (found := _CAPACITY.search(text))]
+            if capacities and capacities[-1] > 0:  # a real capacity, too small for this mission
+                return False
+        now_s = time.monotonic()
+        self.busy_since_s = now_s if self.busy_since_s is None else self.busy_since_s
+        return now_s - self.busy_since_s < self.protocol.busy_retry_s
 
     def start(self) -> None:
         """Send MISSION_COUNT."""
@@ -93,21 +126,31 @@ class _Upload:
                 if not 0 <= msg.seq < len(self.fields):
                     return
                 last = msg.seq == len(self.fields) - 1
-                fields, legacy = self.fields[msg.seq], kind == "MISSION_REQUEST"
-                self._send_item(fields, legacy)
+                fields = self.fields[msg.seq]
+                self._send_item(fields)
                 self.stage = "MISSION_ACK" if last else "MISSION_REQUEST"
                 self.seq, self.tries, self.deferred = msg.seq, 0, None
                 self.timeout_s = self.protocol.item_timeout_s
                 self.deadline_s = time.monotonic() + self.timeout_s
-                self.resend = (lambda: self._send_item(fields, legacy)) if last else (lambda: None)
+                self.resend = (lambda: self._send_item(fields)) if last else (lambda: None)
                 self.sent_last = self.sent_last or last
             elif kind == "MISSION_ACK":
                 if msg.type == m.MAV_MISSION_ACCEPTED:
                     self.done = self.sent_last
                 elif msg.type == m.MAV_MISSION_INVALID_SEQUENCE and self.seq is not None:
                     self.deferred = mission_result_error(msg.type, self.system_id, self.seq)
+                elif self._transient(msg.type):
+                    log.debug("vehicle %d: MISSION_COUNT refused (%d), asking again in %.2f s",
+                              self.system_id, msg.type, self.backoff_s)
+                    self.tries, self.resend = 0, self._send_count
+                    self.deadline_s = time.monotonic() + self.backoff_s
+                    self.backoff_s = min(2 * self.backoff_s, _BACKOFF_MAX_S)
                 else:
                     self.error = mission_result_error(msg.type, self.system_id, self.seq)
+                    if self.busy_since_s is not None:
+                        waited_s = time.monotonic() - self.busy_since_s
+                        self.error.add_detail(f"still refused after asking again for {waited_s:.1f} s "
+                                              f"(busy_retry_s = {self.protocol.busy_retry_s})")
                     self.done = True
             if self.done:
                 self.wake.set()
@@ -183,7 +226,7 @@ def upload_concurrently(
                         pending.discard(sid)
                         continue
                     tries[sid] += 1
-                    log.warning("vehicle %d: %s; transfer attempt %d", sid, exc, tries[sid])
+                    log.warning("%s; transfer attempt %d", exc, tries[sid])
                     uploads[sid] = _Upload(links[sid], sid, component_id, protocol, items[sid], wake)
                     uploads[sid].start()
                 except MissionResultError as exc:
@@ -192,6 +235,8 @@ def upload_concurrently(
             if pending:
                 next_deadline_s = min(uploads[sid].deadline_s for sid in pending)
                 wake.wait(max(0.0, next_deadline_s - time.monotonic()))
+    for sid, exc in errors.items():
+        exc.add_detail(vehicle_says(links[sid].status_texts(sid, start_s)))
     for sid, elapsed_s in seconds.items():
         log.info("vehicle %d: uploaded %d items in %.4f s", sid, len(items[sid]), elapsed_s)
     return seconds, errors

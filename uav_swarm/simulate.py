@@ -221,6 +221,7 @@ def _ratios(learned: dict[str, Any], expert: dict[str, Any]) -> dict[str, float 
 def _load_bridge(config: SimulateConfig) -> BridgeConfig:
     from bridge.config import BridgeConfig
     from bridge.geofence import check_geofence
+    from bridge.mission import takeoff_altitude
     from typed_config import ConfigError, load_toml
 
     bridge = load_toml(BridgeConfig, config.bridge_config) if config.bridge_config else BridgeConfig()
@@ -230,7 +231,7 @@ def _load_bridge(config: SimulateConfig) -> BridgeConfig:
     # Every target lies in the area: its corners at the flight altitude must be inside the fence.
     width_m, height_m, alt_m = config.task.scenario.width_m, config.task.scenario.height_m, config.uav.alt_m
     corners = [(0.0, 0.0, alt_m), (width_m, 0.0, alt_m), (0.0, height_m, alt_m), (width_m, height_m, alt_m)]
-    check_geofence([(0.0, 0.0, bridge.mission.takeoff_alt_m), *corners], bridge.geofence)
+    check_geofence([(0.0, 0.0, takeoff_altitude(corners, bridge.mission)), *corners], bridge.geofence)
     return bridge
 
 
@@ -244,7 +245,11 @@ def _checkpoint_name(path: Path) -> str:
 
 
 def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, alt_m: float) -> dict[int, list[tuple]]:
-    """Each UAV's plan (its final target): by vehicle system id when configured, else ids 1..n."""
+    """Each UAV's plan, its final target at the simulated altitude ``alt_m``, by vehicle system id.
+
+    Ids are the configured vehicles' (else 1..n). The take-off then climbs no higher than
+    ``alt_m`` (:func:`bridge.mission.takeoff_altitude`): the mission never descends.
+    """
     ids = [v.system_id for v in bridge.vehicles[:len(targets_m)]] or list(range(1, len(targets_m) + 1))
     return {sid: [(float(x), float(y), alt_m)] for sid, (x, y) in zip(ids, targets_m, strict=True)}
 
@@ -264,11 +269,14 @@ def _write_plan_files(bridge: BridgeConfig, plans: dict[int, list[tuple]], folde
 
 
 def _upload(bridge: BridgeConfig, plans: dict[int, list[tuple]]) -> None:
-    """Upload each UAV's mission to its vehicle (waits for the heartbeats, verifies by download)."""
+    """Upload each UAV's mission to its vehicle (each on its own: heartbeat, home check, verified upload).
+
+    Raises:
+        bridge.fleet.FleetError: Naming each vehicle that failed; the others have their missions.
+    """
     from bridge.fleet import Fleet
 
     with Fleet(bridge) as fleet:
-        fleet.wait_for_vehicles(list(plans))
         fleet.upload_plans(plans)
     logger.info("uploaded the final missions to vehicles %s", sorted(plans))
 

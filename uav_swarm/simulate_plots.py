@@ -10,20 +10,29 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
+
+import numpy as np
 
 from learning.files import write_bytes_atomic
 from uav_swarm.scene_animation import write_scene_gif
 
-if TYPE_CHECKING:
-    from uav_swarm.simulate import SequenceRun
+__all__ = ["QosSeries", "write_qos_figure", "write_scene_gif", "write_timeseries"]
 
-__all__ = ["write_qos_figure", "write_scene_gif", "write_timeseries"]
+
+class QosSeries(Protocol):
+    """A run's QoS over time: a simulated run (:class:`uav_swarm.simulate.SequenceRun`) or a flight."""
+
+    planner_name: str
+    times_s: np.ndarray
+    qos_s1: np.ndarray
+    qos_s2: np.ndarray
+    throughput_mbps: np.ndarray
 
 _STYLE = {"learned": {"color": "tab:blue"}, "expert": {"color": "tab:orange"}}
 
 
-def write_qos_figure(runs: Mapping[str, SequenceRun], path: Path) -> Path:
+def write_qos_figure(runs: Mapping[str, QosSeries], path: Path) -> Path:
     """QoS S1 and S2 over time (top) and mean user throughput over time (bottom), every planner.
 
     Returns:
@@ -56,7 +65,7 @@ def write_qos_figure(runs: Mapping[str, SequenceRun], path: Path) -> Path:
     return path
 
 
-def write_timeseries(runs: Mapping[str, SequenceRun], path: Path) -> Path:
+def write_timeseries(runs: Mapping[str, QosSeries], path: Path) -> Path:
     """``planner,time_s,qos_s1,qos_s2,mean_throughput_mbps`` one row per step and planner."""
     lines = ["planner,time_s,qos_s1,qos_s2,mean_throughput_mbps"]
     for kind, run in runs.items():

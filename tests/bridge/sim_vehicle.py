@@ -4,11 +4,25 @@ It sends HEARTBEAT, GLOBAL_POSITION_INT, SYS_STATUS, BATTERY_STATUS and
 MISSION_CURRENT, and serves the mission protocol (upload with re-requests after
 0.25 s, download, clear, set current) and COMMAND_INT ``MAV_CMD_DO_REPOSITION``.
 Faults on demand: never answer the mission protocol (``silent``), refuse an item
-with a ``MAV_MISSION_RESULT`` code, or use the legacy MISSION_REQUEST.
+with a ``MAV_MISSION_RESULT`` code, or use the legacy MISSION_REQUEST. It answers
+``MAV_CMD_REQUEST_MESSAGE`` for HOME_POSITION (COMMAND_LONG) with its home, the
+position it starts at.
+
+``personality="ardupilot"`` makes it answer as ArduPilot Copter does (independently of
+the bridge's own rules): the first ``boot_no_space_s`` seconds every MISSION_COUNT gets
+STATUSTEXT "Only 0 items are supported" and ``MAV_MISSION_NO_SPACE``; a mission larger
+than ``max_items`` gets the same with its real capacity; items are asked for with the
+legacy MISSION_REQUEST and stored as ArduPilot stores them (item 0 replaced by its own
+home in frame ``GLOBAL``, ``_INT`` frames de-INTed, items without a position in frame 0
+with no position, NaN parameters 0, ``NAV_WAYPOINT``'s acceptance radius and yaw 0,
+``NAV_LOITER_TIME``'s param3 its direction +-1, altitudes in centimetres);
+MISSION_CLEAR_ALL while armed in AUTO past item 0 is refused with ``MAV_MISSION_ERROR``,
+while a new upload then is accepted.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
@@ -21,6 +35,25 @@ m = mavutil.mavlink
 __all__ = ["SimVehicle", "endpoint_pair", "TRANSPORTS"]
 
 TRANSPORTS = ("udpin", "udpout", "tcp")
+PERSONALITIES = ("generic", "ardupilot")
+AUTO = 3  # ArduCopter custom mode AUTO
+
+# ArduPilot's AP_Mission::stored_in_location, for the commands these tests use
+_WITH_LOCATION = {
+    m.MAV_CMD_NAV_WAYPOINT,
+    m.MAV_CMD_NAV_LOITER_UNLIM,
+    m.MAV_CMD_NAV_LOITER_TURNS,
+    m.MAV_CMD_NAV_LOITER_TIME,
+    m.MAV_CMD_NAV_LAND,
+    m.MAV_CMD_NAV_TAKEOFF,
+    m.MAV_CMD_NAV_SPLINE_WAYPOINT,
+    m.MAV_CMD_DO_SET_ROI,
+}
+_DE_INT = {
+    m.MAV_FRAME_GLOBAL_INT: m.MAV_FRAME_GLOBAL,
+    m.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: m.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    m.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: m.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+}
 
 
 def endpoint_pair(transport: str, port: int) -> tuple[str, str]:
@@ -48,13 +81,26 @@ class SimVehicle:
         lon_deg: float = 8.5455938,
         alt_m: float = 488.0,
         telemetry_period_s: float = 0.1,
+        personality: str = "generic",
+        boot_no_space_s: float = 0.0,
+        max_items: int = 700,
+        armed: bool = True,
     ) -> None:
+        if personality not in PERSONALITIES:
+            raise ValueError(f"personality = {personality!r}: choose one of {PERSONALITIES}")
+        ardupilot = personality == "ardupilot"
         self.system_id = system_id
-        self.autopilot = autopilot
+        self.personality = personality
+        self.autopilot = m.MAV_AUTOPILOT_ARDUPILOTMEGA if ardupilot else autopilot
         self.silent = silent
         self.refuse_code = refuse_code
         self.refuse_seq = refuse_seq
-        self.legacy_requests = legacy_requests
+        self.legacy_requests = legacy_requests or ardupilot
+        self.boot_no_space_s = boot_no_space_s
+        self.max_items = max_items
+        self.armed = armed
+        self.home = (round(lat_deg * DEG_E7), round(lon_deg * DEG_E7), alt_m)
+        self.refused_counts = 0
         self.command_result = command_result
         self.lat_deg, self.lon_deg, self.alt_m = lat_deg, lon_deg, alt_m
         self.telemetry_period_s = telemetry_period_s
@@ -63,7 +109,8 @@ class SimVehicle:
         self.reached_seq: int | None = None
         self.uploads = 0
         self.reposition_target: tuple[int, int, float] | None = None
-        self.custom_mode = 3  # ArduCopter AUTO
+        self.custom_mode = AUTO
+        self._started_s = time.monotonic()
         self._rx: dict | None = None
         self._last_done_seq: int | None = None
         self._conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=1)
@@ -112,7 +159,7 @@ class SimVehicle:
         mav.heartbeat_send(
             type=m.MAV_TYPE_QUADROTOR,
             autopilot=self.autopilot,
-            base_mode=m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | m.MAV_MODE_FLAG_SAFETY_ARMED,
+            base_mode=m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (self.armed and m.MAV_MODE_FLAG_SAFETY_ARMED),
             custom_mode=self.custom_mode,
             system_status=m.MAV_STATE_ACTIVE,
         )
@@ -182,7 +229,52 @@ class SimVehicle:
             if handler is not None:
                 handler(msg)
 
+    def _flying_mission(self) -> bool:
+        return self.armed and self.custom_mode == AUTO and self.current_seq > 0
+
+    def _stored(self, item: MissionItem) -> MissionItem:
+        """The item as this vehicle keeps it (ArduPilot: as AP_Mission stores and returns it)."""
+        if self.personality != "ardupilot":
+            return item
+        if item.seq == 0:  # always the vehicle's own home
+            lat, lon, alt_m = self.home
+            return MissionItem(
+                seq=0, frame=m.MAV_FRAME_GLOBAL, command=m.MAV_CMD_NAV_WAYPOINT, x=lat, y=lon, z=alt_m
+            )
+        params = [0.0 if math.isnan(p) else p for p in (item.param1, item.param2, item.param3, item.param4)]
+        if item.command == m.MAV_CMD_NAV_WAYPOINT:
+            params[1] = params[3] = 0.0  # Copter keeps only the delay
+        if item.command == m.MAV_CMD_NAV_LOITER_TIME:
+            params[2] = -1.0 if params[2] < 0 else 1.0  # only the direction
+        located = item.command in _WITH_LOCATION
+        return MissionItem(
+            seq=item.seq,
+            frame=_DE_INT.get(item.frame, item.frame) if located else m.MAV_FRAME_GLOBAL,
+            command=item.command,
+            param1=params[0],
+            param2=params[1],
+            param3=params[2],
+            param4=params[3],
+            x=item.x if located else 0,
+            y=item.y if located else 0,
+            z=round(item.z * 100) / 100 if located else 0.0,
+        )
+
+    def _refuse_count(self, msg, capacity: int) -> None:
+        self.refused_counts += 1
+        self._conn.mav.statustext_send(
+            severity=m.MAV_SEVERITY_WARNING, text=f"Only {capacity} items are supported".encode()
+        )
+        self._ack(msg, m.MAV_MISSION_NO_SPACE)
+
     def _on_mission_count(self, msg) -> None:
+        if self.personality == "ardupilot":
+            if time.monotonic() - self._started_s < self.boot_no_space_s:
+                self._refuse_count(msg, 0)  # the mission storage is not ready yet
+                return
+            if msg.count > self.max_items:
+                self._refuse_count(msg, self.max_items)
+                return
         if msg.count == 0:
             self.mission, self._rx = [], None
             self._ack(msg, m.MAV_MISSION_ACCEPTED)
@@ -234,7 +326,8 @@ class SimVehicle:
         rx["expected"] += 1
         rx["retries"] = 0
         if rx["expected"] == rx["count"]:
-            self.mission, self._rx, self._last_done_seq = rx["items"], None, msg.seq
+            self.mission = [self._stored(item) for item in rx["items"]]
+            self._rx, self._last_done_seq = None, msg.seq
             self.uploads += 1
             self._ack(msg, m.MAV_MISSION_ACCEPTED)
         else:
@@ -261,6 +354,9 @@ class SimVehicle:
     _on_mission_request = _on_mission_request_int
 
     def _on_mission_clear_all(self, msg) -> None:
+        if self.personality == "ardupilot" and self._flying_mission():
+            self._ack(msg, m.MAV_MISSION_ERROR)  # AP_Mission::clear() refuses while running
+            return
         self.mission, self.current_seq = [], 0
         self._ack(msg, m.MAV_MISSION_ACCEPTED)
 
@@ -282,4 +378,26 @@ class SimVehicle:
             if result == m.MAV_RESULT_ACCEPTED:
                 self.reposition_target = (msg.x, msg.y, msg.z)
                 self.custom_mode = 4  # ArduCopter GUIDED
+        self._conn.mav.command_ack_send(command=msg.command, result=result, **self._targets(msg))
+
+    def _on_command_long(self, msg) -> None:
+        if msg.command == m.MAV_CMD_REQUEST_MESSAGE and int(msg.param1) == m.MAVLINK_MSG_ID_HOME_POSITION:
+            lat, lon, alt_m = self.home
+            self._command_ack(msg, m.MAV_RESULT_ACCEPTED)
+            self._conn.mav.home_position_send(
+                latitude=lat,
+                longitude=lon,
+                altitude=round(alt_m * 1000),
+                x=0.0,
+                y=0.0,
+                z=0.0,
+                q=[1.0, 0.0, 0.0, 0.0],
+                approach_x=0.0,
+                approach_y=0.0,
+                approach_z=0.0,
+            )
+            return
+        self._command_ack(msg, m.MAV_RESULT_UNSUPPORTED)
+
+    def _command_ack(self, msg, result: int) -> None:
         self._conn.mav.command_ack_send(command=msg.command, result=result, **self._targets(msg))

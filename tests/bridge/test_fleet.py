@@ -63,7 +63,7 @@ def test_geofence_refusal_sends_nothing_to_any_vehicle():
     try:
         with Fleet(BridgeConfig(vehicles=tuple(endpoints), geofence=GeofenceConfig(x_max_m=100.0))) as fleet:
             fleet.wait_for_vehicles(timeout_s=10.0)
-            with pytest.raises(errors.GeofenceError, match=r"vehicle 2: waypoint 1: x_m = 150.00 is outside"):
+            with pytest.raises(errors.GeofenceError, match=r"vehicle 2: target: x_m = 150.00 is outside"):
                 fleet.upload_plans({1: [(50.0, 0.0)], 2: [(150.0, 0.0)]})
             time.sleep(0.3)
             assert [v.uploads for v in vehicles] == [0, 0]

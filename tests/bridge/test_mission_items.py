@@ -73,10 +73,11 @@ def test_return_to_launch_after_unlimited_loiter_is_a_config_error():
 @pytest.mark.parametrize(
     "points, message",
     [
-        ([(600.0, 0.0)], r"waypoint 1: x_m = 600.00 is outside the geofence: allowed -500.0 <= x_m <= 500.0"),
-        ([(0.0, 0.0), (0.0, -501.0)], r"waypoint 2: y_m = -501.00 is outside"),
-        ([(0.0, 0.0, 150.0)], r"z_m = 150.00 is outside the geofence: allowed 2.0 <= z_m <= 120.0"),
-        ([(0.0, 0.0, 1.0)], r"z_m = 1.00 is outside"),
+        ([(600.0, 0.0)], r"^target: x_m = 600.00 is outside the geofence: allowed -500.0 <= x_m <= 500.0"),
+        ([(0.0, -501.0), (0.0, 0.0)], r"^waypoint 1: y_m = -501.00 is outside"),
+        ([(0.0, 0.0), (0.0, -501.0)], r"^target: y_m = -501.00 is outside"),
+        ([(0.0, 0.0, 150.0)], r"^target: z_m = 150.00 is outside the geofence: allowed 2.0 <= z_m <= 120.0"),
+        ([(0.0, 0.0, 1.0)], r"^target: z_m = 1.00 is outside"),
     ],
 )
 def test_geofence_refuses_points_outside(points, message):
@@ -93,3 +94,46 @@ def test_geofence_config_rejects_empty_interval():
 def test_malformed_plans_are_refused(points):
     with pytest.raises(ValueError, match="waypoint"):
         build_mission(points, HOME, MissionConfig(), FENCE)
+
+
+@pytest.mark.parametrize(
+    "points, takeoff_m, zs",
+    [
+        ([(10.0, 20.0)], 20.0, [20.0, 30.0, 30.0]),  # 2-D at cruise 30: climbs, never descends
+        ([(10.0, 20.0, 10.0)], 10.0, [10.0, 10.0, 10.0]),  # lower target: take-off no higher than it
+        ([(5.0, 5.0, 40.0), (10.0, 20.0, 8.0)], 20.0, [20.0, 40.0, 8.0, 8.0]),  # the user asked to descend
+    ],
+)
+def test_one_altitude_model_never_descends_after_take_off_unasked(points, takeoff_m, zs):
+    mission = build_mission(points, HOME, MissionConfig(takeoff_alt_m=20.0, cruise_alt_m=30.0), FENCE)
+    assert mission.items[0].z == takeoff_m and [i.z for i in mission.items] == zs
+    assert mission.items[1].z >= mission.items[0].z
+
+
+def test_simulate_missions_fly_at_the_simulated_altitude(tmp_path):
+    from bridge.config import BridgeConfig
+    from bridge.mission_files import load_plan
+    from uav_swarm.simulate import _final_plans, _write_plan_files
+
+    bridge = BridgeConfig()  # take-off 20 m by default
+    plans = _final_plans(bridge, np.array([[30.0, 40.0], [5.0, 60.0]]), 10.0)
+    for path in _write_plan_files(bridge, plans, tmp_path):
+        assert [item.z for item in load_plan(path).items] == [10.0, 10.0, 10.0]  # take-off, target, loiter
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ({"protocol": {"busy_retry_s": 601}}, "busy_retry_s = 601.0 is out of range: allowed 0.0 <="),
+        ({"protocol": {"home_timeout_s": 0}}, "protocol.home_timeout_s = 0.0 is out of range: allowed 0.0 <"),
+        ({"max_home_offset_m": -1.0}, "max_home_offset_m = -1.0 is out of range: allowed 0.0 <="),
+        ({"home_source": "gps"}, "home_source = 'gps' is not allowed: choose one of ['config', 'vehicle']"),
+        ({"home": "vehicle", "home_source": "config"}, 'home = "vehicle" contradicts home_source'),
+    ],
+)
+def test_new_bridge_settings_are_validated_with_field_and_range(data, message):
+    from bridge.config import BridgeConfig
+
+    with pytest.raises(ConfigError, match=message.replace("(", r"\(").replace("[", r"\[")):
+        BridgeConfig.from_dict(data)
+    assert BridgeConfig.from_dict({"home": "vehicle"}).home_source == "vehicle"

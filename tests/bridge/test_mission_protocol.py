@@ -50,17 +50,15 @@ def test_upload_download_clear_set_current(transport):
         assert vehicle.mission == [] and client.download() == ()
 
 
-def test_legacy_mission_request_is_answered_with_mission_item():
+def test_legacy_mission_request_is_answered_with_mission_item_int_exactly():
+    home = Home(lat_deg=-35.363262, lon_deg=149.165237, alt_m=584.0)  # float32 degrees: ~1.4 m steps here
     vehicle, link = _pair("udpin", legacy_requests=True)
     with vehicle, link:
         link.wait_heartbeat(1, 5.0)
-        mission = _mission()
+        points = [(12.345, -67.891), (-40.0, 60.0, 45.0)]
+        mission = build_mission(points, home, MissionConfig(), GeofenceConfig())
         MissionClient(link, 1).upload(mission.items)
-        assert len(vehicle.mission) == len(mission.items)
-        for ours, theirs in zip(mission.items, vehicle.mission, strict=True):
-            # MISSION_ITEM carries degrees as float32: ~4e-6 deg resolution near 47 N
-            assert abs(ours.x - theirs.x) <= 40 and abs(ours.y - theirs.y) <= 40
-            assert (ours.command, ours.frame, ours.z) == (theirs.command, theirs.frame, theirs.z)
+    assert tuple(vehicle.mission) == mission.items  # every field, degE7 positions exact
 
 
 RESULT_CODES = [

@@ -221,6 +221,7 @@ def test_final_missions_are_uploaded_to_the_configured_vehicles(tmp_path, tiny_c
     for vehicle in vehicles:
         sent = load_plan(tmp_path / "out" / "missions" / f"vehicle_{vehicle.system_id}.plan").items
         assert len(vehicle.mission) == 3 and tuple(vehicle.mission) == sent
+        assert [item.z for item in sent] == [config.uav.alt_m] * 3  # take-off, target, loiter: one altitude
 
 
 def free_udp_port() -> int:

@@ -7,6 +7,10 @@ point of each plan the target: ``--target ID:X,Y[,Z]`` (once per vehicle, after 
 with JSON ``{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]}``. Mission files are named
 ``vehicle_<ID>.plan`` (QGroundControl) or ``vehicle_<ID>.waypoints`` (QGC WPL 110).
 
+Each vehicle is handled on its own: an absent or failing vehicle does not stop the
+others. Every failure is listed at the end, one line each with its error class.
+Exit codes: 0 done, 1 a vehicle failed, 2 bad input or a safety refusal (nothing sent).
+
 Examples:
   uav-swarm mission export --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --out-dir out/missions
   uav-swarm mission upload --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --target 2:-30,10,45
@@ -76,6 +80,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="download/clear: only these vehicles (repeatable; default: all)",
     )
     add("--no-verify", action="store_true", help="upload: skip the download-and-compare check")
+    add(
+        "--strict",
+        action="store_true",
+        help="upload: compare the mission read back exactly, accepting none of ArduPilot's known changes",
+    )
+    add(
+        "--force",
+        action="store_true",
+        help="upload/clear: replace or clear a mission a vehicle is flying (armed, AUTO, past item 0)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -128,13 +142,21 @@ def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: 
     """Refuse, before any network wait, plans for vehicles the config lacks or outside the fence."""
     from bridge.mission import build_mission
 
+    _check_ids(plans, config)
+    for sid, points in plans.items():
+        try:
+            build_mission(points, config.home, config.mission, config.geofence)  # before any wait
+        except ValueError as exc:
+            raise type(exc)(f"vehicle {sid}: {exc}") from None
+
+
+def _check_ids(ids: object, config) -> None:  # noqa: ANN001 - BridgeConfig
+    """Refuse vehicle ids the bridge config lacks, naming the configured ones."""
     configured = sorted(v.system_id for v in config.vehicles)
-    unknown = sorted(set(plans) - set(configured))
+    unknown = sorted(set(ids) - set(configured))
     if unknown:
         raise ValueError(f"vehicle(s) {unknown} are not in the bridge config; configured vehicle ids: "
                          f"{configured}")
-    for points in plans.values():
-        build_mission(points, config.home, config.mission, config.geofence)  # GeofenceError before any wait
 
 
 def _mission_files(folder: Path) -> dict[int, Path]:
@@ -158,11 +180,39 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _ACTIONS[args.action](args, config)
     except BridgeError as exc:
-        print(f"uav-swarm mission {args.action}: {exc}", file=sys.stderr)
+        _say(args.action, exc)
         return 2 if isinstance(exc, ValueError) else 1
-    except (ValueError, OSError, KeyError) as exc:  # bad input, unreachable endpoint, unknown vehicle
-        print(f"uav-swarm mission {args.action}: {exc}", file=sys.stderr)
+    except (ValueError, OSError, KeyError) as exc:  # bad input, unusable endpoint, unknown vehicle
+        _say(args.action, exc)
         return 2
+
+
+def _say(action: str, exc: BaseException) -> None:
+    """One line on stderr: the action, the error class, the message."""
+    text = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+    print(f"uav-swarm mission {action}: {type(exc).__name__}: {text}", file=sys.stderr)
+
+
+def _report(action: str, errors: dict[int, BaseException]) -> int:
+    """List every vehicle's failure, one line each; the exit code (2 when all are refusals, nothing sent)."""
+    from bridge.errors import RefusedError
+
+    for _, exc in sorted(errors.items()):
+        _say(action, exc)
+    if not errors:
+        return 0
+    return 2 if all(isinstance(e, (RefusedError, ValueError)) for e in errors.values()) else 1
+
+
+def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]]:  # noqa: ANN001 - Fleet
+    """The vehicles that answer (each within its own discovery time), and the others' errors."""
+    from bridge.fleet import FleetError
+
+    try:
+        fleet.wait_for_vehicles(ids)
+    except FleetError as exc:
+        return [sid for sid in ids if sid not in exc.errors], exc.errors
+    return ids, {}
 
 
 def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
@@ -192,67 +242,97 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
     return 0
 
 
-def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _plan_builder(points: list[list[float]], config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
+    """Build a plan's mission around the home the fleet gives (the config's or the vehicle's own)."""
+    from bridge.mission import build_mission
+
+    mission, fence = config.mission, config.geofence
+    return lambda sid, autopilot, home: build_mission(points, home, mission, fence, autopilot)
+
+
+def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
+    """Load a mission file (absolute positions: its own home, or the config's for WPL) for its vehicle."""
     from pymavlink.dialects.v20 import common as mavlink
 
-    from bridge.fleet import Fleet
     from bridge.mission_files import load_mission
+
+    def build(sid: int, autopilot: int, _home: object):  # noqa: ANN202 - Mission
+        mission = load_mission(path, config.home, autopilot)
+        ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+        if (mission.autopilot == ardupilot) != (autopilot == ardupilot) and path.suffix == ".plan":
+            raise ValueError(
+                f"{path}: written for autopilot {mission.autopilot}, vehicle {sid} "
+                f"runs {autopilot} (ArduPilot's home placeholder differs)"
+            )
+        return mission
+
+    return build
+
+
+def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+    from bridge.fleet import Fleet, FleetError
 
     plans = _plans(args)
     if bool(plans) == (args.from_dir is not None):
         raise ValueError("upload needs either --target/--plans or --from-dir")
     if plans:
         _check_plans(plans, config)
+        builders = {sid: _plan_builder(points, config) for sid, points in plans.items()}
+    else:
+        files = _mission_files(args.from_dir)
+        _check_ids(files, config)
+        builders = {sid: _file_builder(path, config) for sid, path in files.items()}
     with Fleet(config) as fleet:
-        if plans:
-            missions = fleet.build_missions(plans)
-        else:
-            missions = {}
-            for sid, path in _mission_files(args.from_dir).items():
-                autopilot = fleet.autopilot(sid)
-                mission = load_mission(path, config.home, autopilot)
-                ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
-                if (mission.autopilot == ardupilot) != (autopilot == ardupilot) and path.suffix == ".plan":
-                    raise ValueError(
-                        f"{path}: written for autopilot {mission.autopilot}, vehicle {sid} "
-                        f"runs {autopilot} (ArduPilot's home placeholder differs)"
-                    )
-                missions[sid] = mission
-        times_s = fleet.upload(missions, verify=not args.no_verify)
-    for sid in sorted(times_s):
-        check = "" if args.no_verify else ", verified"
-        print(f"vehicle {sid}: uploaded {len(missions[sid].items)} items in {times_s[sid]:.3f} s{check}")
-    return 0
+        try:
+            done, errors = fleet.deliver(builders, verify=not args.no_verify, strict=args.strict,
+                                         force=args.force), {}
+        except FleetError as exc:
+            done, errors = exc.results, exc.errors
+    for sid, delivery in sorted(done.items()):
+        verified = ("not verified (--no-verify)" if delivery.verify_s is None
+                    else f"verified (download and compare) in {delivery.verify_s:.3f} s")
+        home = (f"; home from its {delivery.reported_home.source}" if config.home_source == "vehicle"
+                and delivery.reported_home is not None else "")
+        print(f"vehicle {sid}: uploaded {len(delivery.mission.items)} items in {delivery.upload_s:.3f} s, "
+              f"{verified}{home}")
+    return _report(args.action, errors)
 
 
 def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet
+    from bridge.fleet import Fleet, FleetError
     from bridge.mission_files import save_mission
 
     if args.out_dir is None:
         raise ValueError("download needs --out-dir")
+    _check_ids(args.vehicle, config)
     with Fleet(config) as fleet:
-        ids = args.vehicle or list(fleet.system_ids)
-        fleet.wait_for_vehicles(ids)
-        missions = fleet.download(ids)
+        ids, errors = _present(fleet, args.vehicle or list(fleet.system_ids))
+        try:
+            missions = fleet.download(ids) if ids else {}
+        except FleetError as exc:
+            missions, errors = exc.results, {**errors, **exc.errors}
     args.out_dir.mkdir(parents=True, exist_ok=True)
     for sid, mission in sorted(missions.items()):
         path = args.out_dir / f"vehicle_{sid}{_SUFFIX[args.format]}"
         save_mission(path, mission)
         print(f"vehicle {sid}: {len(mission.items)} items -> {path}")
-    return 0
+    return _report(args.action, errors)
 
 
 def _clear(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet
+    from bridge.fleet import Fleet, FleetError
 
+    _check_ids(args.vehicle, config)
     with Fleet(config) as fleet:
-        ids = args.vehicle or list(fleet.system_ids)
-        fleet.wait_for_vehicles(ids)
-        fleet.clear(ids)
-    for sid in sorted(ids):
+        ids, errors = _present(fleet, args.vehicle or list(fleet.system_ids))
+        try:
+            if ids:
+                fleet.clear(ids, force=args.force)
+        except FleetError as exc:
+            errors = {**errors, **exc.errors}
+    for sid in sorted(set(ids) - set(errors)):
         print(f"vehicle {sid}: mission cleared")
-    return 0
+    return _report(args.action, errors)
 
 
 _ACTIONS = {"export": _export, "upload": _upload, "download": _download, "clear": _clear}

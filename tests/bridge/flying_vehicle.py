@@ -1,0 +1,175 @@
+"""A test vehicle that flies: :class:`SimVehicle` with simple kinematics and the flight commands.
+
+It answers as ArduPilot Copter does the commands ``uav-swarm fly`` sends: ``MAV_CMD_DO_SET_MODE``
+(custom modes GUIDED 4, AUTO 3, RTL 6, LAND 9), ``MAV_CMD_COMPONENT_ARM_DISARM`` (refused with
+``MAV_RESULT_FAILED`` during ``prearm_s`` after start, as pre-arm checks do), ``MAV_CMD_NAV_TAKEOFF``
+(only armed and in GUIDED), ``MAV_CMD_NAV_RETURN_TO_LAUNCH``, ``MAV_CMD_NAV_LAND``,
+``MAV_CMD_SET_MESSAGE_INTERVAL`` for GLOBAL_POSITION_INT, and ``MAV_CMD_DO_REPOSITION`` (only
+airborne). Like ArduPilot on a new link it sends only HEARTBEAT until GLOBAL_POSITION_INT is asked
+for (``stream_until_asked``). It flies toward its target at ``speed_m_s`` horizontally and
+``climb_m_s`` vertically, through its mission in AUTO, home and down in RTL, down in LAND, and
+disarms on the ground.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from sim_vehicle import SimVehicle, m
+
+from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
+from bridge.mission import DEG_E7
+
+__all__ = ["FlyingVehicle", "GUIDED", "AUTO", "RTL", "LAND"]
+
+STABILIZE, AUTO, GUIDED, RTL, LAND = 0, 3, 4, 6, 9
+_POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
+
+
+class FlyingVehicle(SimVehicle):
+    """A Copter-like vehicle at ``home`` (East-North-Up kinematics around it).
+
+    Args:
+        url: Its end of the link (``udpout:``, ``udpin:`` or ``tcpin:``).
+        system_id: Its MAVLink system id.
+        home: Where it stands at start (its home).
+        speed_m_s: Horizontal speed.
+        climb_m_s: Vertical speed.
+        prearm_s: Arming is refused this long after start.
+        position_period_s: Period of its telemetry until asked otherwise.
+        stream_until_asked: Send no GLOBAL_POSITION_INT before ``MAV_CMD_SET_MESSAGE_INTERVAL`` asks.
+    """
+
+    def __init__(self, url: str, system_id: int, *, home: Home | None = None, speed_m_s: float = 12.0,
+                 climb_m_s: float = 8.0, prearm_s: float = 0.0, position_period_s: float = 0.2,
+                 stream_until_asked: bool = True) -> None:
+        self.url = url
+        self.geo_home = home = home or Home()
+        self.speed_m_s, self.climb_m_s = speed_m_s, climb_m_s
+        self.armed = False
+        self.streaming = not stream_until_asked
+        self.enu = [0.0, 0.0, 0.0]
+        self.velocity = [0.0, 0.0, 0.0]
+        self.target: tuple[float, float, float] | None = None
+        self.commands: list[int] = []
+        self.modes: list[int] = []
+        self._ready_at_s = time.monotonic() + prearm_s
+        self._last_step_s = time.monotonic()
+        super().__init__(url, system_id, autopilot=m.MAV_AUTOPILOT_ARDUPILOTMEGA, armed=False,
+                         lat_deg=home.lat_deg, lon_deg=home.lon_deg, alt_m=home.alt_m,
+                         telemetry_period_s=position_period_s)
+        self.custom_mode, self.armed = STABILIZE, False  # on the ground, disarmed
+
+    # -- kinematics ----------------------------------------------------------------------------
+    def _mission_target(self) -> tuple[float, float, float] | None:
+        while 0 < self.current_seq < len(self.mission):
+            item = self.mission[self.current_seq]
+            if item.command in _POSITIONED:
+                home = self.geo_home
+                x, y, _ = geodetic_to_enu(home, item.x / DEG_E7, item.y / DEG_E7, home.alt_m)
+                target = (x, y, item.z)
+                if item.command == m.MAV_CMD_NAV_WAYPOINT and math.dist(target, self.enu) < 0.5:
+                    self.reached_seq = self.current_seq
+                    self.current_seq += 1  # on to the next item
+                    continue
+                return target
+            self.current_seq += 1
+        return None
+
+    def _step(self) -> None:
+        now_s = time.monotonic()
+        dt_s, self._last_step_s = now_s - self._last_step_s, now_s
+        goal: tuple[float, float, float] | None = None
+        if self.armed and self.custom_mode == GUIDED:
+            goal = self.target
+        elif self.armed and self.custom_mode == AUTO:
+            goal = self._mission_target()
+        elif self.armed and self.custom_mode == RTL:
+            goal = (0.0, 0.0, self.enu[2]) if math.hypot(*self.enu[:2]) > 0.5 else (0.0, 0.0, 0.0)
+        elif self.armed and self.custom_mode == LAND:
+            goal = (self.enu[0], self.enu[1], 0.0)
+        if goal is None:
+            self.velocity = [0.0, 0.0, 0.0]
+            return
+        dx, dy, dz = (g - p for g, p in zip(goal, self.enu, strict=True))
+        horizontal = math.hypot(dx, dy)
+        scale = min(1.0, self.speed_m_s * dt_s / horizontal) if horizontal > 0 else 0.0
+        climb = max(-self.climb_m_s * dt_s, min(self.climb_m_s * dt_s, dz))
+        step = (dx * scale, dy * scale, climb)
+        self.enu = [p + d for p, d in zip(self.enu, step, strict=True)]
+        self.velocity = [d / dt_s if dt_s > 0 else 0.0 for d in step]
+        if self.custom_mode in (RTL, LAND) and self.enu[2] <= 0.01 and math.hypot(dx, dy) < 0.5:
+            self.enu[2], self.armed = 0.0, False  # landed: disarm
+
+    def _telemetry(self) -> None:
+        self._step()
+        lat_deg, lon_deg, alt_m = enu_to_geodetic(self.geo_home, *self.enu)
+        mav = self._conn.mav
+        base_mode = m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (m.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
+        mav.heartbeat_send(type=m.MAV_TYPE_QUADROTOR, autopilot=self.autopilot, base_mode=base_mode,
+                           custom_mode=self.custom_mode, system_status=m.MAV_STATE_ACTIVE)
+        if not self.streaming:
+            return
+        vx, vy, vz = self.velocity
+        mav.global_position_int_send(
+            time_boot_ms=int(time.monotonic() * 1000) % 2**32, lat=round(lat_deg * DEG_E7),
+            lon=round(lon_deg * DEG_E7), alt=round(alt_m * 1000), relative_alt=round(self.enu[2] * 1000),
+            vx=round(vy * 100), vy=round(vx * 100), vz=round(-vz * 100), hdg=0)
+        mav.mission_current_send(seq=self.current_seq, total=len(self.mission))
+
+    # -- commands ------------------------------------------------------------------------------
+    def _answer(self, msg, result: int) -> None:
+        self._conn.mav.command_ack_send(command=msg.command, result=result, **self._targets(msg))
+
+    def _on_command_long(self, msg) -> None:
+        self.commands.append(msg.command)
+        if msg.command == m.MAV_CMD_REQUEST_MESSAGE:  # HOME_POSITION: the base vehicle answers
+            super()._on_command_long(msg)
+            return
+        self._answer(msg, self._command(msg))
+
+    def _command(self, msg) -> int:
+        airborne = self.armed and self.enu[2] > 0.5
+        if msg.command == m.MAV_CMD_SET_MESSAGE_INTERVAL:
+            if int(msg.param1) != m.MAVLINK_MSG_ID_GLOBAL_POSITION_INT or msg.param2 <= 0:
+                return m.MAV_RESULT_DENIED
+            self.telemetry_period_s, self.streaming = msg.param2 / 1e6, True
+            return m.MAV_RESULT_ACCEPTED
+        if msg.command == m.MAV_CMD_DO_SET_MODE:
+            if int(msg.param2) not in (STABILIZE, AUTO, GUIDED, RTL, LAND):
+                return m.MAV_RESULT_DENIED
+            self.custom_mode = int(msg.param2)
+            self.modes.append(self.custom_mode)
+            return m.MAV_RESULT_ACCEPTED
+        if msg.command == m.MAV_CMD_COMPONENT_ARM_DISARM:
+            if msg.param1 == 1.0 and time.monotonic() < self._ready_at_s:
+                return m.MAV_RESULT_FAILED  # pre-arm checks still failing
+            self.armed = msg.param1 == 1.0
+            return m.MAV_RESULT_ACCEPTED
+        if msg.command == m.MAV_CMD_NAV_TAKEOFF:
+            if not self.armed or self.custom_mode != GUIDED or msg.param7 <= 0:
+                return m.MAV_RESULT_FAILED
+            self.target = (self.enu[0], self.enu[1], msg.param7)
+            return m.MAV_RESULT_ACCEPTED
+        if msg.command in (m.MAV_CMD_NAV_RETURN_TO_LAUNCH, m.MAV_CMD_NAV_LAND):
+            if not self.armed:
+                return m.MAV_RESULT_FAILED
+            self.custom_mode = RTL if msg.command == m.MAV_CMD_NAV_RETURN_TO_LAUNCH else LAND
+            self.modes.append(self.custom_mode)
+            return m.MAV_RESULT_ACCEPTED
+        return m.MAV_RESULT_UNSUPPORTED if not airborne else m.MAV_RESULT_DENIED
+
+    def _on_command_int(self, msg) -> None:
+        self.commands.append(msg.command)
+        if msg.command != m.MAV_CMD_DO_REPOSITION:
+            self._answer(msg, m.MAV_RESULT_UNSUPPORTED)
+            return
+        if not (self.armed and self.enu[2] > 0.5):
+            self._answer(msg, m.MAV_RESULT_FAILED)  # ArduPilot: not flying
+            return
+        x, y, _ = geodetic_to_enu(self.geo_home, msg.x / DEG_E7, msg.y / DEG_E7, self.geo_home.alt_m)
+        self.target = (x, y, msg.z)
+        self.reposition_target = (msg.x, msg.y, msg.z)
+        self.custom_mode = GUIDED
+        self._answer(msg, m.MAV_RESULT_ACCEPTED)

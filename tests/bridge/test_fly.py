@@ -1,0 +1,267 @@
+"""``uav-swarm fly`` end to end: the planner flies test vehicles over real MAVLink sockets on loopback.
+
+Every vehicle is a :class:`FlyingVehicle` (pymavlink, its own socket, simple kinematics) and the
+telemetry goes through a real Zenoh session to a subscriber connected over ``tcp/127.0.0.1``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from flying_vehicle import AUTO, GUIDED, LAND, RTL, FlyingVehicle
+from lossy_relay import free_tcp_port, free_udp_port
+from pymavlink.dialects.v20 import common as mavlink
+from sim_vehicle import endpoint_pair
+
+from bridge.config import ProtocolConfig
+from bridge.errors import CommandRejectedError
+from bridge.flight import FlightConfig, FlightError, launch
+from bridge.geo import Home
+from bridge.mavlink import MavlinkLink
+from bridge.telemetry import SwarmSubscriber
+from bridge.telemetry_config import TelemetryConfig
+from bridge.telemetry_schema import Plan, Presence, Qos, UavState
+from bridge.vehicle_state import VehicleStateTracker
+from uav_swarm.cli import main
+from uav_swarm.fly import fly
+from uav_swarm.fly_config import load_fly_config
+
+FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
+
+
+def _vehicles(n: int, transports: tuple[str, ...] = ("udpin",),
+              options: dict[int, dict] | None = None) -> tuple[list, list[str]]:
+    """``n`` flying vehicles on loopback (``options`` by system id), and the ground station's URLs."""
+    vehicles, urls = [], []
+    for i in range(n):
+        transport = transports[i % len(transports)]
+        port = free_tcp_port() if transport == "tcp" else free_udp_port()
+        vehicle_url, gcs_url = endpoint_pair(transport, port)
+        vehicles.append(FlyingVehicle(vehicle_url, i + 1, **(options or {}).get(i + 1, {})))
+        urls.append(gcs_url)
+    return vehicles, urls
+
+
+def _bridge_toml(path: Path, urls: list[str]) -> Path:
+    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
+             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
+    for sid, url in enumerate(urls, start=1):
+        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _free_endpoint() -> str:
+    return f"tcp/127.0.0.1:{free_tcp_port()}"
+
+
+def _close(vehicles) -> None:
+    for vehicle in vehicles:
+        vehicle.close()
+
+
+def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
+    """60 s of crowd time: every vehicle launched, one killed mid-flight and restarted, all sent RTL."""
+    options = {1: {"prearm_s": 4.0}} | {i: {"speed_m_s": 25.0} for i in range(2, 11)}
+    vehicles, urls = _vehicles(10, ("udpin", "udpout", "tcp"), options)
+    endpoint = _free_endpoint()
+    config = load_fly_config(None, {
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)),
+        "duration_s": 60.0, "speedup": 4.0,
+        "flight": {"link_timeout_s": 1.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
+        "telemetry": {"swarm": "flytest", "listen": [endpoint]}})
+    received: list = []
+    watch = TelemetryConfig(swarm="flytest", listen=(), connect=(endpoint,))
+    killed = 4  # system id 4: udpin transport (index 3), so a restarted vehicle reaches the same socket
+    outcome: dict = {}
+    try:
+        with SwarmSubscriber(watch, callback=received.append, presence=True):
+            runner = threading.Thread(target=lambda: outcome.update(result=fly(config, tmp_path / "out")))
+            runner.start()
+            deadline = time.monotonic() + 30.0
+            while time.monotonic() < deadline and not any(
+                    isinstance(m, Plan) and m.seq >= 3 for m in received):
+                time.sleep(0.05)
+            vehicles[killed - 1].close()  # killed in flight
+            time.sleep(2.5)
+            vehicles[killed - 1] = FlyingVehicle(vehicles[killed - 1].url, killed, speed_m_s=25.0)
+            runner.join(timeout=60.0)
+            assert not runner.is_alive()
+            time.sleep(0.5)
+        result = outcome["result"]
+        summary = result.summary
+        statuses = {v["system_id"]: v for v in summary["vehicles"]}
+        assert all(v["status"] == "ended" for v in statuses.values())
+        assert statuses[killed]["launches"] == 2 and all(
+            v["launches"] == 1 for sid, v in statuses.items() if sid != killed)
+        kinds = [(e["event"], e.get("system_id")) for e in summary["events"]]
+        assert kinds.index(("lost", killed)) < kinds.index(("heard_again", killed)) < len(kinds) - 1
+        assert ("live", killed) in kinds[kinds.index(("heard_again", killed)):]
+        for vehicle in vehicles:  # every vehicle was told RTL and is returning or home
+            assert vehicle.custom_mode == RTL
+            assert GUIDED in vehicle.modes
+        assert vehicles[0].commands.count(mavlink.MAV_CMD_COMPONENT_ARM_DISARM) >= 2  # refused, then armed
+
+        states = [m for m in received if isinstance(m, UavState)]
+        plans = [m for m in received if isinstance(m, Plan)]
+        assert {s.uav_id for s in states} == set(range(10))
+        assert all(s.source == "vehicle" and s.position_wgs84 is not None for s in states)
+        assert any(s.target_enu_m is not None for s in states)
+        sizes = [len(p.targets) for p in plans]
+        assert 10 in sizes and 9 in sizes
+        first_short = sizes.index(9)
+        assert killed - 1 not in plans[first_short].targets_by_uav()  # replanned without the lost vehicle
+        assert 10 in sizes[first_short:]  # and with it again once it was back
+        targets = [t for p in plans for t in p.targets_by_uav().values()]
+        assert all(-20.0 <= t[0] <= 300.0 and -20.0 <= t[1] <= 300.0 and t[2] == 10.0 for t in targets)
+        presence = [m.alive for m in received if isinstance(m, Presence) and m.uav_id == killed - 1]
+        assert False in presence and True in presence[presence.index(False):]  # token withdrawn, then back
+        qos = [m for m in received if isinstance(m, Qos)]
+        assert qos and all(0.0 <= q.qos_s2 <= q.qos_s1 <= 1.0 for q in qos)
+        assert summary["mean_qos_s1"] > 0.0  # measured positions over the crowd
+        out = tmp_path / "out"
+        assert {"qos.png", "timeseries.csv", "track.csv", "summary.json"} <= {p.name for p in out.iterdir()}
+        track = (out / "track.csv").read_text().splitlines()
+        assert track[0].startswith("time_s,uav_id,system_id,status,x_m,y_m,z_m")
+        assert any(",lost," in row for row in track)
+    finally:
+        _close(vehicles)
+
+
+def test_mission_mode_flies_each_target_in_auto_and_lands(tmp_path):
+    vehicles, urls = _vehicles(2, ("udpin",), {i: {"speed_m_s": 25.0} for i in (1, 2)})
+    try:
+        argv = ["fly", "--bridge-config", str(_bridge_toml(tmp_path / "bridge.toml", urls)), "--out",
+                str(tmp_path / "out"), "--mode", "mission", "--end", "land", "--duration-s", "8",
+                "--speedup", "2", "--no-telemetry"]
+        assert main(argv) == 0
+        for vehicle in vehicles:
+            assert vehicle.uploads >= 1 and AUTO in vehicle.modes and vehicle.custom_mode == LAND
+            assert vehicle.mission[-1].command == mavlink.MAV_CMD_NAV_LOITER_UNLIM
+            assert vehicle.mission[-1].z == 10.0  # the cruise altitude, no descent after take-off
+    finally:
+        _close(vehicles)
+
+
+def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, caplog):
+    """Vehicle 3 never answers, vehicle 2 is disarmed in flight (a pilot taking over), then a stop."""
+    vehicles, urls = _vehicles(2, ("udpin",))
+    urls.append(f"udpin:127.0.0.1:{free_udp_port()}")  # vehicle 3 never answers
+    config = load_fly_config(None, {
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 600.0,
+        "publish_telemetry": False, "flight": {"ready_timeout_s": 2.0, "end_action": "land"}})
+    stop = threading.Event()
+    try:
+        timer = threading.Timer(7.0, stop.set)  # as Ctrl-C or SIGTERM would
+        timer.start()
+        threading.Timer(5.0, lambda: setattr(vehicles[1], "armed", False)).start()
+        started = time.monotonic()
+        result = fly(config, tmp_path / "out", stop_event=stop)
+        assert time.monotonic() - started < 20.0
+        statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
+        assert statuses == {1: "ended", 2: "landed", 3: "lost"}
+        assert "vehicle 3: no heartbeat" in caplog.text and "vehicle 2 disarmed in flight" in caplog.text
+        assert vehicles[0].custom_mode == LAND and not vehicles[1].armed
+        assert vehicles[1].commands.count(mavlink.MAV_CMD_COMPONENT_ARM_DISARM) == 1  # never re-armed
+        assert result.summary["duration_s"] < 600.0
+    finally:
+        _close(vehicles)
+
+
+def test_a_vehicle_far_from_the_configured_home_is_never_armed(tmp_path, caplog):
+    far = Home(lat_deg=Home().lat_deg + 0.05)  # about 5.6 km North
+    vehicles, urls = _vehicles(2, ("udpin",), {2: {"home": far}})
+    config = load_fly_config(None, {
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 4.0, "speedup": 2.0,
+        "publish_telemetry": False})
+    try:
+        result = fly(config, tmp_path / "out")
+        statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
+        assert statuses == {1: "ended", 2: "failed"}
+        assert "HomeMismatchError" in caplog.text and "max_home_offset_m = 100" in caplog.text
+        assert not vehicles[1].armed and mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicles[1].commands
+    finally:
+        _close(vehicles)
+
+
+def test_a_stop_during_the_launch_cancels_it_before_any_take_off(tmp_path):
+    vehicles, urls = _vehicles(2, ("udpin",), {1: {"prearm_s": 60.0}, 2: {"prearm_s": 60.0}})
+    config = load_fly_config(None, {
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "publish_telemetry": False,
+        "flight": {"arm_retry_s": 0.2}})
+    stop = threading.Event()
+    try:
+        threading.Timer(1.5, stop.set).start()
+        started = time.monotonic()
+        result = fly(config, tmp_path / "out", stop_event=stop)
+        assert time.monotonic() - started < 10.0  # not the 60 s arming timeout
+        time.sleep(0.5)
+        for vehicle in vehicles:
+            assert not vehicle.armed and vehicle.enu[2] == 0.0
+            assert mavlink.MAV_CMD_NAV_TAKEOFF not in vehicle.commands
+        assert "mean_qos_s1" not in result.summary or result.summary["duration_s"] < 1.0
+    finally:
+        _close(vehicles)
+
+
+def test_bad_configuration_exits_2_before_anything_is_sent(tmp_path, capsys):
+    vehicles, urls = _vehicles(1)
+    try:
+        toml = _bridge_toml(tmp_path / "bridge.toml", urls)
+        toml.write_text(toml.read_text().replace("x_max_m = 300.0", "x_max_m = 50.0"))
+        out = str(tmp_path / "out")
+        assert main(["fly", "--bridge-config", str(toml), "--out", out, "--no-telemetry"]) == 2
+        err = capsys.readouterr().err
+        assert "GeofenceError" in err and "the crowd area's corner" in err
+        assert main(["fly", "--out", str(tmp_path / "out")]) == 2
+        assert "bridge_config is empty" in capsys.readouterr().err
+        assert main(["fly", "--bridge-config", str(toml), "--speedup", "0", "--no-telemetry"]) == 2
+        assert "speedup" in capsys.readouterr().err
+        time.sleep(0.3)
+        assert vehicles[0].commands == [] and not vehicles[0].armed
+        assert not (tmp_path / "out").exists()
+    finally:
+        _close(vehicles)
+
+
+def _link_and_tracker(url: str) -> tuple[MavlinkLink, VehicleStateTracker]:
+    link = MavlinkLink(url)
+    tracker = VehicleStateTracker(Home())
+    link.add_listener(tracker.update)
+    return link, tracker
+
+
+def test_launch_names_the_vehicle_when_arming_stays_refused():
+    vehicles, urls = _vehicles(1, options={1: {"prearm_s": 60.0}})
+    link, tracker = _link_and_tracker(urls[0])
+    try:
+        config = FlightConfig(arm_timeout_s=1.0, arm_retry_s=0.2, ready_timeout_s=5.0)
+        with pytest.raises(FlightError, match=r"vehicle 1: arming refused for 1 s .*MAV_RESULT_FAILED"):
+            launch(link, tracker, 1, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 10.0, config,
+                   ProtocolConfig(**FAST))
+        assert vehicles[0].commands.count(mavlink.MAV_CMD_COMPONENT_ARM_DISARM) >= 3
+        assert not vehicles[0].armed
+    finally:
+        link.close()
+        _close(vehicles)
+
+
+def test_launch_climbs_to_the_altitude_and_refused_commands_raise_by_name():
+    vehicles, urls = _vehicles(1)
+    link, tracker = _link_and_tracker(urls[0])
+    try:
+        protocol = ProtocolConfig(**FAST)
+        launch(link, tracker, 1, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 12.0, FlightConfig(), protocol)
+        state = tracker.state(1)
+        assert state.armed and state.relative_alt_m >= 11.0 and vehicles[0].custom_mode == GUIDED
+        assert vehicles[0].telemetry_period_s == pytest.approx(0.1)  # the position stream asked at 10 Hz
+        from bridge.flight import set_mode
+
+        with pytest.raises(CommandRejectedError, match="vehicle 1 rejected MAV_CMD_DO_SET_MODE"):
+            set_mode(link, 1, (99.0,), protocol)
+    finally:
+        link.close()
+        _close(vehicles)

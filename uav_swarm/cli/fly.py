@@ -1,0 +1,107 @@
+"""``uav-swarm fly``: the planner flies real or SITL autopilots over the simulated crowd, live.
+
+Every vehicle of the bridge config is waited for (heartbeat, position fix), switched to its guided
+mode, armed and taken off to ``[uav] alt_m`` above its home; then the planner replans every
+``--replan-every-s`` from the vehicles' measured positions and sends each one its target while it
+flies (``--mode guided``: MAV_CMD_DO_REPOSITION; ``--mode mission``: a new mission flown in AUTO).
+At the end (``--duration-s`` of crowd time, Ctrl-C or SIGTERM) every vehicle is sent RTL
+(``--end land``: LAND). Vehicle states, plans and QoS go out over Zenoh (tcp/127.0.0.1:7447).
+Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json.
+
+Examples:
+  uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
+  uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
+
+Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (outputs
+written), 2 bad configuration, checkpoint or telemetry endpoint (before anything is sent to a vehicle).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``fly`` subcommand."""
+    parser = subparsers.add_parser(
+        "fly", help="closed loop: the planner flies real or SITL autopilots over the simulated crowd",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add = parser.add_argument
+    add("--bridge-config", help="bridge TOML: home, geofence, protocol and the vehicles (required here or "
+                                "in --config)")
+    add("--out", type=Path, default=Path("out/fly"), help="output folder (default: %(default)s)")
+    add("--config", type=Path, help="TOML of FlyConfig (keys and tables [task], [uav], [planning], "
+                                    "[telemetry], [flight]); flags override it")
+    add("--planner", choices=("learned", "expert"), help="the planner flown (default: learned)")
+    add("--checkpoint", help="learned planner checkpoint (default: uav_swarm/checkpoints/wifi-s1.pt)")
+    add("--mode", choices=("guided", "mission"), help="how targets reach the vehicles (default: guided)")
+    add("--end", choices=("rtl", "land"), help="what every vehicle is told at the end (default: rtl)")
+    add("--duration-s", type=float, help="crowd seconds flown (default: 300)")
+    add("--speedup", type=float, help="crowd seconds per wall-clock second (default: 1)")
+    add("--replan-every-s", type=float, help="crowd seconds between replans (default: 1)")
+    add("--n-uavs", type=int, help="fly the first N vehicles of the bridge config (default: all)")
+    add("--seed", type=int, help="seed of the simulated crowd (default: 0)")
+    add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
+    parser.set_defaults(func=run)
+
+
+def _overrides(args: argparse.Namespace) -> dict[str, Any]:
+    values = {"bridge_config": args.bridge_config, "planner": args.planner, "checkpoint": args.checkpoint,
+              "mode": args.mode, "duration_s": args.duration_s, "speedup": args.speedup,
+              "replan_every_s": args.replan_every_s, "n_uavs": args.n_uavs, "seed": args.seed}
+    overrides: dict[str, Any] = {key: value for key, value in values.items() if value is not None}
+    if args.end is not None:
+        overrides["flight"] = {"end_action": args.end}
+    if args.no_telemetry:
+        overrides["publish_telemetry"] = False
+    return overrides
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validate, fly until the end or a stop signal, print the outcome per vehicle."""
+    from bridge.errors import BridgeError
+    from bridge.telemetry_config import TelemetryConnectionError
+    from learning.checkpoint import CheckpointError
+    from typed_config import ConfigError
+    from uav_swarm.fly import fly
+    from uav_swarm.fly_config import load_fly_config
+
+    try:
+        config = load_fly_config(args.config, _overrides(args))
+    except ConfigError as exc:
+        print(f"uav-swarm fly: {exc}", file=sys.stderr)
+        return 2
+    stop = threading.Event()
+    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        result = fly(config, args.out, stop_event=stop)
+    except (ConfigError, CheckpointError) as exc:
+        print(f"uav-swarm fly: {exc}", file=sys.stderr)
+        return 2
+    except TelemetryConnectionError as exc:
+        print(f"uav-swarm fly: {exc}; use --no-telemetry, or another [telemetry] listen endpoint",
+              file=sys.stderr)
+        return 2
+    except BridgeError as exc:
+        print(f"uav-swarm fly: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, ValueError) else 1
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    summary = result.summary
+    for vehicle in summary["vehicles"]:
+        print(f"vehicle {vehicle['system_id']} (uav {vehicle['uav_id']}): {vehicle['status']}, "
+              f"{vehicle['launches']} launch(es), {vehicle['command_failures']} command failure(s)")
+    if "mean_qos_s1" in summary:
+        print(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: mean QoS S1 "
+              f"{summary['mean_qos_s1']:.3f}, S2 {summary['mean_qos_s2']:.3f}, "
+              f"mean throughput {summary['mean_throughput_mbps']:.2f} Mbps")
+    print(f"wrote {', '.join(summary['files'])} in {args.out}")
+    return 0
