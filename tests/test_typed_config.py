@@ -79,3 +79,22 @@ def test_load_toml_file_and_section(tmp_path):
 
 def test_module_doctests():
     assert doctest.testmod(typed_config).failed == 0
+
+
+@dataclass(frozen=True)
+class Deep(Config):
+    inner: Inner = param(Inner(), doc="nested")
+    other: Inner = param(Inner(), doc="another nested table")
+    n_uavs: int = param(10, ge=1, le=10, doc="UAVs")
+
+
+def test_overrides_merge_into_the_file_tables_and_errors_name_the_file(tmp_path):
+    path = tmp_path / "run.toml"
+    path.write_text("n_uavs = 3\n[inner]\ngain = 4.0\n[other]\ngain = 5.0\n")
+    cfg = typed_config.load_with_overrides(Deep, path, {"other": {"gain": 6.0}})
+    assert (cfg.n_uavs, cfg.inner.gain, cfg.other.gain) == (3, 4.0, 6.0)  # [inner] kept, [other] merged
+    assert typed_config.load_with_overrides(Deep, None, {"n_uavs": 2}).n_uavs == 2
+    with pytest.raises(ConfigError, match=r"run.toml: Deep.n_uavs = 0 is out of range"):
+        typed_config.load_with_overrides(Deep, path, {"n_uavs": 0})
+    with pytest.raises(ConfigError, match=r"^Deep: unknown key\(s\) \['speed'\]"):
+        typed_config.load_with_overrides(Deep, None, {"speed": 1.0})

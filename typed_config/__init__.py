@@ -32,7 +32,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
 
-__all__ = ["Config", "ConfigError", "param", "load_toml", "read_toml"]
+__all__ = ["Config", "ConfigError", "param", "load_toml", "load_with_overrides", "read_toml"]
 
 C = TypeVar("C", bound="Config")
 
@@ -250,3 +250,24 @@ def load_toml(cls: type[C], path: str | Path, *, section: str | None = None) -> 
         return cls.from_dict(data, where=where)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
+
+
+def load_with_overrides(
+    cls: type[C], path: str | Path | None, overrides: Mapping[str, Any] | None = None
+) -> C:
+    """A config from an optional TOML file with ``overrides`` on top (a command line's flags), validated once.
+
+    A top-level override replaces the file's value, except that a dict given for a table is merged into
+    that table key by key (``{"flight": {"end_action": "land"}}`` keeps the file's other ``[flight]`` keys).
+
+    Raises:
+        ConfigError: Unreadable file, unknown key or table, or an invalid value (named, with the file).
+    """
+    data = {} if path is None else read_toml(path)
+    for key, value in (overrides or {}).items():
+        nested = isinstance(value, Mapping) and isinstance(data.get(key), Mapping)
+        data[key] = {**data[key], **value} if nested else value
+    try:
+        return cls.from_dict(data)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}" if path is not None else str(exc)) from None

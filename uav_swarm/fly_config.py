@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 from bridge.flight import FlightConfig
 from bridge.telemetry_config import TelemetryConfig
-from typed_config import Config, ConfigError, param, read_toml
+from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env_config import MAX_UAVS
 from uav_swarm.missions.wifi import WifiConfig
 from uav_swarm.planner import PlannerConfig
@@ -69,12 +69,4 @@ def load_fly_config(path: str | Path | None = None, overrides: dict[str, Any] | 
     Raises:
         ConfigError: Unreadable file, unknown key or table, or an invalid value (named).
     """
-    data = {} if path is None else read_toml(path)
-    for key, value in (overrides or {}).items():
-        nested = isinstance(value, dict) and isinstance(data.get(key), dict)
-        data[key] = {**data[key], **value} if nested else value
-    where = f"{path}: " if path is not None else ""
-    try:
-        return FlyConfig.from_dict(data)
-    except ConfigError as exc:
-        raise ConfigError(f"{where}{exc}") from None
+    return load_with_overrides(FlyConfig, path, overrides)

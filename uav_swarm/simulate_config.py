@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from bridge.telemetry_config import TelemetryConfig
-from typed_config import Config, ConfigError, load_toml, param
+from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env_config import MAX_UAVS, EnvConfig
 from uav_swarm.missions.wifi import WifiConfig
 from uav_swarm.planner import PlannerConfig
@@ -89,15 +89,4 @@ def load_simulate_config(path: str | Path | None = None, overrides: dict[str, An
     Raises:
         ConfigError: Unreadable file, unknown key or table, or an invalid value (named).
     """
-    config = SimulateConfig() if path is None else load_toml(SimulateConfig, path)
-    if not overrides:
-        return config
-    data = config.to_dict()
-    for key, value in overrides.items():
-        nested = isinstance(value, dict) and isinstance(data.get(key), dict)
-        data[key] = {**data[key], **value} if nested else value
-    where = f"{path}: " if path is not None else ""
-    try:
-        return SimulateConfig.from_dict(data)
-    except ConfigError as exc:
-        raise ConfigError(f"{where}{exc}") from None
+    return load_with_overrides(SimulateConfig, path, overrides)
