@@ -5,19 +5,22 @@ MissionRawServer plugin, each on its own loopback UDP port; one set of vehicles 
 so that both see identical peers. Mission: 5 items (take-off, 3 waypoints, unlimited
 loiter) in ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT``. Timed: from the first MISSION_COUNT to
 the last MISSION_ACK (vehicles already discovered; no verification download), for 1 vehicle
-and for 10 vehicles at once (ours: ``Fleet.upload``, one thread per vehicle; MAVSDK: the
-blocking ``MissionRaw.upload_mission`` of every system, one thread per vehicle too;
-``upload_mission_async`` is not used: with 10 concurrent calls it corrupted the heap at
-exit in MAVSDK 4.1.0 here).
-Rounds alternate between the two clients; the median of the rounds is reported.
+and for 10 vehicles at once (ours: ``Fleet.upload(..., verify=False)``, all vehicles from the
+calling thread; MAVSDK: the blocking ``MissionRaw.upload_mission`` of every system, one
+thread per vehicle; ``upload_mission_async`` is not used: with 10 concurrent calls it
+corrupted the heap at exit in MAVSDK 4.1.0 here).
+Rounds alternate between the two clients; the median of the rounds is reported. The CPU
+model, its vector flags and the load average are printed first: the machine may be shared.
 
-Run: ``python benchmarks/mission_upload.py [--rounds 30]``.
+Run: ``python benchmarks/mission_upload.py [--rounds 30]``; under loss:
+``python benchmarks/mission_upload_loss.py``.
 """
 
 from __future__ import annotations
 
 import argparse
 import multiprocessing as mp
+import os
 import platform
 import socket
 import statistics
@@ -39,6 +42,26 @@ from bridge.mission import MissionConfig, build_mission
 
 N_FLEET = 10
 PLAN_M = [(20.0, 10.0), (60.0, -30.0), (-15.0, 45.0)]
+_SHOWN_FLAGS = ("sse4_2", "avx", "avx2", "avx512f", "avx512_bf16", "amx_tile")
+
+
+def machine_line() -> str:
+    """CPU model, core count, vector flags and load average (``/proc`` where there is one)."""
+    model, flags = platform.processor() or platform.machine(), set()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as info:
+            for line in info:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name":
+                    model = value.strip()
+                elif key.strip() == "flags":
+                    flags = set(value.split())
+                    break
+    except OSError:
+        pass
+    shown = ", ".join(flag for flag in _SHOWN_FLAGS if flag in flags) or "none"
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    return f"CPU: {model}, {os.cpu_count()} cores; flags: {shown}; load average {load}"
 
 
 def free_udp_port() -> int:
@@ -103,6 +126,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=30, help="timed rounds per client and fleet size")
     args = parser.parse_args()
+    print(machine_line())
     log_subscribe(lambda level, message, file, line: True)  # MAVSDK's console log off
 
     mission = build_mission(PLAN_M, Home(), MissionConfig(), GeofenceConfig())

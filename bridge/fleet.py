@@ -131,8 +131,8 @@ class Fleet:
                 allow_unsigned=self.config.signing.allow_unsigned,
                 reader=self._reader,
             )
-            link.add_listener(self.tracker.update)
-            link.add_listener(self._homes.update)
+            link.add_listener(self.tracker.update, VehicleStateTracker.MESSAGE_TYPES)
+            link.add_listener(self._homes.update, HomeWatcher.MESSAGE_TYPES)
             return link
 
         urls = dict.fromkeys(v.url for v in self.config.vehicles)

@@ -5,8 +5,8 @@ Timing follows the protocol: the first answer is awaited ``handshake_timeout_s``
 again up to ``max_retries`` (5) times, then :class:`~bridge.errors.MissionTimeoutError`
 is raised. Every wait is bounded, so no call can hang. Error acknowledgements raise
 the named exception of their ``MAV_MISSION_RESULT`` code. Uploads run in
-:mod:`bridge.mission_upload` (requests answered on the reader thread; its docstring
-gives the re-send rules).
+:mod:`bridge.mission_upload` (requests answered as they arrive, on the thread that reads;
+its docstring gives the re-send rules).
 
 A transfer that breaks off after the handshake (the vehicle answered, then fell
 silent through every retry) is started again from the beginning, up to

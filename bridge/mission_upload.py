@@ -1,18 +1,28 @@
 """Mission uploads to one or many vehicles at once, driven by the vehicles' requests.
 
-Each request is answered on the link's reader thread the moment it arrives (no hand-off
-to another thread); the calling thread only watches the clock for all uploads at once:
-it re-sends MISSION_COUNT (handshake, ``handshake_timeout_s``) or the last item (whose
-MISSION_ACK may be lost, ``item_timeout_s``) when a wait runs out, and gives up after
-``max_retries`` with :class:`~bridge.errors.MissionTimeoutError`.
+The calling thread reads the links itself while it waits (it borrows the links' reader,
+:meth:`~bridge.mavlink.LinkReader.lend`; when another caller holds it, that one reads and
+this one waits): each request is answered the moment it arrives, from the raw frame (see
+:meth:`~bridge.mavlink.MavlinkLink.protocol_handler`), with items packed once (while the
+vehicle answers MISSION_COUNT), and no message crosses a thread. Between messages it
+watches the clock for all uploads at once: it re-sends MISSION_COUNT (handshake,
+``handshake_timeout_s``) or the last item (whose MISSION_ACK may be lost,
+``item_timeout_s``) when a wait runs out, and gives up after ``max_retries`` with
+:class:`~bridge.errors.MissionTimeoutError`.
 
-The vehicle owns the item retries (it requests an item again when it does not arrive),
-so other items are sent once per request: re-sending them would only duplicate them,
-and a vehicle that restarts its own timer on every message (MAVSDK does) would then
-never re-request the item it is missing. ``MAV_MISSION_INVALID_SEQUENCE`` during the
-transfer, which vehicles (ArduPilot among them) send for a duplicated item while the
-transfer goes on, is raised only if the vehicle then stops answering; every other
-error acknowledgement raises its named exception at once, except during the handshake:
+The vehicle drives the transfer and owns the item retries (it requests an item again when
+it does not arrive), so MISSION_COUNT is re-sent only while no request came, and other
+items are sent once per request: re-sending them would only duplicate them, and a vehicle
+that restarts its own timer on every message (MAVSDK does) would then never re-request
+the item it is missing. A transfer that breaks off after the handshake (the vehicle fell
+silent through every retry) is started again with a new MISSION_COUNT, up to ``attempts``
+transfers in all, while a late request of the last transfer is still answered.
+
+Once the vehicle has asked for an item, ``MAV_MISSION_INVALID_SEQUENCE`` (ArduPilot's
+answer to a duplicated item) and the "busy" answers to a duplicated MISSION_COUNT
+(``MAV_MISSION_ERROR`` from PX4, ``MAV_MISSION_DENIED``) do not stop the transfer that
+goes on: they are raised only if the vehicle then stops answering. Every other error
+acknowledgement raises its named exception at once, except during the handshake:
 
 Every item is sent as MISSION_ITEM_INT (degE7 positions, exact), whether the vehicle
 asks with MISSION_REQUEST_INT or with the legacy MISSION_REQUEST (as ArduPilot does):
@@ -28,6 +38,7 @@ items) is final at once. Errors carry the STATUSTEXT the vehicle sent during the
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import logging
 import re
@@ -37,7 +48,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionResultError, MissionTimeoutError, mission_result_error
-from bridge.mavlink import MavlinkLink
+from bridge.mavlink import MavlinkLink, PackedMessage
 from bridge.mission import MissionItem
 
 __all__ = ["upload_concurrently", "is_mission_message", "vehicle_says"]
@@ -61,7 +72,11 @@ def is_mission_message(msg: object) -> bool:
 
 
 class _Upload:
-    """One upload attempt to one vehicle."""
+    """The upload of one mission to one vehicle, over all its transfer attempts.
+
+    Every message is packed once (:meth:`~bridge.mavlink.MavlinkLink.pack`); a request is
+    answered by sending the packed item with a fresh sequence number.
+    """
 
     def __init__(
         self,
@@ -70,11 +85,16 @@ class _Upload:
         component_id: int,
         protocol: ProtocolConfig,
         items: Sequence[MissionItem],
-        wake: threading.Event,
+        finished: Callable[[int], None],
+        attempts: int,
     ) -> None:
-        self.link, self.system_id, self.protocol, self.wake = link, system_id, protocol, wake
+        self.link, self.system_id, self.protocol, self.finished = link, system_id, protocol, finished
+        self.attempts, self.attempt = attempts, 1
         self.targets = {"target_system": system_id, "target_component": component_id}
-        self.fields = [{**item.message_fields(), **self.targets} for item in items]
+        self.count = link.pack("mission_count", count=len(items), mission_type=_MISSION, **self.targets)
+        self.mission = items
+        self.items: list[PackedMessage] = []
+        self.requested = False  # the vehicle has asked for an item, in this attempt or an earlier one
         self.lock = threading.Lock()
         self.done = False
         self.error: MissionResultError | None = None
@@ -82,18 +102,23 @@ class _Upload:
         self.started_s = time.monotonic()
         self.busy_since_s: float | None = None
         self.backoff_s = _BACKOFF_FIRST_S
-        self.sent_last = not self.fields
+        self.sent_last = not items
         self.stage, self.seq, self.tries = "MISSION_REQUEST", None, 0
         self.timeout_s = protocol.handshake_timeout_s
         self.deadline_s = time.monotonic() + self.timeout_s
         self.resend: Callable[[], None] = self._send_count
 
     def _send_count(self) -> None:
-        count = len(self.fields)
-        self.link.send(lambda mav: mav.mission_count_send(count=count, mission_type=_MISSION, **self.targets))
+        self.link.send_packed(self.count)
 
-    def _send_item(self, fields: dict[str, float | int]) -> None:
-        self.link.send(lambda mav: mav.mission_item_int_send(**fields))
+    def _busy_answer(self, result: int) -> bool:
+        """True for the codes vehicles use to refuse a MISSION_COUNT while they are busy.
+
+        PX4 answers a MISSION_COUNT that arrives during its transfer with MAV_MISSION_ERROR
+        ("Busy") and goes on; ArduPilot answers MAV_MISSION_DENIED while another transfer runs.
+        """
+        m = self.link.mavlink
+        return result in (m.MAV_MISSION_ERROR, m.MAV_MISSION_DENIED)
 
     def _transient(self, result: int) -> bool:
         """True when a refusal of MISSION_COUNT is worth asking again (booting or busy vehicle)."""
@@ -110,53 +135,79 @@ class _Upload:
         return now_s - self.busy_since_s < self.protocol.busy_retry_s
 
     def start(self) -> None:
-        """Send MISSION_COUNT."""
+        """Send MISSION_COUNT; again for a new attempt (requests of the last one are still answered).
+
+        The items are packed while the vehicle answers the first MISSION_COUNT.
+        """
         with self.lock:
+            self.stage, self.seq, self.tries = "MISSION_REQUEST", None, 0
+            self.timeout_s = self.protocol.handshake_timeout_s
             self.deadline_s = time.monotonic() + self.timeout_s
+            self.resend = self._send_count
             self._send_count()
+            if len(self.items) < len(self.mission):
+                fields = [{**item.message_fields(), **self.targets} for item in self.mission]
+                self.items = [self.link.pack("mission_item_int", **f) for f in fields]
+
+    def on_request(self, seq: int) -> None:
+        """Answer a request for item ``seq`` at once (reading thread)."""
+        with self.lock:
+            if not self.done:
+                self._answer(seq)
+
+    def _answer(self, seq: int) -> None:
+        """Send item ``seq`` and wait for the next request, or for MISSION_ACK after the last (lock held)."""
+        if not 0 <= seq < len(self.items):
+            return
+        last = seq == len(self.items) - 1
+        packed = self.items[seq]
+        self.link.send_packed(packed)
+        self.stage = "MISSION_ACK" if last else "MISSION_REQUEST"
+        self.seq, self.tries, self.deferred, self.requested = seq, 0, None, True
+        self.timeout_s = self.protocol.item_timeout_s
+        self.deadline_s = time.monotonic() + self.timeout_s
+        self.resend = (lambda: self.link.send_packed(packed)) if last else (lambda: None)
+        self.sent_last = self.sent_last or last
 
     def on_message(self, msg: object) -> None:
-        """Answer a request at once; note acknowledgements (reader thread)."""
+        """Answer a request at once; note acknowledgements (reading thread)."""
         m = self.link.mavlink
         kind = msg.get_type()
         with self.lock:
             if self.done or not is_mission_message(msg):
                 return
             if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
-                if not 0 <= msg.seq < len(self.fields):
-                    return
-                last = msg.seq == len(self.fields) - 1
-                fields = self.fields[msg.seq]
-                self._send_item(fields)
-                self.stage = "MISSION_ACK" if last else "MISSION_REQUEST"
-                self.seq, self.tries, self.deferred = msg.seq, 0, None
-                self.timeout_s = self.protocol.item_timeout_s
-                self.deadline_s = time.monotonic() + self.timeout_s
-                self.resend = (lambda: self._send_item(fields)) if last else (lambda: None)
-                self.sent_last = self.sent_last or last
+                self._answer(msg.seq)
             elif kind == "MISSION_ACK":
-                if msg.type == m.MAV_MISSION_ACCEPTED:
+                result = msg.type
+                if result == m.MAV_MISSION_ACCEPTED:
                     self.done = self.sent_last
-                elif msg.type == m.MAV_MISSION_INVALID_SEQUENCE and self.seq is not None:
-                    self.deferred = mission_result_error(msg.type, self.system_id, self.seq)
-                elif self._transient(msg.type):
+                elif self.requested and (
+                    result == m.MAV_MISSION_INVALID_SEQUENCE or self._busy_answer(result)
+                ):  # a duplicated item, or "busy" for a duplicated MISSION_COUNT: the transfer goes on
+                    self.deferred = mission_result_error(result, self.system_id, self.seq)
+                elif self._transient(result):
                     log.debug("vehicle %d: MISSION_COUNT refused (%d), asking again in %.2f s",
-                              self.system_id, msg.type, self.backoff_s)
+                              self.system_id, result, self.backoff_s)
                     self.tries, self.resend = 0, self._send_count
                     self.deadline_s = time.monotonic() + self.backoff_s
                     self.backoff_s = min(2 * self.backoff_s, _BACKOFF_MAX_S)
                 else:
-                    self.error = mission_result_error(msg.type, self.system_id, self.seq)
+                    self.error = mission_result_error(result, self.system_id, self.seq)
                     if self.busy_since_s is not None:
                         waited_s = time.monotonic() - self.busy_since_s
                         self.error.add_detail(f"still refused after asking again for {waited_s:.1f} s "
                                               f"(busy_retry_s = {self.protocol.busy_retry_s})")
                     self.done = True
             if self.done:
-                self.wake.set()
+                self.finished(self.system_id)
 
     def poll(self) -> bool:
-        """True once accepted; re-sends when a wait ran out; raises the refusal or the timeout."""
+        """True once accepted; re-sends when a wait ran out; raises the refusal or the timeout.
+
+        A transfer that broke off after the handshake is started again (a new MISSION_COUNT)
+        until ``attempts`` transfers were tried.
+        """
         with self.lock:
             if self.done:
                 if self.error is not None:
@@ -165,14 +216,20 @@ class _Upload:
             if time.monotonic() < self.deadline_s:
                 return False
             self.tries += 1
-            if self.tries > self.protocol.max_retries:
-                if self.deferred is not None:
-                    raise self.deferred
-                raise MissionTimeoutError(self.system_id, self.seq, self.stage, self.timeout_s * self.tries)
-            log.debug("vehicle %d: no %s, retry %d", self.system_id, self.stage, self.tries)
-            self.deadline_s = time.monotonic() + self.timeout_s
-            self.resend()
-            return False
+            if self.tries <= self.protocol.max_retries:
+                log.debug("vehicle %d: no %s, retry %d", self.system_id, self.stage, self.tries)
+                self.deadline_s = time.monotonic() + self.timeout_s
+                self.resend()
+                return False
+            if self.deferred is not None:
+                raise self.deferred
+            exc = MissionTimeoutError(self.system_id, self.seq, self.stage, self.timeout_s * self.tries)
+            if self.seq is None or self.attempt >= self.attempts:
+                raise exc
+            self.attempt += 1
+        log.warning("%s; transfer attempt %d", exc, self.attempt)
+        self.start()
+        return False
 
 
 def upload_concurrently(
@@ -200,41 +257,50 @@ def upload_concurrently(
         vehicle's named exception (:class:`MissionResultError` or :class:`MissionTimeoutError`).
     """
     attempts = protocol.transfer_attempts if attempts is None else attempts
-    wake = threading.Event()
     start_s = time.monotonic()
-    uploads = {sid: _Upload(links[sid], sid, component_id, protocol, items[sid], wake) for sid in items}
-    tries = dict.fromkeys(uploads, 1)
+    wake = threading.Event()
+    finished: collections.deque[int] = collections.deque()
+
+    def finish(sid: int) -> None:
+        finished.append(sid)
+        wake.set()
+
+    uploads: dict[int, _Upload] = {}
     seconds: dict[int, float] = {}
     errors: dict[int, BridgeError] = {}
+    readers = {link.reader for link in links.values()}
     with contextlib.ExitStack() as stack:
-        for sid in uploads:
-            handler = lambda msg, sid=sid: uploads[sid].on_message(msg)  # noqa: E731 - follows restarts
-            stack.enter_context(links[sid].protocol_handler(sid, handler))
+        for sid in items:
+            upload = _Upload(links[sid], sid, component_id, protocol, items[sid], finish, attempts)
+            uploads[sid] = upload
+            stack.enter_context(links[sid].protocol_handler(sid, upload.on_message, upload.on_request))
+        # read on this thread (unless another caller does): no hand-off between reading and waiting
+        step = stack.enter_context(readers.pop().lend()) if len(readers) == 1 else None
         for upload in uploads.values():
             upload.start()
         pending = set(uploads)
         while pending:
-            wake.clear()
-            for sid in sorted(pending):
+            next_deadline_s = min(uploads[sid].deadline_s for sid in pending)
+            if not finished:
+                timeout_s = max(0.0, next_deadline_s - time.monotonic())
+                if step is not None:
+                    step(timeout_s)  # requests are answered on this thread, as they arrive
+                else:
+                    wake.wait(timeout_s)
+                    wake.clear()
+            if not finished and time.monotonic() < next_deadline_s:
+                continue
+            due = set(pending) if time.monotonic() >= next_deadline_s else set()
+            while finished:
+                due.add(finished.popleft())
+            for sid in sorted(due & pending):
                 try:
                     if uploads[sid].poll():
                         seconds[sid] = time.monotonic() - start_s
                         pending.discard(sid)
-                except MissionTimeoutError as exc:
-                    if exc.seq is None or tries[sid] >= attempts:
-                        errors[sid] = exc
-                        pending.discard(sid)
-                        continue
-                    tries[sid] += 1
-                    log.warning("%s; transfer attempt %d", exc, tries[sid])
-                    uploads[sid] = _Upload(links[sid], sid, component_id, protocol, items[sid], wake)
-                    uploads[sid].start()
-                except MissionResultError as exc:
+                except (MissionResultError, MissionTimeoutError) as exc:
                     errors[sid] = exc
                     pending.discard(sid)
-            if pending:
-                next_deadline_s = min(uploads[sid].deadline_s for sid in pending)
-                wake.wait(max(0.0, next_deadline_s - time.monotonic()))
     for sid, exc in errors.items():
         exc.add_detail(vehicle_says(links[sid].status_texts(sid, start_s)))
     for sid, elapsed_s in seconds.items():

@@ -52,6 +52,9 @@ def _home(lat_e7: int, lon_e7: int, alt_mm: int) -> Home | None:
 class HomeWatcher:
     """Keeps each vehicle's HOME_POSITION and first position fix; a link listener (thread-safe)."""
 
+    MESSAGE_TYPES = frozenset({"HOME_POSITION", "GLOBAL_POSITION_INT"})
+    """The message types :meth:`update` uses (for :meth:`~bridge.mavlink.MavlinkLink.add_listener`)."""
+
     def __init__(self) -> None:
         self._changed = threading.Condition()
         self._homes: dict[int, Home] = {}
@@ -60,7 +63,7 @@ class HomeWatcher:
     def update(self, msg: object) -> None:
         """Note a HOME_POSITION or a first GLOBAL_POSITION_INT fix (other messages are ignored)."""
         kind = msg.get_type()
-        if kind not in ("HOME_POSITION", "GLOBAL_POSITION_INT"):
+        if kind not in self.MESSAGE_TYPES:
             return
         if msg.get_srcComponent() != _AUTOPILOT_COMPONENT:
             return

@@ -147,6 +147,18 @@ class VehicleStateTracker:
         component_id: Only messages from this component update the state (the autopilot).
     """
 
+    MESSAGE_TYPES = frozenset(
+        {
+            "HEARTBEAT",
+            "GLOBAL_POSITION_INT",
+            "SYS_STATUS",
+            "BATTERY_STATUS",
+            "MISSION_CURRENT",
+            "MISSION_ITEM_REACHED",
+        }
+    )
+    """The message types :meth:`update` uses (for :meth:`~bridge.mavlink.MavlinkLink.add_listener`)."""
+
     def __init__(self, home: Home, component_id: int = mavlink.MAV_COMP_ID_AUTOPILOT1) -> None:
         self._home = home
         self._component_id = component_id

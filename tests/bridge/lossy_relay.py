@@ -2,21 +2,32 @@
 
 The vehicle sends to ``vehicle_port`` (the relay answers it at the address it last heard
 from); the relay forwards to the ground station's ``udpin`` port ``gcs_port`` from an
-ephemeral socket, and the ground station's answers go back the same way.
+ephemeral socket, and the ground station's answers go back the same way. Besides the random
+faults, chosen packets can be dropped (``drop_if``) or delivered once more after the next
+packet in the same direction (``duplicate_late_if``), and ``messages`` counts the MAVLink 2
+messages that came in, by direction and message id.
 """
 
 from __future__ import annotations
 
+import collections
 import select
 import socket
 import threading
 import time
+from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["LossyRelay", "free_udp_port", "free_tcp_port"]
+__all__ = ["LossyRelay", "free_udp_port", "free_tcp_port", "message_id", "TO_GCS", "TO_VEHICLE"]
 
 HOST = "127.0.0.1"
+TO_GCS, TO_VEHICLE = 0, 1  # directions
+
+
+def message_id(data: bytes) -> int | None:
+    """The message id of a MAVLink 2 packet, ``None`` for anything else."""
+    return int.from_bytes(data[7:10], "little") if len(data) >= 12 and data[0] == 0xFD else None
 
 
 def free_udp_port() -> int:
@@ -40,6 +51,9 @@ class LossyRelay:
         drop: Probability that a packet is dropped.
         duplicate: Probability that a delivered packet is sent twice.
         reorder: Probability that a packet is held back and sent after the next one (or 20 ms).
+        drop_if: ``drop_if(direction, packet)``: drop this packet (before any random fault).
+        duplicate_late_if: ``duplicate_late_if(direction, packet)``: deliver it again after the
+            next packet in the same direction (or 20 ms).
     """
 
     def __init__(
@@ -49,10 +63,14 @@ class LossyRelay:
         drop: float = 0.1,
         duplicate: float = 0.05,
         reorder: float = 0.05,
+        drop_if: Callable[[int, bytes], bool] | None = None,
+        duplicate_late_if: Callable[[int, bytes], bool] | None = None,
     ) -> None:
         self.rng = rng
         self.drop, self.duplicate, self.reorder = drop, duplicate, reorder
+        self.drop_if, self.duplicate_late_if = drop_if, duplicate_late_if
         self.counts = {"in": 0, "dropped": 0, "duplicated": 0, "reordered": 0}
+        self.messages: collections.Counter[tuple[int, int | None]] = collections.Counter()
         self._vehicle_side = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._vehicle_side.bind((HOST, 0))
         self.vehicle_port = self._vehicle_side.getsockname()[1]
@@ -85,6 +103,15 @@ class LossyRelay:
 
     def _forward(self, direction: int, data: bytes) -> None:
         self.counts["in"] += 1
+        self.messages[direction, message_id(data)] += 1
+        if self.drop_if is not None and self.drop_if(direction, data):
+            self.counts["dropped"] += 1
+            return
+        if self.duplicate_late_if is not None and self.duplicate_late_if(direction, data):
+            self._deliver(direction, data)
+            self.counts["duplicated"] += 1
+            self._held.setdefault(direction, (data, time.monotonic()))
+            return
         if self.rng.random() < self.drop:
             self.counts["dropped"] += 1
             return

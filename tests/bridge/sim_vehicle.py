@@ -18,6 +18,14 @@ with no position, NaN parameters 0, ``NAV_WAYPOINT``'s acceptance radius and yaw
 ``NAV_LOITER_TIME``'s param3 its direction +-1, altitudes in centimetres);
 MISSION_CLEAR_ALL while armed in AUTO past item 0 is refused with ``MAV_MISSION_ERROR``,
 while a new upload then is accepted.
+
+``personality="px4"`` answers a MISSION_COUNT that arrives during an upload as PX4's
+MavlinkMissionManager does: before item 0 arrived it asks for item 0 again; after, it says
+"WPM: REJ. CMD: Busy" (STATUSTEXT) and ``MAV_MISSION_ERROR`` and goes on with the upload. It
+asks again for a missing item every 0.25 s for 5 s (PX4's retry and protocol timeouts). Any
+other personality starts the upload again on every MISSION_COUNT (as ArduPilot does for the
+same ground station) and gives up after 5 requests again (``request_retries``).
+``transfers_started`` counts the uploads the vehicle started.
 """
 
 from __future__ import annotations
@@ -35,7 +43,7 @@ m = mavutil.mavlink
 __all__ = ["SimVehicle", "endpoint_pair", "TRANSPORTS"]
 
 TRANSPORTS = ("udpin", "udpout", "tcp")
-PERSONALITIES = ("generic", "ardupilot")
+PERSONALITIES = ("generic", "ardupilot", "px4")
 AUTO = 3  # ArduCopter custom mode AUTO
 
 # ArduPilot's AP_Mission::stored_in_location, for the commands these tests use
@@ -85,6 +93,7 @@ class SimVehicle:
         boot_no_space_s: float = 0.0,
         max_items: int = 700,
         armed: bool = True,
+        request_retries: int | None = None,
     ) -> None:
         if personality not in PERSONALITIES:
             raise ValueError(f"personality = {personality!r}: choose one of {PERSONALITIES}")
@@ -101,6 +110,9 @@ class SimVehicle:
         self.armed = armed
         self.home = (round(lat_deg * DEG_E7), round(lon_deg * DEG_E7), alt_m)
         self.refused_counts = 0
+        self.transfers_started = 0
+        px4 = personality == "px4"
+        self.request_retries = request_retries if request_retries is not None else (20 if px4 else 5)
         self.command_result = command_result
         self.lat_deg, self.lon_deg, self.alt_m = lat_deg, lon_deg, alt_m
         self.telemetry_period_s = telemetry_period_s
@@ -213,7 +225,7 @@ class SimVehicle:
                     self._telemetry()
                 if self._rx is not None and now_s - self._rx["asked_s"] > 0.25:
                     self._rx["retries"] += 1
-                    if self._rx["retries"] > 5:
+                    if self._rx["retries"] > self.request_retries:
                         self._rx = None
                     else:
                         self._request(self._rx["expected"])
@@ -275,10 +287,18 @@ class SimVehicle:
             if msg.count > self.max_items:
                 self._refuse_count(msg, self.max_items)
                 return
+        if self.personality == "px4" and self._rx is not None:
+            if self._rx["expected"] == 0:  # our request was lost: ask again
+                self._request(0)
+                return
+            self._conn.mav.statustext_send(severity=m.MAV_SEVERITY_CRITICAL, text=b"WPM: REJ. CMD: Busy")
+            self._ack(msg, m.MAV_MISSION_ERROR)  # the upload in progress goes on
+            return
         if msg.count == 0:
             self.mission, self._rx = [], None
             self._ack(msg, m.MAV_MISSION_ACCEPTED)
             return
+        self.transfers_started += 1
         self._rx = {
             "count": msg.count,
             "items": [],

@@ -1,8 +1,12 @@
-"""Uploads through a lossy, duplicating, reordering loopback relay still complete and verify."""
+"""Uploads through a lossy, duplicating, reordering loopback relay still complete and verify.
+
+With scripted faults, a PX4-like vehicle's "busy" answers to a duplicated MISSION_COUNT do
+not stop or restart the transfer that goes on.
+"""
 
 import numpy as np
 import pytest
-from lossy_relay import LossyRelay, free_udp_port
+from lossy_relay import TO_GCS, TO_VEHICLE, LossyRelay, free_udp_port, message_id
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import SimVehicle
 
@@ -49,3 +53,62 @@ def test_fleet_upload_through_lossy_relays(drop):
     total = sum(r.counts["in"] for r in relays)
     assert dropped / total == pytest.approx(drop, abs=0.05)
     assert sum(r.counts["duplicated"] for r in relays) > 0 and sum(r.counts["reordered"] for r in relays) > 0
+
+
+MISSION_COUNT, MISSION_REQUEST_INT = 44, 51
+
+
+def _upload_through(relay_faults: dict, seconds_at_most: float) -> tuple[LossyRelay, SimVehicle, tuple]:
+    """Upload to one PX4-like vehicle through a relay with only the given (scripted) faults."""
+    port = free_udp_port()
+    relay = LossyRelay(port, np.random.default_rng(0), drop=0.0, duplicate=0.0, reorder=0.0, **relay_faults)
+    vehicle = SimVehicle(f"udpout:127.0.0.1:{relay.vehicle_port}", 1, personality="px4", armed=False)
+    config = BridgeConfig(
+        max_home_offset_m=0.0, vehicles=(VehicleEndpoint(system_id=1, url=f"udpin:127.0.0.1:{port}"),)
+    )
+    try:
+        with Fleet(config) as fleet:
+            fleet.wait_for_vehicles(timeout_s=10.0)
+            mission = fleet.build_missions({1: [(10.0, 5.0), (20.0, 30.0)]})[1]
+            seconds = fleet.upload({1: mission}, verify=False)
+            assert seconds[1] < seconds_at_most
+            assert tuple(vehicle.mission) == mission.items
+    finally:
+        vehicle.close()
+        relay.close()
+    return relay, vehicle, mission.items
+
+
+def test_busy_answer_to_a_late_duplicate_count_does_not_stop_the_transfer():
+    # the network delivers our MISSION_COUNT again after item 0: PX4 answers MAV_MISSION_ERROR ("Busy")
+    # and goes on with the upload, which must go on here too: one MISSION_COUNT, one transfer
+    duplicated = []
+
+    def once(direction: int, data: bytes) -> bool:
+        if direction == TO_VEHICLE and message_id(data) == MISSION_COUNT and not duplicated:
+            duplicated.append(data)
+            return True
+        return False
+
+    relay, vehicle, _ = _upload_through({"duplicate_late_if": once}, seconds_at_most=1.0)
+    assert duplicated and relay.messages[TO_VEHICLE, MISSION_COUNT] == 1
+    assert vehicle.transfers_started == 1
+
+
+def test_vehicle_still_asking_keeps_its_transfer_when_we_start_again():
+    # the vehicle's requests for item 2 are lost for 1.75 s while it keeps asking (every 0.25 s, as PX4
+    # does for 5 s): after 1.5 s of silence we send MISSION_COUNT again, which PX4 answers "Busy"; the
+    # transfer it is still in completes when its next request gets through, and is not started again
+    lost = []
+
+    def first_requests_for_item_2(direction: int, data: bytes) -> bool:
+        request = direction == TO_GCS and message_id(data) == MISSION_REQUEST_INT
+        if request and data[10] == 2 and len(lost) < 7:
+            lost.append(data)
+            return True
+        return False
+
+    relay, vehicle, _ = _upload_through({"drop_if": first_requests_for_item_2}, seconds_at_most=3.0)
+    assert len(lost) == 7
+    assert relay.messages[TO_VEHICLE, MISSION_COUNT] == 2  # the first, and one after 1.5 s of silence
+    assert vehicle.transfers_started == 1
