@@ -19,7 +19,8 @@ unsigned link is answered from its checked raw frame before it is decoded (see
 can be packed once (:meth:`MavlinkLink.pack`) and then sent with only its sequence number
 and CRC renewed (:meth:`MavlinkLink.send_packed`).
 
-Works over ``udpin:``, ``udpout:`` and ``tcp:`` connection strings. The process
+Works over ``udpin:``, ``udpout:`` and ``tcp:`` connection strings; a TCP connection
+the vehicle closes (a restarted autopilot) is tried again every second. The process
 speaks MAVLink 2 (pymavlink selects the protocol through the ``MAVLINK20``
 environment variable, which :class:`MavlinkLink` sets before its first connection).
 """
@@ -34,6 +35,7 @@ import operator
 import os
 import queue
 import select
+import socket
 import struct
 import threading
 import time
@@ -64,6 +66,8 @@ PROTOCOL_MESSAGES = frozenset(
 _HEARTBEAT_PERIOD_S = 1.0
 _POLL_S = 0.02
 _RECV_BYTES = 65536
+_RECONNECT_PERIOD_S = 1.0  # a TCP link the vehicle closed is tried again this often
+_RECONNECT_TIMEOUT_S = 0.1  # each try waits at most this long (on the reading thread)
 _STATUS_TEXTS_KEPT = 32  # per vehicle
 _V2_MAGIC = 0xFD
 _V2_OVERHEAD = 12  # magic, 9 header bytes, 2 CRC bytes
@@ -238,6 +242,8 @@ class LinkReader:
             self._next_heartbeat_check_s = now_s + _POLL_S
             for link in self._links:
                 link._heartbeat_if_due(now_s)
+                if link._reconnect_if_due(now_s):
+                    self._built_for = None  # its socket changed
         for fd in ready:
             link = self._by_fd.get(fd)
             if link is not None and not link._read_available():
@@ -303,6 +309,7 @@ class MavlinkLink:
         self._closed = False
         self._tcp = url.startswith("tcp:")
         self._eof = False
+        self._next_reconnect_s = 0.0
         self._last_heartbeat_s = 0.0
         self._own_reader = reader is None
         self._reader = LinkReader(f"mavlink {url}") if reader is None else reader
@@ -471,6 +478,33 @@ class MavlinkLink:
         except OSError as exc:
             log.debug("%s: heartbeat not sent: %s", self.url, exc)
 
+    def _reconnect_if_due(self, now_s: float) -> bool:
+        """Try now and then to reopen a TCP connection the vehicle closed; True when it is open again.
+
+        A restarted autopilot (a SITL instance, a companion computer's router) listens again on its
+        port: the link is taken back as it was, its listeners and handlers kept.
+        """
+        if not (self._tcp and self._eof) or self._closed or now_s < self._next_reconnect_s:
+            return False
+        self._next_reconnect_s = now_s + _RECONNECT_PERIOD_S
+        try:
+            sock = socket.create_connection(self._conn.destination_addr, timeout=_RECONNECT_TIMEOUT_S)
+        except OSError as exc:
+            log.debug("%s: reconnection failed: %s", self.url, exc)
+            return False
+        sock.setblocking(False)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        with self._recv_lock, self._send_lock:
+            if self._closed:
+                sock.close()
+                return False
+            old, self._conn.port, self._conn.fd = self._conn.port, sock, sock.fileno()
+            if old is not None:
+                old.close()
+            self._eof = False
+        log.warning("%s: connection to the vehicle re-established", self.url)
+        return True
+
     def _read_available(self) -> bool:
         """Receive one datagram (or TCP chunk) and dispatch its messages; False once the stream ended.
 
@@ -487,8 +521,10 @@ class MavlinkLink:
                 return True
             if not data:
                 if self._tcp:  # readable yet empty: the vehicle closed the connection
-                    log.warning("%s: connection closed by the vehicle; no longer reading it", self.url)
+                    log.warning("%s: connection closed by the vehicle; reconnecting every %.0f s",
+                                self.url, _RECONNECT_PERIOD_S)
                     self._eof = True
+                    self._next_reconnect_s = time.monotonic() + _RECONNECT_PERIOD_S
                 return not self._tcp
             answered = self._answer_request(data)
             if not self._wanted(data, answered):
