@@ -350,7 +350,7 @@ class Fleet:
         Args:
             missions: Mission (or its items) per system id.
             verify: Download each mission back and compare it with what was sent.
-            strict: Compare exactly (see :func:`~bridge.mission.compare_missions`).
+            strict: Compare exactly (see :func:`~bridge.mission_compare.compare_missions`).
             force: Replace a mission the vehicle is flying (otherwise :class:`MissionRunningError`).
 
         Raises:

@@ -25,7 +25,8 @@ from typing import TypeVar
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionMismatchError, MissionTimeoutError, mission_result_error
 from bridge.mavlink import MavlinkLink
-from bridge.mission import DEG_E7, MissionItem, compare_missions
+from bridge.mission import DEG_E7, MissionItem
+from bridge.mission_compare import compare_missions
 from bridge.mission_upload import is_mission_message, upload_concurrently, vehicle_says
 
 __all__ = ["MissionClient", "UploadTimes"]
@@ -281,7 +282,7 @@ class MissionClient:
     def upload_verified(
         self, items: Sequence[MissionItem], *, strict: bool = False, vehicle_home: bool = False
     ) -> UploadTimes:
-        """Upload, then download and compare (:func:`~bridge.mission.compare_missions`).
+        """Upload, then download and compare (:func:`~bridge.mission_compare.compare_missions`).
 
         A final MISSION_ACK lost on the way back is not an error when the vehicle's
         mission, read back, is the one sent.
