@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "uav_swarm.cli.simulate",
     "uav_swarm.cli.fly",
     "uav_swarm.cli.place",
+    "uav_swarm.cli.rl",
 )
 
 

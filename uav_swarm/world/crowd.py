@@ -280,7 +280,7 @@ class CrowdSim:
         """Anisotropic exponential repulsion between pedestrians closer than the cutoff, ``(N, 2)``."""
         cfg = self.config
         n = len(p)
-        pairs = cKDTree(p).query_pairs(cfg.neighbour_cutoff_m, output_type="ndarray")
+        pairs = self._neighbour_pairs(p)
         if not len(pairs):
             return np.zeros((n, 2))
         i, j = pairs[:, 0], pairs[:, 1]
@@ -289,7 +289,7 @@ class CrowdSim:
         dist = np.sqrt(dx * dx + dy * dy)
         coincident = dist < 1e-9
         if coincident.any():  # same spot (e.g. a zero-size spawn area): a fixed direction per pair
-            angle = 2.399963229728653 * (i[coincident] * 7 + j[coincident])
+            angle = 2.399963229728653 * self._pair_key(i[coincident], j[coincident])
             dx[coincident], dy[coincident], dist[coincident] = np.cos(angle), np.sin(angle), 1.0
         magnitude = cfg.ped_repulsion_m_s2 * np.exp(
             (2 * cfg.pedestrian_radius_m - dist) / cfg.ped_repulsion_range_m
@@ -306,6 +306,14 @@ class CrowdSim:
         force[:, 0] = np.bincount(index, np.concatenate([f_i * dx, f_j * dx]), n)
         force[:, 1] = np.bincount(index, np.concatenate([f_i * dy, f_j * dy]), n)
         return force
+
+    def _neighbour_pairs(self, p: np.ndarray) -> np.ndarray:
+        """``(P, 2)`` index pairs ``i < j`` of pedestrians closer than ``neighbour_cutoff_m``."""
+        return cKDTree(p).query_pairs(self.config.neighbour_cutoff_m, output_type="ndarray")
+
+    def _pair_key(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """An integer per pair that fixes the push direction of two coincident pedestrians."""
+        return i * 7 + j
 
     def _cohesion_forces(self, p: np.ndarray) -> np.ndarray:
         """Pull towards the group centroid for pedestrians farther than the group radius, ``(N, 2)``."""

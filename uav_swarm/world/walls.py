@@ -41,6 +41,7 @@ class Walls:
         self.segments.flags.writeable = False
         self.n_obstacles = len(scenario.obstacles)
         self._obstacles = scenario.obstacles
+        self._is_obstacle = np.arange(len(self.segments)) < self.n_obstacles
         self._a = self.segments[:, :2].copy()
         self._w = self.segments[:, 2:] - self._a
         self._length = np.hypot(self._w[:, 0], self._w[:, 1])
@@ -134,8 +135,9 @@ class Walls:
             dist2: Squared distances from :meth:`repulsion`.
             near: Near pairs from :meth:`repulsion`.
         """
-        wall, ped = np.divmod(near, len(p))
-        keep = (wall < self.n_obstacles) & (direction[ped] != 0).any(axis=1)  # area bounds hide nothing
+        slot, ped = np.divmod(near, len(p))
+        wall = self._wall_of(slot, ped)
+        keep = self._is_obstacle[wall] & (direction[ped] != 0).any(axis=1)  # area bounds hide nothing
         wall, ped, near = wall[keep], ped[keep], near[keep]
         a, unit = self._a[wall], self._unit[wall]
         to_p, to_goal = p[ped] - a, goal_m[ped] - a
@@ -153,7 +155,7 @@ class Walls:
         first = order[np.unique(ped[order], return_index=True)[1]]  # the nearest blocking wall
         wall, ped = wall[first], ped[first]
         aims = self._aims[wall]  # (K, 2 ends, 2)
-        cost = np.linalg.norm(aims - p[ped][:, None, :], axis=2) + self._onward_cost[wall, :, target[ped]]
+        cost = np.linalg.norm(aims - p[ped][:, None, :], axis=2) + self._onward_cost_of(wall, target[ped])
         heading = aims[np.arange(len(ped)), np.argmin(cost, axis=1)] - p[ped]
         direction[ped] = heading / np.maximum(np.linalg.norm(heading, axis=1), _EPS)[:, None]
 
@@ -174,7 +176,8 @@ class Walls:
             step_m: ``(N,)`` upper bounds of ``|move|`` (walls farther away are not tested).
         """
         reach = step_m + 2 * SKIN_M
-        wall, ped = np.divmod(np.flatnonzero(dist2 < reach * reach), len(p))
+        slot, ped = np.divmod(np.flatnonzero(dist2 < reach * reach), len(p))
+        wall = self._wall_of(slot, ped)
         changed: list[np.ndarray] = []
         for attempt in range(_MAX_SLIDES + 1):
             if not len(ped):
@@ -207,3 +210,11 @@ class Walls:
             keep = np.isin(ped, ped[k])
             ped, wall = ped[keep], wall[keep]
         return np.unique(np.concatenate(changed)) if changed else np.zeros(0, dtype=np.int64)
+
+    def _wall_of(self, slot: np.ndarray, ped: np.ndarray) -> np.ndarray:
+        """Index into the per-wall arrays of the wall in distance row ``slot`` for pedestrian ``ped``."""
+        return slot
+
+    def _onward_cost_of(self, wall: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """``(K, 2)`` cost of going on from both aims of ``wall`` to waypoint ``target``."""
+        return self._onward_cost[wall, :, target]

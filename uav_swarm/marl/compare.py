@@ -1,0 +1,165 @@
+"""The baseline table of ``uav_swarm_v0``: random actions, MAPPO, the learned planner and the expert.
+
+Every controller flies the same held-out episodes (seed ``seed + e`` for episode ``e``: the same
+scenario, crowd and UAV start positions, since the action mode draws nothing), in the world of
+``uav-swarm simulate`` (the Wi-Fi task's scenario, crowd and radio), for ``duration_s`` of simulated
+time at 0.1 s per step:
+
+- ``random``: velocity actions drawn uniformly from the action box (seeded);
+- ``mappo``: a policy trained by :func:`uav_swarm.marl.mappo.train_mappo`, velocity actions, the
+  deterministic (mean) action;
+- ``learned`` and ``expert``: the placement planners (:mod:`uav_swarm.planner`) in waypoint mode,
+  replanning every ``replan_every`` steps from the live crowd, as ``uav-swarm simulate`` flies them.
+
+Measures per controller, over all steps of all episodes: mean QoS S1, mean QoS S2, mean user
+throughput, and the decision time per step (the controller's wall time, planners' replans included,
+divided by the steps), with the mean time of one replan for the planners.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from uav_swarm.env import parallel_env
+from uav_swarm.env_config import EnvConfig
+
+__all__ = ["ControllerScore", "CONTROLLERS", "compare_controllers"]
+
+CONTROLLERS = ("random", "mappo", "learned", "expert")
+"""The controllers :func:`compare_controllers` knows."""
+
+Controller = Callable[[np.ndarray, object], np.ndarray]
+
+
+@dataclass(frozen=True)
+class ControllerScore:
+    """One row of the table (means over every step of every episode)."""
+
+    controller: str
+    episodes: int
+    steps: int
+    mean_qos_s1: float
+    mean_qos_s2: float
+    mean_throughput_mbps: float
+    decision_ms_per_step: float
+    replan_ms: float | None
+
+
+def _episode(env_config: EnvConfig, seed: int, decide: Callable[[int, dict, object], dict], steps: int
+             ) -> tuple[np.ndarray, float]:
+    """Fly one episode; returns ``(steps, 3)`` QoS S1, QoS S2, throughput and the decision seconds."""
+    env = parallel_env(config=env_config.replace(max_cycles=steps))
+    observations, _ = env.reset(seed=seed)
+    measures = np.zeros((steps, 3))
+    spent = 0.0
+    for step in range(steps):
+        start = time.perf_counter()
+        actions = decide(step, observations, env)
+        spent += time.perf_counter() - start
+        observations, _, _, _, _ = env.step(actions)
+        cov = env.coverage
+        measures[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
+    return measures, spent
+
+
+def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int = 100_000,
+                        duration_s: float = 60.0, n_uavs: int = 10, strategy: int = 1, replan_every: int = 10,
+                        mappo_policy: str | Path | None = None, checkpoint: str | Path | None = None,
+                        progress: bool = False) -> list[ControllerScore]:
+    """Score each controller on the same ``episodes`` held-out episodes (module docstring).
+
+    Args:
+        controllers: Names from :data:`CONTROLLERS`.
+        episodes: Number of episodes (seeds ``seed .. seed + episodes - 1``).
+        seed: First episode's seed (the default lies outside the training seeds of ``rl-train``).
+        duration_s: Simulated seconds per episode (0.1 s per step).
+        n_uavs: UAVs.
+        strategy: The environment's reward strategy (both QoS are measured either way).
+        replan_every: Steps between two replans of the planners.
+        mappo_policy: ``policy.pt`` of ``rl-train`` (needed for ``mappo``).
+        checkpoint: The learned planner's checkpoint (default: the shipped one).
+        progress: Show a progress bar per controller.
+
+    Raises:
+        ValueError: An unknown controller, or ``mappo`` without a policy.
+    """
+    from uav_swarm.planner import make_planner
+    from uav_swarm.simulate_config import SimulateConfig
+
+    unknown = [name for name in controllers if name not in CONTROLLERS]
+    if unknown:
+        raise ValueError(f"unknown controller(s) {unknown}: choose from {list(CONTROLLERS)}")
+    if "mappo" in controllers and mappo_policy is None:
+        raise ValueError("the mappo controller needs a policy file (--policy, written by uav-swarm rl-train)")
+    world = SimulateConfig(n_uavs=n_uavs, duration_s=duration_s, replan_every=replan_every)
+    world = world.replace(task=world.task.replace(strategy=strategy))
+    waypoint = world.env_config()
+    velocity = waypoint.replace(action_mode="velocity")
+    steps = world.n_steps
+    scores = []
+    for name in controllers:
+        env_config, decide, planner = _controller(name, velocity, waypoint, world, mappo_policy, checkpoint,
+                                                  make_planner, replan_every, seed)
+        measures, spent = [], 0.0
+        for episode in tqdm(range(episodes), desc=name, unit="episode", disable=not progress, leave=False):
+            if planner is not None:
+                planner.reset()
+            m, s = _episode(env_config, seed + episode, decide, steps)
+            measures.append(m)
+            spent += s
+        all_steps = np.concatenate(measures)
+        n_replans = episodes * -(-steps // replan_every)
+        scores.append(ControllerScore(
+            controller=name, episodes=episodes, steps=steps, mean_qos_s1=float(all_steps[:, 0].mean()),
+            mean_qos_s2=float(all_steps[:, 1].mean()), mean_throughput_mbps=float(all_steps[:, 2].mean()),
+            decision_ms_per_step=1e3 * spent / (episodes * steps),
+            replan_ms=1e3 * spent / n_replans if planner is not None else None))
+    return scores
+
+
+def _controller(name: str, velocity: EnvConfig, waypoint: EnvConfig, world: object,
+                mappo_policy: str | Path | None,
+                checkpoint: str | Path | None, make_planner: Callable, replan_every: int, seed: int
+                ) -> tuple[EnvConfig, Callable[[int, dict, object], dict], object | None]:
+    """The environment settings, the decision function and the planner (if any) of one controller."""
+    if name == "random":
+        rng = np.random.default_rng(seed)
+
+        def random_actions(step: int, observations: dict, env: object) -> dict:
+            return {agent: rng.uniform(-1.0, 1.0, 2).astype(np.float32) for agent in observations}
+
+        return velocity, random_actions, None
+    if name == "mappo":
+        import torch
+
+        from uav_swarm.marl.mappo import load_policy
+
+        torch.set_num_threads(1)  # as the learned planner's default: one thread is the fastest at batch 1
+        policy = load_policy(mappo_policy)
+        if policy.config.n_uavs != velocity.n_uavs:
+            raise ValueError(f"the MAPPO policy is for {policy.config.n_uavs} UAVs, "
+                             f"the table for {velocity.n_uavs}")
+
+        def mappo_actions(step: int, observations: dict, env: object) -> dict:
+            agents = list(observations)
+            actions = policy.act(np.stack([observations[a] for a in agents]))
+            return dict(zip(agents, actions, strict=True))
+
+        return velocity, mappo_actions, None
+    planner = make_planner(name, waypoint.n_uavs, world.task, checkpoint=checkpoint or None,
+                           config=world.planning)
+    held: dict = {}
+
+    def planned(step: int, observations: dict, env: object) -> dict:
+        if step % replan_every == 0:
+            targets = planner.plan(env.pedestrian_positions_m, env.uav_positions_m).targets_m
+            held.update(zip(env.agents, targets, strict=True))
+        return dict(held)
+
+    return waypoint, planned, planner

@@ -1,0 +1,401 @@
+"""Many independent crowds stepped together: :class:`BatchedCrowd`, B copies of :class:`CrowdSim` in one.
+
+The B copies form one disjoint world that :class:`CrowdSim`'s own step code advances, so a copy moves
+as the same crowd stepped alone would (same equations, same order of operations; only the order in
+which pedestrian-pair forces are summed differs, a difference of a few ulps):
+
+- pedestrians of all copies are stacked, copy by copy, in one ``(N, 2)`` array (``copy_index``,
+  ``offsets``); group, waypoint and route indices are made global by offsets;
+- every copy's walls (obstacles, the four area bounds, then padding) get global indices; each copy's
+  area is cut into square cells that list the walls within reach, so wall distances are ``(K, N)``
+  arrays (K: the most walls near one cell) gathered per pedestrian (:class:`BatchedWalls`): the cost
+  is linear in B and does not grow with the number of walls far away;
+- neighbour pairs come from one sweep over all pedestrians sorted by (copy, row of cutoff height, x)
+  (:meth:`BatchedCrowd._neighbour_pairs`), which never pairs two copies; the exact distance decides, so
+  the pairs are the ones a k-d tree finds for each copy alone.
+
+Example:
+    >>> from uav_swarm.world.crowd import CrowdConfig
+    >>> from uav_swarm.world.scenario import ScenarioConfig, random_scenario
+    >>> small = ScenarioConfig(n_groups_min=1, n_groups_max=1, group_size_min=5, group_size_max=5)
+    >>> rngs = [np.random.default_rng(seed) for seed in (0, 1)]
+    >>> crowd = BatchedCrowd([CrowdSim(random_scenario(r, small), CrowdConfig(), r) for r in rngs])
+    >>> crowd.step(3)
+    >>> crowd.offsets.tolist(), crowd.positions_of(1).shape
+    ([0, 5, 10], (5, 2))
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from uav_swarm.world.crowd import CrowdSim
+from uav_swarm.world.geometry import point_segment_distances
+from uav_swarm.world.scenario import Scenario
+from uav_swarm.world.walls import SKIN_M, Walls
+
+__all__ = ["BatchedCrowd", "BatchedWalls", "walls_near_cells"]
+
+_FAR_M = 1e7  # padding walls sit here: never within any cutoff or step of a pedestrian
+_CELL_MARGIN_M = 0.5  # cells list the walls this much beyond the farthest a wall can matter
+_CELL_M = 4.0  # side of the cells that list nearby walls ...
+_MAX_CELLS_PER_SIDE = 256  # ... unless the area is larger than this many cells
+_SWEEP_SLACK_M = 1e-6  # the sweep's windows reach this much farther; the exact distance then decides
+
+
+class BatchedWalls(Walls):
+    """The walls of B copies for their stacked pedestrians (see the module docstring).
+
+    Wall ``s`` of copy ``c`` has the index ``c * S + s`` in the per-wall arrays (the last slot of every
+    copy is a padding wall). Each copy's area is cut into square cells; a cell lists, in ascending order,
+    the walls within reach of it (``near_cells``), padded to a common length K with the padding wall.
+    The distance arrays of :meth:`repulsion` are ``(K, N)``: row ``k`` holds each pedestrian's distance
+    to the ``k``-th wall of its cell, so each pedestrian meets its near walls in the order of its copy's
+    :class:`Walls` (and the sums of forces are the same).
+
+    Args:
+        walls: Each copy's walls.
+        copy_index: ``(N,)`` copy of each stacked pedestrian.
+        waypoint_offsets: ``(B,)`` index of each copy's first waypoint in the global waypoint array.
+        near_cells: Per copy, the ``(K_c, G)`` lists of walls near each cell (:func:`walls_near_cells`;
+            cells row-major, ``G = grid[0] * grid[1]``).
+        grid: ``(columns, rows)`` of the cells.
+        cell_m: Side of a cell (m).
+
+    Attributes:
+        segments: ``(B * S, 4)`` segments, padded per copy.
+        n_obstacles: ``(B,)`` obstacle count of each copy.
+    """
+
+    def __init__(self, walls: Sequence[Walls], copy_index: np.ndarray, waypoint_offsets: np.ndarray,
+                 near_cells: Sequence[np.ndarray], grid: tuple[int, int], cell_m: float) -> None:
+        n_copies, slots = len(walls), max(len(w.segments) for w in walls) + 1  # + a padding wall
+        n_goals = max(1, max(w._onward_cost.shape[2] for w in walls))
+        segments = np.full((n_copies, slots, 4), _FAR_M)
+        unit = np.zeros((n_copies, slots, 2))
+        length = np.zeros((n_copies, slots))
+        inv_len2 = np.zeros((n_copies, slots))  # 0 on padding: its closest point is its (far) start
+        is_obstacle = np.zeros((n_copies, slots), dtype=bool)
+        aims = np.zeros((n_copies, slots, 2, 2))
+        onward = np.zeros((n_copies, slots, 2, n_goals))
+        for c, w in enumerate(walls):
+            n_walls, n_obstacles = len(w.segments), w.n_obstacles
+            segments[c, :n_walls] = w.segments
+            unit[c, :n_walls] = w._unit
+            length[c, :n_walls] = w._length
+            inv_len2[c, :n_walls] = w._inv_len2[:, 0]
+            is_obstacle[c, :n_obstacles] = True
+            aims[c, :n_obstacles] = w._aims
+            onward[c, :n_obstacles, :, : w._onward_cost.shape[2]] = w._onward_cost
+        self.segments = segments.reshape(-1, 4)
+        self.segments.flags.writeable = False
+        self.n_obstacles = np.array([w.n_obstacles for w in walls])
+        self._a = self.segments[:, :2].copy()
+        self._unit = unit.reshape(-1, 2)
+        self._length = length.ravel()
+        self._is_obstacle = is_obstacle.ravel()
+        self._aims = aims.reshape(-1, 2, 2)
+        self._onward_cost = onward.reshape(-1, 2, n_goals)
+        self._goal_offset = np.repeat(np.asarray(waypoint_offsets), slots)
+        w_xy = (self.segments[:, 2:] - self._a).T
+        self._per_wall = (self._a[:, 0].copy(), self._a[:, 1].copy(), w_xy[0].copy(), w_xy[1].copy(),
+                          inv_len2.ravel())
+        # (K, B * G) global ids of the walls near each cell, ascending, padded with the copy's padding wall.
+        k = max(len(near) for near in near_cells)
+        lists = np.full((k, n_copies, grid[0] * grid[1]), slots - 1)
+        for c, near in enumerate(near_cells):
+            lists[:len(near), c] = np.where(near >= 0, near, slots - 1)
+        lists += (np.arange(n_copies) * slots)[:, None]
+        self._cell_walls = lists.reshape(k, -1)
+        self._grid, self._cell_scale = grid, 1.0 / cell_m
+        self._cell_base = copy_index * (grid[0] * grid[1])
+        n = len(copy_index)
+        self._wall_ids = np.zeros((k, n), dtype=np.intp)
+        self._gathered = np.empty((5, k, n))
+        self._columns, self._inv_len2 = tuple(self._gathered[:4]), self._gathered[4]
+        self._buffers = np.empty((4, k, n))
+
+    def repulsion(
+        self, p: np.ndarray, strength_m_s2: float, range_m: float, radius_m: float, cutoff_m: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`Walls.repulsion` over the walls near each pedestrian's cell; distances are ``(K, N)``."""
+        columns, rows = self._grid
+        cell = (p[:, 0] * self._cell_scale).astype(np.intp)  # positions are inside the area (>= 0)
+        np.minimum(cell, columns - 1, out=cell)
+        row = (p[:, 1] * self._cell_scale).astype(np.intp)
+        np.minimum(row, rows - 1, out=row)
+        row *= columns
+        cell += row
+        cell += self._cell_base
+        self._wall_ids = np.take(self._cell_walls, cell, axis=1)  # (K, N)
+        for values, out in zip(self._per_wall, self._gathered, strict=True):
+            np.take(values, self._wall_ids, out=out)
+        return super().repulsion(p, strength_m_s2, range_m, radius_m, cutoff_m)
+
+    def _wall_of(self, slot: np.ndarray, ped: np.ndarray) -> np.ndarray:
+        """Global index of the wall in row ``slot`` of the distances for pedestrian ``ped``."""
+        return self._wall_ids[slot, ped]
+
+    def _onward_cost_of(self, wall: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """``(K, 2)`` onward cost; ``target`` is a global waypoint index of the wall's copy."""
+        return self._onward_cost[wall, :, target - self._goal_offset[wall]]
+
+
+def walls_near_cells(
+    segments: np.ndarray, grid: tuple[int, int], cell_m: float, reach_m: float
+) -> np.ndarray:
+    """``(K, G)`` ascending indices of the segments that may pass within ``reach_m`` of each cell, -1 padded.
+
+    A superset: the segments within ``reach_m`` plus half the cell's diagonal of the cell's centre.
+
+    Args:
+        segments: ``(W, 4)`` wall segments.
+        grid: ``(columns, rows)`` of cells, row-major; cell ``(i, j)`` is ``[i, i + 1] x [j, j + 1]`` times
+            ``cell_m``.
+        cell_m: Side of a cell (m).
+        reach_m: Distance (m).
+    """
+    columns, rows = grid
+    x, y = np.meshgrid((np.arange(columns) + 0.5) * cell_m, (np.arange(rows) + 0.5) * cell_m)
+    centres = np.stack([x.ravel(), y.ravel()], axis=1)
+    near = point_segment_distances(centres, segments) <= reach_m + cell_m / math.sqrt(2.0)  # (G, W)
+    rank = np.cumsum(near, axis=1) - 1  # place of each near segment in its cell's list
+    lists = np.full((max(1, int(rank[:, -1].max()) + 1 if len(segments) else 1), len(centres)), -1)
+    cell, segment = np.nonzero(near)
+    lists[rank[cell, segment], cell] = segment
+    return lists
+
+
+class BatchedCrowd(CrowdSim):
+    """B independent crowds (one config) stepped together; each copy moves as its :class:`CrowdSim` would.
+
+    Build it from crowds just made by :class:`CrowdSim`'s constructor (so spawn positions and desired
+    speeds are drawn as for a crowd alone); it takes over their current state. The arrays inherited from
+    :class:`CrowdSim` (``positions_m``, ``velocities_m_s``, ``group_ids`` ...) hold all copies stacked.
+
+    Args:
+        sims: One crowd per copy, all with the same :class:`CrowdConfig`.
+
+    Raises:
+        ValueError: No crowd, or crowds with different configs.
+
+    Attributes:
+        scenarios: Each copy's scenario.
+        time_s: ``(B,)`` simulated time of each copy since its crowd was built (s).
+        copy_index: ``(N,)`` copy of each pedestrian.
+        offsets: ``(B + 1,)`` copy ``c``'s pedestrians are ``offsets[c]:offsets[c + 1]``.
+    """
+
+    def __init__(self, sims: Sequence[CrowdSim]) -> None:
+        if not len(sims):
+            raise ValueError("BatchedCrowd needs at least one crowd")
+        if any(sim.config != sims[0].config for sim in sims):
+            raise ValueError("every crowd of a BatchedCrowd must have the same CrowdConfig")
+        self.config = sims[0].config
+        self.dt_s = self.config.dt_s
+        self._near_cache: dict[int, tuple[tuple[int, int], np.ndarray]] = {}
+        self._build(list(sims), [_state_of(sim) for sim in sims])
+
+    @property
+    def n_copies(self) -> int:
+        """Number of copies B."""
+        return len(self.scenarios)
+
+    @property
+    def current_waypoints(self) -> np.ndarray:
+        """``(N,)`` index into its copy's waypoints of each pedestrian's target (-1: no route)."""
+        target = self._route_flat[self._route_start[self.group_ids] + self._route_position]
+        local = target - self._waypoint_offsets[self.copy_index]
+        return np.where(self._has_route, local, -1)
+
+    def positions_of(self, copy: int) -> np.ndarray:
+        """``(N_c, 2)`` positions of copy ``copy`` (a read-only view)."""
+        return self._positions[self.offsets[copy]:self.offsets[copy + 1]]
+
+    def counts(self) -> np.ndarray:
+        """``(B,)`` number of pedestrians of each copy."""
+        return np.diff(self.offsets)
+
+    def step(self, n_steps: int = 1, active: np.ndarray | None = None) -> None:
+        """Advance the copies in ``active`` (all by default) by ``n_steps`` steps; the others stay put.
+
+        Args:
+            n_steps: Number of steps (>= 0).
+            active: ``(B,)`` bool, the copies to advance.
+
+        Raises:
+            ValueError: ``n_steps`` is not a non-negative integer, or ``active`` not ``(B,)`` bool.
+        """
+        if active is None:
+            super().step(n_steps)
+            return
+        active = np.asarray(active)
+        if active.shape != (self.n_copies,) or active.dtype != bool:
+            raise ValueError(f"active must be a ({self.n_copies},) bool array, got {active!r}")
+        if active.all() or not active.any():
+            super().step(n_steps if active.any() else 0)
+            return
+        frozen = ~active[self.copy_index]
+        saved = [array[frozen] for array in (self._positions, self._velocities, self._route_position,
+                                              self.waypoints_reached)]
+        time_s = self.time_s.copy()
+        super().step(n_steps)
+        positions, velocities = self._positions.copy(), self._velocities.copy()
+        for array, old in zip((positions, velocities, self._route_position, self.waypoints_reached), saved,
+                              strict=True):
+            array[frozen] = old
+        for array in (positions, velocities):
+            array.flags.writeable = False
+        self._positions, self._velocities = positions, velocities
+        self.time_s[~active] = time_s[~active]
+
+    def replace(self, copies: Sequence[int] | np.ndarray, sims: Sequence[CrowdSim]) -> None:
+        """Replace copies by new crowds (same config); the other copies keep their current state.
+
+        Args:
+            copies: Indices of the copies to replace (distinct).
+            sims: One new crowd per index, as :class:`BatchedCrowd` takes them.
+
+        Raises:
+            ValueError: Lengths differ, an index is out of range or repeated, or a config differs.
+        """
+        copies = [int(c) for c in copies]
+        if len(copies) != len(sims) or len(set(copies)) != len(copies):
+            raise ValueError(f"replace needs distinct copies and a crowd each, got {copies} and {len(sims)}")
+        if any(not 0 <= c < self.n_copies for c in copies):
+            raise ValueError(f"copies {copies} out of range for {self.n_copies} copies")
+        if any(sim.config != self.config for sim in sims):
+            raise ValueError("a replacing crowd has another CrowdConfig than the batch")
+        new = dict(zip(copies, sims, strict=True))
+        parts = list(self._parts)
+        states = [self._copy_state(c) for c in range(self.n_copies)]
+        for c, sim in new.items():
+            parts[c], states[c] = sim, _state_of(sim)
+        self._build(parts, states)
+
+    def _copy_state(self, c: int) -> tuple[np.ndarray, ...]:
+        """Copy ``c``'s positions, velocities, route positions, waypoints reached and time."""
+        s = slice(self.offsets[c], self.offsets[c + 1])
+        return (self._positions[s], self._velocities[s], self._route_position[s],
+                self.waypoints_reached[s], self.time_s[c])
+
+    def _build(self, parts: list[CrowdSim], states: list[tuple[np.ndarray, ...]]) -> None:
+        """Stack the static data of ``parts`` and the dynamic ``states`` into the global arrays."""
+        self._parts = parts
+        self.scenarios: tuple[Scenario, ...] = tuple(sim.scenario for sim in parts)
+        counts = np.array([sim.n_pedestrians for sim in parts], dtype=np.int64)
+        self.offsets = np.concatenate([[0], np.cumsum(counts)])
+        self.copy_index = np.repeat(np.arange(len(parts)), counts)
+        self._local_index = np.arange(self.offsets[-1]) - self.offsets[self.copy_index]
+        n_groups = np.array([len(sim._group_sizes) for sim in parts])
+        n_goals = np.array([len(sim._waypoints_m) - 1 for sim in parts])  # without the dummy waypoint
+        n_legs = np.array([len(sim._route_flat) - 1 for sim in parts])
+        group_offsets, self._waypoint_offsets, leg_offsets = (
+            np.concatenate([[0], np.cumsum(k)[:-1]]) for k in (n_groups, n_goals, n_legs))
+        dummy = int(n_goals.sum())  # one trailing dummy waypoint for all copies (see CrowdSim)
+        self.group_ids = np.concatenate([sim.group_ids + group_offsets[c] for c, sim in enumerate(parts)])
+        self.group_ids.flags.writeable = False
+        self._group_sizes = np.concatenate([sim._group_sizes for sim in parts])
+        self._group_radius_m = np.concatenate([sim._group_radius_m for sim in parts])
+        self._waypoints_m = np.vstack([sim._waypoints_m[:-1] for sim in parts] + [np.zeros((1, 2))])
+        self._waypoint_radius_m = np.concatenate([sim._waypoint_radius_m[:-1] for sim in parts] + [[1.0]])
+        self._route_length = np.concatenate([sim._route_length for sim in parts])
+        self._route_start = np.concatenate([sim._route_start + leg_offsets[c] for c, sim in enumerate(parts)])
+        self._route_flat = np.concatenate(
+            [sim._route_flat[:-1] + self._waypoint_offsets[c] for c, sim in enumerate(parts)] + [[dummy]]
+        ).astype(np.int64)
+        self._has_route = np.concatenate([sim._has_route for sim in parts])
+        self.desired_speeds_m_s = np.concatenate([sim.desired_speeds_m_s for sim in parts])
+        self.max_speeds_m_s = np.concatenate([sim.max_speeds_m_s for sim in parts])
+        for array in (self.desired_speeds_m_s, self.max_speeds_m_s):
+            array.flags.writeable = False
+        positions, velocities, route_position, reached, time_s = zip(*states, strict=True)
+        self._positions = np.concatenate(positions).reshape(-1, 2)
+        self._velocities = np.concatenate(velocities).reshape(-1, 2)
+        for array in (self._positions, self._velocities):
+            array.flags.writeable = False
+        self._route_position = np.concatenate(route_position).astype(np.int64)
+        self.waypoints_reached = np.concatenate(reached).astype(np.int64)
+        self.time_s = np.array(time_s, dtype=np.float64)
+        self._walls = self._batched_walls(parts)
+        # Sweep keys (see _neighbour_pairs): row r of copy c is row c * n_rows + r (rows a little taller than
+        # the cutoff), x is added to row * row_stride; the last row of a copy stays empty, so no row
+        # follows into the next copy.
+        cutoff = self.config.neighbour_cutoff_m
+        height, width = (max(getattr(s, name) for s in self.scenarios) for name in ("height_m", "width_m"))
+        self._row_scale = 1.0 / (cutoff * (1.0 + 1e-9))
+        self._n_rows = math.floor(height * self._row_scale) + 2
+        self._row_stride = 2.0 ** math.ceil(math.log2(width + 4.0 * (cutoff + 1.0)))
+        self._row_base = self.copy_index * self._n_rows
+        self._sweep_order = np.arange(4 * len(self.copy_index))
+
+    def _batched_walls(self, parts: list[CrowdSim]) -> BatchedWalls:
+        """The walls of ``parts``, with the cell lists of the crowds seen before taken from the cache."""
+        cfg = self.config
+        reach = max(cfg.neighbour_cutoff_m, cfg.max_speed_m_s * cfg.dt_s + 2 * SKIN_M) + _CELL_MARGIN_M
+        width, height = (max(getattr(s, name) for s in self.scenarios) for name in ("width_m", "height_m"))
+        cell_m = max(_CELL_M, max(width, height) / _MAX_CELLS_PER_SIDE)
+        grid = (math.ceil(width / cell_m), math.ceil(height / cell_m))
+        near, cache = [], {}
+        for sim in parts:
+            known = self._near_cache.get(id(sim))
+            if known is None or known[0] != grid:
+                known = (grid, walls_near_cells(sim._walls.segments, grid, cell_m, reach))
+            cache[id(sim)] = known
+            near.append(known[1])
+        self._near_cache = cache
+        walls = [sim._walls for sim in parts]
+        return BatchedWalls(walls, self.copy_index, self._waypoint_offsets, near, grid, cell_m)
+
+    def _neighbour_pairs(self, p: np.ndarray) -> np.ndarray:
+        """Pairs ``i < j`` closer than the cutoff within each copy (the pairs :class:`CrowdSim` finds).
+
+        A sweep over the pedestrians sorted by the key (copy, row of height ``cutoff``, x): the candidates
+        of a pedestrian are those after it in its row within ``cutoff`` along x, and those in the next row
+        within ``cutoff`` along x; the exact distance decides. The three window bounds of every
+        pedestrian are found by sorting them with the keys (the previous step's order makes that sort
+        almost linear) and counting the keys before each.
+        """
+        n, cutoff = len(p), self.config.neighbour_cutoff_m
+        row = np.minimum((p[:, 1] * self._row_scale).astype(np.int64), self._n_rows - 2)
+        np.maximum(row, 0, out=row)
+        key = (self._row_base + row) * self._row_stride + p[:, 0]
+        slack = _SWEEP_SLACK_M + 8.0 * np.spacing(key.max())
+        stride = self._row_stride
+        values = np.concatenate([key, key + (cutoff + slack), key + (stride - cutoff - slack),
+                                 key + (stride + cutoff + slack)])
+        order = self._sweep_order[np.argsort(values[self._sweep_order], kind="stable")]
+        self._sweep_order = order
+        is_key = order < n
+        keys_up_to = np.empty(4 * n, dtype=np.int64)
+        keys_up_to[order] = np.cumsum(is_key)  # keys sorted at or before each value
+        sorted_ids = order[is_key]  # pedestrians by key
+        rank, row_end, next_start, next_end = keys_up_to.reshape(4, n)  # per pedestrian
+        starts = np.concatenate([rank, next_start])  # sorted positions (rank: the pedestrian's own + 1)
+        counts = np.concatenate([row_end, next_end]) - starts
+        np.maximum(counts, 0, out=counts)
+        ends = np.cumsum(counts)
+        total = int(ends[-1]) if n else 0
+        first = np.repeat(np.tile(np.arange(n), 2), counts)
+        second = sorted_ids[np.arange(total) + np.repeat(starts - (ends - counts), counts)]
+        x, y = p[:, 0], p[:, 1]
+        dx = x[first] - x[second]
+        dy = y[first] - y[second]
+        close = dx * dx + dy * dy <= cutoff * cutoff
+        first, second = first[close], second[close]
+        pairs = np.empty((len(first), 2), dtype=np.intp)
+        np.minimum(first, second, out=pairs[:, 0])
+        np.maximum(first, second, out=pairs[:, 1])
+        return pairs
+
+    def _pair_key(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """The key :class:`CrowdSim` gives the pair, from the indices within the copy."""
+        return self._local_index[i] * 7 + self._local_index[j]
+
+
+def _state_of(sim: CrowdSim) -> tuple[np.ndarray, ...]:
+    """A crowd's positions, velocities, route positions, waypoints reached and time."""
+    return sim._positions, sim._velocities, sim._route_position, sim.waypoints_reached, sim.time_s
