@@ -103,7 +103,7 @@ def test_rejects_same_step_mode():
 
 
 def test_torchrl_gym_wrapper_rolls_out_with_partial_resets():
-    torchrl_envs = pytest.importorskip("torchrl.envs")
+    import torchrl.envs as torchrl_envs
     venv = UAVSwarmVectorEnv(3, **WORLD, max_cycles=3, autoreset_mode=AutoresetMode.DISABLED)
     env = torchrl_envs.GymWrapper(venv)
     assert tuple(env.batch_size) == (3,)

@@ -5,9 +5,7 @@ import sys
 
 import numpy as np
 import pytest
-
-ss = pytest.importorskip("supersuit")
-
+import supersuit as ss  # noqa: E402  (the marl extra; CI installs it)
 from marl_world import SMALL_WORLD, random_actions, raw_trajectory  # noqa: E402
 from pettingzoo.test import parallel_api_test  # noqa: E402
 

@@ -6,10 +6,7 @@ import sys
 
 import numpy as np
 import pytest
-
-torch = pytest.importorskip("torch")
-pytest.importorskip("torchrl")
-
+import torch  # noqa: E402
 from marl_world import SMALL_WORLD, random_actions, raw_trajectory  # noqa: E402
 from tensordict import TensorDict  # noqa: E402
 from torchrl.envs.utils import MarlGroupMapType, check_env_specs  # noqa: E402
