@@ -290,7 +290,12 @@ def _write_outputs(out: Path, config: MappoConfig, history: list[dict[str, float
         write_text_atomic(out / "curve.csv", text.getvalue())
         figure, axis = plt.subplots(figsize=(7, 4))
         frames = [row["frames"] for row in history]
-        axis.plot(frames, [row["mean_reward"] for row in history], label="MAPPO (training batches)")
+        reward = np.array([row["mean_reward"] for row in history])
+        axis.plot(frames, reward, color="tab:blue", alpha=0.35, label="MAPPO, each training batch")
+        # A batch holds one part of the worlds' episodes (they start together): average over an episode.
+        window = min(len(reward), max(1, -(-config.max_cycles * config.num_envs // config.frames_per_batch)))
+        smooth = np.convolve(reward, np.ones(window) / window, mode="valid")
+        axis.plot(frames[window - 1:], smooth, color="tab:blue", label=f"MAPPO, mean of {window} batches")
         axis.axhline(random_reward, color="grey", linestyle="--", label="random actions")
         axis.set(xlabel="world-steps (all worlds)", ylabel="mean team reward per step",
                  title=f"MAPPO on uav_swarm_v0: {config.n_uavs} UAVs, strategy {config.strategy}")
