@@ -1,4 +1,4 @@
-"""The shipped MAPPO policy (results/marl/policy.pt) loads and serves the crowd far better than random actions."""
+"""The shipped MAPPO policy (results/marl/policy.pt) loads and serves the crowd better than random actions."""
 
 from pathlib import Path
 
