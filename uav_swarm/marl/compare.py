@@ -22,6 +22,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from tqdm import tqdm
@@ -29,12 +30,14 @@ from tqdm import tqdm
 from uav_swarm.env import parallel_env
 from uav_swarm.env_config import EnvConfig
 
+if TYPE_CHECKING:
+    from uav_swarm.planner import Planner
+    from uav_swarm.simulate_config import SimulateConfig
+
 __all__ = ["ControllerScore", "CONTROLLERS", "compare_controllers"]
 
 CONTROLLERS = ("random", "mappo", "learned", "expert")
 """The controllers :func:`compare_controllers` knows."""
-
-Controller = Callable[[np.ndarray, object], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,7 @@ class ControllerScore:
     replan_ms: float | None
 
 
-def _episode(env_config: EnvConfig, seed: int, decide: Callable[[int, dict, object], dict], steps: int
+def _episode(env_config: EnvConfig, seed: int, decide: Callable[[int, dict, Any], dict], steps: int
              ) -> tuple[np.ndarray, float]:
     """Fly one episode; returns ``(steps, 3)`` QoS S1, QoS S2, throughput and the decision seconds."""
     env = parallel_env(config=env_config.replace(max_cycles=steps))
@@ -89,7 +92,6 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
     Raises:
         ValueError: An unknown controller, or ``mappo`` without a policy.
     """
-    from uav_swarm.planner import make_planner
     from uav_swarm.simulate_config import SimulateConfig
 
     unknown = [name for name in controllers if name not in CONTROLLERS]
@@ -99,13 +101,11 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
         raise ValueError("the mappo controller needs a policy file (--policy, written by uav-swarm rl-train)")
     world = SimulateConfig(n_uavs=n_uavs, duration_s=duration_s, replan_every=replan_every)
     world = world.replace(task=world.task.replace(strategy=strategy))
-    waypoint = world.env_config()
-    velocity = waypoint.replace(action_mode="velocity")
+    velocity = world.env_config().replace(action_mode="velocity")
     steps = world.n_steps
     scores = []
     for name in controllers:
-        env_config, decide, planner = _controller(name, velocity, waypoint, world, mappo_policy, checkpoint,
-                                                  make_planner, replan_every, seed)
+        env_config, decide, planner = _controller(name, velocity, world, mappo_policy, checkpoint, seed)
         measures, spent = [], 0.0
         for episode in tqdm(range(episodes), desc=name, unit="episode", disable=not progress, leave=False):
             if planner is not None:
@@ -123,15 +123,14 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
     return scores
 
 
-def _controller(name: str, velocity: EnvConfig, waypoint: EnvConfig, world: object,
-                mappo_policy: str | Path | None,
-                checkpoint: str | Path | None, make_planner: Callable, replan_every: int, seed: int
-                ) -> tuple[EnvConfig, Callable[[int, dict, object], dict], object | None]:
+def _controller(name: str, velocity: EnvConfig, world: SimulateConfig, mappo_policy: str | Path | None,
+                checkpoint: str | Path | None, seed: int
+                ) -> tuple[EnvConfig, Callable[[int, dict, Any], dict], Planner | None]:
     """The environment settings, the decision function and the planner (if any) of one controller."""
     if name == "random":
         rng = np.random.default_rng(seed)
 
-        def random_actions(step: int, observations: dict, env: object) -> dict:
+        def random_actions(step: int, observations: dict, env: Any) -> dict:
             return {agent: rng.uniform(-1.0, 1.0, 2).astype(np.float32) for agent in observations}
 
         return velocity, random_actions, None
@@ -146,20 +145,22 @@ def _controller(name: str, velocity: EnvConfig, waypoint: EnvConfig, world: obje
             raise ValueError(f"the MAPPO policy is for {policy.config.n_uavs} UAVs, "
                              f"the table for {velocity.n_uavs}")
 
-        def mappo_actions(step: int, observations: dict, env: object) -> dict:
+        def mappo_actions(step: int, observations: dict, env: Any) -> dict:
             agents = list(observations)
             actions = policy.act(np.stack([observations[a] for a in agents]))
             return dict(zip(agents, actions, strict=True))
 
         return velocity, mappo_actions, None
-    planner = make_planner(name, waypoint.n_uavs, world.task, checkpoint=checkpoint or None,
+    from uav_swarm.planner import make_planner
+
+    planner = make_planner(name, world.n_uavs, world.task, checkpoint=checkpoint or None,
                            config=world.planning)
     held: dict = {}
 
-    def planned(step: int, observations: dict, env: object) -> dict:
-        if step % replan_every == 0:
+    def planned(step: int, observations: dict, env: Any) -> dict:
+        if step % world.replan_every == 0:
             targets = planner.plan(env.pedestrian_positions_m, env.uav_positions_m).targets_m
             held.update(zip(env.agents, targets, strict=True))
         return dict(held)
 
-    return waypoint, planned, planner
+    return world.env_config(), planned, planner

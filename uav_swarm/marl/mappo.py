@@ -116,8 +116,8 @@ def _actor(env: Any, actor_net: nn.Module) -> Any:
         distribution_kwargs={"low": spec.space.low, "high": spec.space.high}, return_log_prob=True)
 
 
-def _observation_norm(env: Any, frames: int, seed: int) -> FeatureNorm:
-    """Per-feature mean and std of the observations of a random-action rollout of ``frames`` world-steps."""
+def _observation_norm(env: Any, frames: int, seed: int) -> tuple[FeatureNorm, float]:
+    """Per-feature mean and std of a random-action rollout of ``frames`` world-steps, and its mean reward."""
     torch.manual_seed(seed)
     steps = max(1, frames // env.batch_size[0])
     rollout = env.rollout(steps, break_when_any_done=False)
@@ -125,9 +125,7 @@ def _observation_norm(env: Any, frames: int, seed: int) -> FeatureNorm:
     obs = obs.reshape(-1, obs.shape[-1])
     reward = rollout["next", env.group, "reward"].mean().item()
     std = obs.std(dim=0)
-    norm = FeatureNorm(obs.mean(dim=0), torch.where(std > 1e-6, std, torch.ones_like(std)))
-    norm.random_reward = reward  # type: ignore[attr-defined]
-    return norm
+    return FeatureNorm(obs.mean(dim=0), torch.where(std > 1e-6, std, torch.ones_like(std))), reward
 
 
 def train_mappo(config: MappoConfig, out: str | Path, *, resume: bool = False, progress: bool = True
@@ -169,8 +167,7 @@ def train_mappo(config: MappoConfig, out: str | Path, *, resume: bool = False, p
     env = UAVSwarmTorchRLEnv(config.num_envs, config.env_config(), seed=config.seed + 1_000_003 * iteration)
     group, obs_dim = env.group, env.world.obs_dim
     if state is None:
-        norm = _observation_norm(env, config.frames_per_batch, config.seed)
-        random_reward = norm.random_reward
+        norm, random_reward = _observation_norm(env, config.frames_per_batch, config.seed)
     else:
         norm = FeatureNorm(state["norm"]["mean"], state["norm"]["std"])
         random_reward = state["random_reward"]
@@ -236,7 +233,7 @@ def train_mappo(config: MappoConfig, out: str | Path, *, resume: bool = False, p
         bar.update(batch.numel())
         bar.set_postfix(reward=f"{row['mean_reward']:.3f}", qos_s1=f"{row['mean_qos_s1']:.3f}")
         over_time = row["elapsed_s"] > 60.0 * config.max_minutes
-        if iteration % config.checkpoint_every == 0 or over_time or frames_done >= config.total_frames:
+        if iteration % config.checkpoint_every == 0:  # the last one is saved after the loop
             _save(out, config, actor_net, critic_net, norm, optimiser, iteration, frames_done, history,
                   random_reward)
         if over_time:

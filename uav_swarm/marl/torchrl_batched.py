@@ -96,13 +96,11 @@ class UAVSwarmTorchRLEnv(EnvBase):
         self.done_spec = Composite(
             {"done": flag, "terminated": flag.clone(), "truncated": flag.clone()}, shape=self.batch_size)
 
-    def _observation_td(self, obs: np.ndarray, info: dict[str, np.ndarray] | None) -> dict[str, Any]:
+    def _observation_td(self, obs: np.ndarray, info: dict[str, np.ndarray]) -> dict[str, Any]:
         b, n = self.batch_size[0], self.world.n_agents
         agents = {"observation": torch.from_numpy(np.ascontiguousarray(obs, dtype=np.float32))}
-        values = {}
-        for key in INFO_KEYS:
-            column = np.zeros(b, np.float32) if info is None else np.asarray(info[key], np.float32)
-            values[key] = torch.from_numpy(column)[:, None].expand(b, n).clone()
+        values = {key: torch.from_numpy(np.asarray(info[key], np.float32))[:, None].expand(b, n).clone()
+                  for key in INFO_KEYS}
         agents["info"] = TensorDict(values, batch_size=[b, n])
         return {self.group: TensorDict(agents, batch_size=[b, n]),
                 "state": torch.from_numpy(np.ascontiguousarray(self.world.state(), dtype=np.float32))}
@@ -115,7 +113,7 @@ class UAVSwarmTorchRLEnv(EnvBase):
         obs, info = self.world.reset(seed=seed, mask=mask)
         b = self.batch_size[0]
         no = torch.zeros(b, 1, dtype=torch.bool)
-        source = self._observation_td(obs, info if info else None)
+        source = self._observation_td(obs, info)
         source.update({"done": no, "terminated": no.clone(), "truncated": no.clone()})
         return TensorDict(source, batch_size=self.batch_size)
 
