@@ -18,23 +18,10 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
+from learning.symmetry import transform_positions
 from learning.targets import TargetConfig, render_targets
 
-__all__ = ["ShardDataset", "transform_positions"]
-
-
-def transform_positions(positions_px: np.ndarray, shape: tuple[int, int], flip_x: bool, flip_y: bool,
-                        transpose: bool) -> np.ndarray:
-    """Pixel positions under the raster transform applied by :class:`ShardDataset` (flips, then transpose)."""
-    h, w = shape
-    out = np.array(positions_px, dtype=np.float64).reshape(-1, 2)
-    if flip_x:
-        out[:, 0] = (w - 1) - out[:, 0]
-    if flip_y:
-        out[:, 1] = (h - 1) - out[:, 1]
-    if transpose:
-        out = out[:, ::-1].copy()
-    return out
+__all__ = ["ShardDataset"]
 
 
 class ShardDataset(Dataset):

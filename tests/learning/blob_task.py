@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from learning.symmetry import transform_positions
 from typed_config import Config, param
 
 
@@ -46,6 +47,12 @@ class BlobTask:
         for x, y in scene.centres_px:
             image += np.exp(-((xs - x) ** 2 + (ys - y) ** 2) / (2 * self.config.blob_sigma_px**2))
         return image[None].astype(np.float32)
+
+    def transform_scene(self, scene: BlobScene, flip_x: bool, flip_y: bool, transpose: bool) -> BlobScene:
+        return BlobScene(transform_positions(scene.centres_px, self.shape, flip_x, flip_y, transpose))
+
+    def jitter_scene(self, scene: BlobScene, rng: np.random.Generator, scale: float) -> BlobScene:
+        return BlobScene(scene.centres_px + rng.normal(0.0, scale, scene.centres_px.shape))
 
     def expert(self, scene: BlobScene) -> np.ndarray:
         return scene.centres_px.astype(np.float64).reshape(-1, 2)

@@ -25,6 +25,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "uav_swarm.cli.mission",
     "uav_swarm.cli.learn",
     "uav_swarm.cli.search",
+    "uav_swarm.cli.stability",
     "uav_swarm.cli.simulate",
     "uav_swarm.cli.fly",
     "uav_swarm.cli.place",

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from learning.symmetry import transform_positions
 from learning.task import MAX_POSITIONS
 from typed_config import Config, param
 from uav_swarm.missions.guard_repair import RepairConfig, repair_guards
@@ -108,6 +109,13 @@ class MonitoringScene:
     guards_px: np.ndarray
 
 
+def _scene(polygon: Polygon, guards_px: np.ndarray) -> MonitoringScene:
+    """A scene with its guards sorted by row, then column."""
+    guards = guards_px[np.lexsort((guards_px[:, 0], guards_px[:, 1]))]
+    guards.setflags(write=False)
+    return MonitoringScene(polygon, guards)
+
+
 def rasterize_polygon(polygon: Polygon) -> np.ndarray:
     """The observation channels of a building: ``(2, size, size)`` float32 filled and outline.
 
@@ -174,13 +182,18 @@ class _MonitoringTask:
             if len(chosen) > self.config.max_guards:
                 logger.debug("%s: redrawing a building needing %d guards", self.name, len(chosen))
                 continue
-            guards = problem.candidates_px[chosen]
-            guards = guards[np.lexsort((guards[:, 0], guards[:, 1]))]
-            guards.setflags(write=False)
-            return MonitoringScene(polygon, guards)
+            return _scene(polygon, problem.candidates_px[chosen])
         raise PolygonSamplingError(
             f"{self.name}: {self.config.max_redraws} buildings in a row were infeasible or needed more than "
             f"max_guards = {self.config.max_guards} guards (raise max_redraws or max_guards)")
+
+    def transform_scene(self, scene: MonitoringScene, flip_x: bool, flip_y: bool, transpose: bool
+                        ) -> MonitoringScene:
+        """The building under a symmetry of the raster (:mod:`learning.symmetry`), its expert solved anew."""
+        vertices = transform_positions(scene.polygon.vertices_px, self.shape, flip_x, flip_y, transpose)
+        polygon = Polygon(vertices, scene.polygon.size_px)
+        problem = self.problem(polygon)
+        return _scene(polygon, problem.candidates_px[solve_guards(problem)])
 
     def observe(self, scene: MonitoringScene) -> np.ndarray:
         """``(2, size, size)`` float32: filled polygon and outline (see the module docstring)."""

@@ -95,6 +95,11 @@ class WifiScene:
     time_s: float
 
 
+def _scene(users_m: np.ndarray, time_s: float) -> WifiScene:
+    users_m.setflags(write=False)
+    return WifiScene(users_m, time_s)
+
+
 def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageRules:
     """The geometric constraints of the config's strategy (see the module docstring).
 
@@ -191,9 +196,24 @@ class WifiTask:
         steps = int(round(warmup_s / cfg.crowd.dt_s))
         if steps:
             crowd.step(steps)
-        users_m = np.array(crowd.positions_m, dtype=np.float64)
-        users_m.setflags(write=False)
-        return WifiScene(users_m, crowd.time_s)
+        return _scene(np.array(crowd.positions_m, dtype=np.float64), crowd.time_s)
+
+    def transform_scene(self, scene: WifiScene, flip_x: bool, flip_y: bool, transpose: bool) -> WifiScene:
+        """The crowd under a symmetry of the square area (as :mod:`learning.symmetry` acts on pixels)."""
+        users_m = np.array(scene.users_m, dtype=np.float64)
+        if flip_x:
+            users_m[:, 0] = self.width_m - users_m[:, 0]
+        if flip_y:
+            users_m[:, 1] = self.height_m - users_m[:, 1]
+        if transpose:
+            users_m = users_m[:, ::-1].copy()
+        return _scene(users_m, scene.time_s)
+
+    def jitter_scene(self, scene: WifiScene, rng: np.random.Generator, scale: float) -> WifiScene:
+        """The crowd, each pedestrian moved by a normal draw of ``scale`` metres per axis, kept inside."""
+        users_m = scene.users_m + rng.normal(0.0, scale, scene.users_m.shape)
+        upper = np.nextafter(np.array([self.width_m, self.height_m]), 0.0)
+        return _scene(np.clip(users_m, 0.0, upper), scene.time_s)
 
     def observe(self, scene: WifiScene) -> np.ndarray:
         """``(1, size, size)`` float32 scaled pedestrian density."""

@@ -1,0 +1,55 @@
+r"""``uav-swarm expert-stability``: how far an expert agrees with itself (the ceiling of learning from it).
+
+Example::
+
+    uav-swarm expert-stability --task wifi-s2 --config configs/tasks/wifi-s2.toml --probe jitter \\
+        --scale 0.05 --n 200 --seed 3 --out results/expert-stability/wifi-s2-jitter.json
+"""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``expert-stability`` subcommand."""
+    parser = subparsers.add_parser(
+        "expert-stability",
+        help="the expert's agreement with itself under grid symmetries or sub-pixel jitter")
+    parser.add_argument("--task", required=True, help="wifi-s1, wifi-s2, agp or fp")
+    parser.add_argument("--config", help="task settings TOML (its [task] table is used)")
+    parser.add_argument("--probe", choices=("symmetry", "jitter"), default="symmetry",
+                        help="moved scenes: by a grid symmetry, or by a normal jitter (Wi-Fi crowds)")
+    parser.add_argument("--scale", type=float, default=0.05, help="jitter standard deviation, metres "
+                        "(default: %(default)s)")
+    parser.add_argument("--n", type=int, default=200, help="scenes (default: %(default)s)")
+    parser.add_argument("--seed", type=int, default=3,
+                        help="scene seed, test namespace (default: %(default)s)")
+    parser.add_argument("--out", required=True, help="JSON report to write")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and write the report; a probe the task lacks, or a bad number, exits with code 2."""
+    import sys
+    from pathlib import Path
+
+    from learning.expert_stability import expert_stability
+    from learning.files import write_json_atomic
+    from uav_swarm.missions.registry import make_task
+
+    task = make_task(args.task, args.config)
+    try:
+        report = expert_stability(task, args.n, args.seed, args.probe, args.scale)
+    except ValueError as exc:
+        print(f"uav-swarm expert-stability: {exc}", file=sys.stderr)
+        return 2
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.out, report)
+    print(f"{args.task}, {args.probe}: corr {100 * report['corr']:.1f} %, precision "
+          f"{100 * report['precision']:.1f} %, same count {100 * report['same_count']:.1f} %, QoS "
+          f"{100 * report['qos']:.1f} % (the other placement: {100 * report['qos_other']:.1f} %) "
+          f"over {args.n} scenes")
+    return 0
