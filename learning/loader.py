@@ -19,7 +19,7 @@ import torch
 from torch.utils.data import Dataset
 
 from learning.symmetry import transform_positions
-from learning.targets import TargetConfig, render_targets
+from learning.targets import TargetConfig, render_peak_heatmap, render_targets
 
 __all__ = ["ShardDataset"]
 
@@ -33,10 +33,13 @@ class ShardDataset(Dataset):
         indices: The rows to expose (e.g. the training part of a split); all by default.
         augment: Apply random grid symmetries.
         augment_seed: Seed of the augmentation draws.
+        peak_heatmaps: Also return each item's keypoint heatmap
+            (:func:`learning.targets.render_peak_heatmap`, width ``targets.sigma1``), for a peak head.
     """
 
     def __init__(self, arrays: dict[str, np.ndarray], targets: TargetConfig,
-                 indices: Sequence[int] | None = None, augment: bool = False, augment_seed: int = 0) -> None:
+                 indices: Sequence[int] | None = None, augment: bool = False, augment_seed: int = 0,
+                 peak_heatmaps: bool = False) -> None:
         self.inputs = arrays["inputs"]
         self.positions = arrays["positions"]
         self.mask = arrays["mask"]
@@ -44,6 +47,7 @@ class ShardDataset(Dataset):
         self.targets = targets
         self.augment = augment
         self.augment_seed = augment_seed
+        self.peak_heatmaps = peak_heatmaps
         self.epoch = 0
 
     def set_epoch(self, epoch: int) -> None:
@@ -58,7 +62,8 @@ class ShardDataset(Dataset):
         row = self.indices[item]
         return self.positions[row][self.mask[row]]
 
-    def __getitem__(self, item: int) -> tuple[torch.Tensor, torch.Tensor]:
+    def __getitem__(self, item: int) -> tuple[torch.Tensor, ...]:
+        """``(input (C, h, w), target (1, h, w))``, and the ``(1, h, w)`` heatmap with ``peak_heatmaps``."""
         row = int(self.indices[item])
         x = self.inputs[row]  # (C, h, w)
         positions = self.positions[row][self.mask[row]]  # (k, 2)
@@ -72,4 +77,8 @@ class ShardDataset(Dataset):
             x = x.transpose(0, 2, 1) if transpose else x
             positions = transform_positions(positions, shape, bool(flip_x), bool(flip_y), transpose)
         target = render_targets(positions, shape, self.targets) / np.float32(self.targets.alpha1)  # (h, w)
-        return torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(target[None])
+        tensors = (torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(target[None]))
+        if self.peak_heatmaps:
+            heatmap = render_peak_heatmap(positions, shape, self.targets.sigma1)  # (h, w)
+            tensors += (torch.from_numpy(heatmap[None]),)
+        return tensors

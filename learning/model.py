@@ -39,6 +39,9 @@ class ModelConfig(Config):
     depth: int = param(2, ge=1, le=5, doc="number of 2× poolings (the paper's network has 2)")
     max_width: int = param(128, ge=1, le=1024, doc="cap on the channels of any block")
     coord_channels: bool = param(False, doc="append normalised x, y coordinate channels to the input")
+    peak_head: bool = param(
+        False, doc="a second 1x1 head predicting the expert positions as a sharp heatmap, trained with a "
+        "focal loss beside the utility's MSE (learning.losses); inference reads the utility map only")
 
     def check(self) -> None:
         """The paper's network has exactly two poolings."""
@@ -100,6 +103,9 @@ class UtilityNet(nn.Module):
                 self.decoder.append(_double_conv(c_in + w, w))
                 c_in = w
         self.head = nn.Conv2d(c_in, 1, 1)
+        self.peak_head = nn.Conv2d(c_in, 1, 1) if config.peak_head else None
+        if self.peak_head is not None:  # CenterNet's prior: every pixel starts at p = sigmoid(-2.19) = 0.1
+            nn.init.constant_(self.peak_head.bias, -2.19)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """Utility map of a batch of rasters.
@@ -110,6 +116,17 @@ class UtilityNet(nn.Module):
         Returns:
             ``(B, 1, h, w)`` utility maps (in units of ``R / α1``, see :mod:`learning.targets`).
         """
+        return self.head(self._features(x))  # (B, 1, h, w)
+
+    def forward_with_peaks(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The utility maps and the peak head's logits, both ``(B, 1, h, w)`` (needs ``peak_head``)."""
+        if self.peak_head is None:
+            raise ValueError("this network has no peak head (ModelConfig.peak_head = false)")
+        features = self._features(x)
+        return self.head(features), self.peak_head(features)
+
+    def _features(self, x: torch.Tensor) -> torch.Tensor:
+        """The last decoder block's ``(B, w, h, w)`` features."""
         if self.coords is not None:
             x = self.coords(x)  # (B, C+2, h, w)
         skips = []
@@ -127,7 +144,7 @@ class UtilityNet(nn.Module):
             for layer, skip in zip(self.decoder, reversed(skips), strict=True):
                 x = F.interpolate(x, size=skip.shape[-2:], mode="bilinear", align_corners=False)
                 x = layer(torch.cat([x, skip], dim=1))  # (B, c, 2×)
-        return self.head(x)  # (B, 1, h, w)
+        return x
 
 
 def build_model(config: ModelConfig) -> UtilityNet:

@@ -22,7 +22,7 @@ import numpy as np
 
 from typed_config import Config, param
 
-__all__ = ["TargetConfig", "render_targets"]
+__all__ = ["TargetConfig", "render_targets", "render_peak_heatmap"]
 
 
 @dataclass(frozen=True)
@@ -69,3 +69,32 @@ def render_targets(positions_px: np.ndarray, shape: tuple[int, int], config: Tar
         gy = np.exp(-(dy**2) / (2.0 * sigma**2))  # (k, h)
         out += alpha * (gy.T @ gx)  # (h, w)
     return out.astype(np.float32)
+
+
+def render_peak_heatmap(positions_px: np.ndarray, shape: tuple[int, int], sigma: float) -> np.ndarray:
+    """The keypoint heatmap of a placement: ``max`` over positions of a unit Gaussian of width ``sigma``.
+
+    Positions are rounded to pixel centres first, so each one's pixel is exactly 1 (the positives of
+    :func:`learning.losses.focal_loss`), as keypoint detectors such as CenterNet draw them.
+
+    Args:
+        positions_px: ``(k, 2)`` pixel positions ``(x, y)``; ``k`` may be 0.
+        shape: Raster shape ``(h, w)``.
+        sigma: Gaussian width, pixels.
+
+    Returns:
+        ``(h, w)`` float32 map in [0, 1].
+
+    Example:
+        >>> m = render_peak_heatmap(np.array([[2.4, 1.0]]), (4, 5), 1.0)
+        >>> float(m[1, 2]), round(float(m[1, 3]), 3)
+        (1.0, 0.607)
+    """
+    centres = np.clip(np.rint(np.asarray(positions_px, dtype=np.float64).reshape(-1, 2)), 0,
+                      [shape[1] - 1, shape[0] - 1])
+    h, w = shape
+    if len(centres) == 0:
+        return np.zeros((h, w), dtype=np.float32)
+    gx = np.exp(-((np.arange(w)[None, :] - centres[:, 0:1]) ** 2) / (2.0 * sigma**2))  # (k, w)
+    gy = np.exp(-((np.arange(h)[None, :] - centres[:, 1:2]) ** 2) / (2.0 * sigma**2))  # (k, h)
+    return (gy[:, :, None] * gx[:, None, :]).max(axis=0).astype(np.float32)  # (h, w)

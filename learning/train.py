@@ -40,6 +40,7 @@ from learning.calibrate import calibrate_peaks
 from learning.checkpoint import CHECKPOINT_FORMAT, CheckpointError, load_checkpoint, save_checkpoint
 from learning.data import load_arrays
 from learning.loader import ShardDataset
+from learning.losses import focal_loss
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from learning.model import ModelConfig, UtilityNet, build_model
 from learning.peaks import PeakConfig, find_peaks
@@ -82,6 +83,9 @@ class TrainConfig(Config):
     channels_last: bool = param(True, doc="channels-last memory format for the network and its batches")
     patience: int = param(0, ge=0, doc="stop after this many epochs without a better validation "
                           "corr + precision (0: run every epoch)")
+    focal_weight: float = param(
+        0.001, ge=0.0, le=100.0, doc="weight of the peak head's focal loss beside the MSE (learning.losses); "
+        "networks without a peak head train on the MSE alone")
 
 
 @dataclass(frozen=True)
@@ -176,7 +180,8 @@ def train(
         resume: A checkpoint of this dataset's task to continue from; its model,
             target and peak configs are used.
         init: A checkpoint of this dataset's task whose weights start a new run (fine-tuning,
-            e.g. a shipped ``best.pt`` on a larger dataset); its model config is used, the
+            e.g. a shipped ``best.pt`` on a larger dataset); its model config is used (but
+            ``peak_head`` from ``model_config`` when given: a new head starts from scratch), the
             optimiser, schedule and history start afresh.
         progress: Show a progress bar.
 
@@ -201,7 +206,9 @@ def train(
             raise ValueError("pass either resume (continue a run) or init (start from its weights), not both")
         start = load_checkpoint(init, task_name=manifest["task"], task_config=manifest["task_config"],
                                 input_shape=input_shape)
-        model_config, init_state = start.model_config, start.model.state_dict()
+        peak_head = model_config.peak_head if model_config is not None else start.model_config.peak_head
+        model_config = start.model_config.replace(peak_head=peak_head)  # a peak head may be added or dropped
+        init_state = start.model.state_dict()
     model_config = (model_config or ModelConfig()).replace(in_channels=manifest["channels"])
     target_config = target_config or TargetConfig()
     train_config = train_config or TrainConfig()
@@ -214,7 +221,8 @@ def train(
     n = len(arrays["inputs"])
     order = np.random.default_rng(cfg.seed).permutation(n)
     n_val = min(n - 1, max(1, round(cfg.val_fraction * n))) if cfg.val_fraction > 0 and n > 1 else 0
-    train_set = ShardDataset(arrays, target_config, np.sort(order[n_val:]), cfg.augment, cfg.seed)
+    train_set = ShardDataset(arrays, target_config, np.sort(order[n_val:]), cfg.augment, cfg.seed,
+                             peak_heatmaps=model_config.peak_head)
     val_set = ShardDataset(arrays, target_config, np.sort(order[:n_val]))
     eps_px = MATCH_FRACTION * manifest["mission_dimension_px"]
 
@@ -224,7 +232,10 @@ def train(
         torch.manual_seed(cfg.seed)
         model = build_model(model_config)
         if init_state is not None:
-            model.load_state_dict(init_state)
+            missing, unexpected = model.load_state_dict(init_state, strict=False)
+            stray = [k for k in (*missing, *unexpected) if not k.startswith("peak_head.")]
+            if stray:
+                raise CheckpointError(f"{init}: its weights do not fit this network: {stray[:5]}")
         model = model.to(device, memory_format=memory_format)
     optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     steps_per_epoch = math.ceil(len(train_set) / cfg.batch_size)
@@ -275,12 +286,13 @@ def train(
             loader = DataLoader(train_set, batch_size=cfg.batch_size, shuffle=True, generator=generator,
                                 num_workers=cfg.num_workers, pin_memory=device.type == "cuda")
             loss_sum, seen = 0.0, 0
-            for x, y in loader:
-                x = x.to(device, non_blocking=True, memory_format=memory_format)  # (B, C, h, w)
-                y = y.to(device, non_blocking=True, memory_format=memory_format)  # (B, 1, h, w)
-                with autocast(precision, device):
-                    u = model(x)  # (B, 1, h, w)
+            for batch in loader:
+                x, y, *heatmap = (t.to(device, non_blocking=True, memory_format=memory_format) for t in batch)
+                with autocast(precision, device):  # x (B, C, h, w); y, u, heatmap, logits (B, 1, h, w)
+                    u, logits = model.forward_with_peaks(x) if heatmap else (model(x), None)
                 loss = F.mse_loss(u.float(), y)
+                if heatmap:
+                    loss = loss + cfg.focal_weight * focal_loss(logits, heatmap[0])
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 optimizer.step()

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from learning.targets import TargetConfig, render_targets
+from learning.targets import TargetConfig, render_peak_heatmap, render_targets
 from typed_config import ConfigError
 
 
@@ -52,3 +52,12 @@ def test_alpha2_zero_keeps_only_the_sharp_gaussian():
 def test_negative_sigma_is_rejected_with_field_name():
     with pytest.raises(ConfigError, match="sigma2"):
         TargetConfig(sigma2=-1.0)
+
+
+def test_peak_heatmap_is_one_on_each_rounded_position_and_the_max_of_the_gaussians() -> None:
+    heatmap = render_peak_heatmap(np.array([[2.4, 3.0], [4.0, 3.0], [9.7, -2.0]]), (6, 8), 1.0)
+    assert heatmap.shape == (6, 8) and heatmap.dtype == np.float32
+    assert heatmap[3, 2] == heatmap[3, 4] == heatmap[0, 7] == 1.0  # rounded, clipped into the raster
+    assert np.isclose(heatmap[3, 3], np.exp(-0.5))  # between the two: the larger Gaussian, not the sum
+    assert heatmap.max() == 1.0 and heatmap.min() >= 0.0
+    assert not render_peak_heatmap(np.zeros((0, 2)), (4, 4), 1.0).any()

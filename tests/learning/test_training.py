@@ -141,3 +141,24 @@ def test_init_starts_a_new_run_from_a_checkpoints_weights(data, tmp_path):
     assert not same_weights(scratch, after)
     with pytest.raises(ValueError, match="either resume"):
         run(data, tmp_path / "both", resume=first.checkpoint, init=first.best_checkpoint)
+
+
+def test_a_peak_head_adds_its_focal_loss_and_can_join_a_trained_network(data, tmp_path):
+    head = TINY_MODEL.replace(peak_head=True)
+    cfg = TrainConfig(epochs=1, batch_size=8, val_fraction=0.2, device="cpu")
+    plain = weights(run(data, tmp_path / "plain", epochs=1).checkpoint)
+    silent = weights(train(data, tmp_path / "silent", model_config=head, progress=False,
+                           train_config=cfg.replace(focal_weight=0.0)).checkpoint)
+    focal = weights(train(data, tmp_path / "focal", model_config=head, progress=False,
+                          train_config=cfg.replace(focal_weight=1.0)).checkpoint)
+    assert set(silent) - set(plain) == {"peak_head.weight", "peak_head.bias"}
+    assert all(torch.equal(plain[k], silent[k]) for k in plain)  # weight 0: the shared layers as without
+    assert not all(torch.equal(plain[k], focal[k]) for k in plain)  # the focal loss reaches them
+    tuned = train(data, tmp_path / "tuned", model_config=head, progress=False,
+                  train_config=cfg.replace(lr=1e-12, schedule="constant"),
+                  init=tmp_path / "plain" / "best.pt")
+    after, start = weights(tuned.checkpoint), weights(tmp_path / "plain" / "best.pt")
+    assert load_checkpoint(tuned.checkpoint).model_config.peak_head
+    assert all(torch.allclose(start[k], after[k], atol=1e-6) for k in start)  # the trained layers kept
+    with pytest.raises(ValueError, match="no peak head"):
+        build_model(TINY_MODEL).forward_with_peaks(torch.zeros(1, 1, 16, 16))

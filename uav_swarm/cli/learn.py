@@ -58,6 +58,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     train.add_argument("--patience", type=int, help="override [train] patience (epochs without a better "
                        "validation score before stopping; 0: off)")
     train.add_argument("--arch", choices=("paper", "unet"), help="override [model] arch")
+    train.add_argument("--peak-head", action="store_true", default=None,
+                       help="override [model] peak_head: add the peak head and its focal loss")
+    train.add_argument("--focal-weight", type=float, help="override [train] focal_weight")
     train.add_argument("--resume", help="checkpoint to continue from")
     train.add_argument("--init", help="checkpoint whose weights start a new run (fine-tuning)")
 
@@ -109,9 +112,9 @@ def _train(args: argparse.Namespace) -> int:
               f"than {args.config}", file=sys.stderr)
         return 2
     train_fields = ("epochs", "batch_size", "lr", "max_steps", "device", "torch_threads", "precision",
-                    "patience")
+                    "patience", "focal_weight")
     train_cfg = settings.train.replace(**_overrides(args, train_fields))
-    model_cfg = settings.model.replace(**_overrides(args, ("arch",)))
+    model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head")))
     result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
                    train_config=train_cfg, peak_config=settings.peaks, resume=args.resume, init=args.init)
     last = result.history[-1] if result.history else {}
