@@ -97,3 +97,17 @@ def test_cli_writes_the_report_and_refuses_a_probe_the_task_lacks(tmp_path, caps
     assert main(argv) == 2
     assert not refused.exists()
     assert "jitter_scene" in capsys.readouterr().err
+
+
+def test_wifi_jitter_moves_every_pedestrian_a_little_and_keeps_them_inside() -> None:
+    task = make_task("wifi-s2")
+    scene = task.sample(np.random.default_rng(sample_seed(0, "test", 2)))
+    moved = task.jitter_scene(scene, np.random.default_rng(7), 0.05)
+    again = task.jitter_scene(scene, np.random.default_rng(7), 0.05)
+    step = moved.users_m - scene.users_m
+    assert moved.users_m.shape == scene.users_m.shape and not moved.users_m.flags.writeable
+    assert np.array_equal(moved.users_m, again.users_m)  # the same generator, the same crowd
+    assert np.all(step != 0.0) and 0.03 < step.std() < 0.07
+    assert moved.users_m.min() >= 0.0 and moved.users_m.max() < task.width_m
+    edge = task.jitter_scene(scene, np.random.default_rng(0), 500.0)
+    assert edge.users_m.min() >= 0.0 and edge.users_m.max() < task.width_m  # pushed out, clipped back
