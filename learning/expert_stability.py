@@ -28,7 +28,7 @@ import numpy as np
 
 from learning.data import sample_seed
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
-from learning.symmetry import SYMMETRIES, transform_positions
+from learning.symmetry import SYMMETRIES, inverse_transform_positions, transform_positions
 from learning.task import Task
 
 __all__ = ["Probe", "expert_stability"]
@@ -76,7 +76,7 @@ def expert_stability(task: Task, n: int, seed: int, probe: Probe = "symmetry", s
             moved = task.transform_scene(scene, *symmetry)
             reference = transform_positions(expert, task.shape, *symmetry)
             other = task.expert(moved)
-            other_back = _inverse(other, task.shape, symmetry)
+            other_back = inverse_transform_positions(other, task.shape, *symmetry)
         else:
             moved = task.jitter_scene(scene, np.random.default_rng((seed, i)), scale)
             reference = expert
@@ -93,10 +93,3 @@ def expert_stability(task: Task, n: int, seed: int, probe: Probe = "symmetry", s
                   qos=float(np.mean(qos)), qos_other=float(np.mean(qos_other)))
     return report
 
-
-def _inverse(positions_px: np.ndarray, shape: tuple[int, int], symmetry: tuple[bool, bool, bool]
-             ) -> np.ndarray:
-    """Undo :func:`~learning.symmetry.transform_positions` (transpose first, then the flips)."""
-    flip_x, flip_y, transpose = symmetry
-    out = transform_positions(positions_px, shape, False, False, transpose)
-    return transform_positions(out, shape, flip_x, flip_y, False)

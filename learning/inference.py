@@ -21,14 +21,11 @@ import torch
 from learning.model import UtilityNet
 from learning.peaks import PeakConfig, find_peaks
 from learning.precision import Precision, autocast
+from learning.symmetry import SYMMETRIES
 
 __all__ = ["SYMMETRIES", "apply_symmetry", "invert_symmetry", "utility_maps", "utility_map",
            "predict_positions"]
 
-SYMMETRIES: tuple[tuple[bool, bool, bool], ...] = tuple(
-    (flip_x, flip_y, transpose) for transpose in (False, True) for flip_y in (False, True)
-    for flip_x in (False, True))
-"""The 8 symmetries of the square grid as ``(flip_x, flip_y, transpose)``, applied in that order."""
 
 
 def apply_symmetry(x: torch.Tensor, flip_x: bool, flip_y: bool, transpose: bool) -> torch.Tensor:

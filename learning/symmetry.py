@@ -10,7 +10,7 @@ import itertools
 
 import numpy as np
 
-__all__ = ["Symmetry", "SYMMETRIES", "transform_positions"]
+__all__ = ["Symmetry", "SYMMETRIES", "transform_positions", "inverse_transform_positions"]
 
 Symmetry = tuple[bool, bool, bool]
 """``(flip_x, flip_y, transpose)``."""
@@ -36,3 +36,10 @@ def transform_positions(positions_px: np.ndarray, shape: tuple[int, int], flip_x
     if transpose:
         out = out[:, ::-1].copy()
     return out
+
+
+def inverse_transform_positions(positions_px: np.ndarray, shape: tuple[int, int], flip_x: bool, flip_y: bool,
+                                transpose: bool) -> np.ndarray:
+    """Undo :func:`transform_positions` with the same arguments (transpose first, then the flips)."""
+    out = transform_positions(positions_px, shape, False, False, transpose)
+    return transform_positions(out, shape, flip_x, flip_y, False)
