@@ -6,7 +6,8 @@ import types
 
 from lossy_relay import free_udp_port
 
-from bridge.mavlink import MavlinkLink, _crc_function, use_mavlink2
+from bridge.mavlink import MavlinkLink, use_mavlink2
+from bridge.mavlink_frames import crc_function
 from bridge.signing import SigningKey
 
 mavutil = use_mavlink2()
@@ -73,7 +74,7 @@ def test_packed_message_on_a_signing_link_is_signed_at_each_send():
 def test_crc_with_and_without_the_native_function():
     data = bytes(range(60))
     pure_python = types.SimpleNamespace(mcrf4xx=None, x25crc=m._x25crc_slow)
-    assert _crc_function(m)(data) == _crc_function(pure_python)(data) == m._x25crc_slow(data).crc
+    assert crc_function(m)(data) == crc_function(pure_python)(data) == m._x25crc_slow(data).crc
 
 
 def _request_frame(seq: int, target_system: int = 255, mission_type: int = 0) -> bytes:
