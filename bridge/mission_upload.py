@@ -1,7 +1,7 @@
 """Mission uploads to one or many vehicles at once, driven by the vehicles' requests.
 
 The calling thread reads the links itself while it waits (it borrows the links' reader,
-:meth:`~bridge.mavlink.LinkReader.lend`; when another caller holds it, that one reads and
+:meth:`~bridge.link_reader.LinkReader.lend`; when another caller holds it, that one reads and
 this one waits): each request is answered the moment it arrives, from the raw frame (see
 :meth:`~bridge.mavlink.MavlinkLink.protocol_handler`), with items packed once (while the
 vehicle answers MISSION_COUNT), and no message crosses a thread. Between messages it
@@ -48,7 +48,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionResultError, MissionTimeoutError, mission_result_error
-from bridge.mavlink import MavlinkLink, PackedMessage
+from bridge.mavlink import MavlinkLink
+from bridge.mavlink_frames import PackedMessage
 from bridge.mission import MissionItem
 
 __all__ = ["upload_concurrently", "is_mission_message", "vehicle_says"]
