@@ -49,7 +49,7 @@ from learning.metrics import MATCH_FRACTION, SampleScore, aggregate, score_sampl
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_examples
 from learning.precision import resolve_precision
-from learning.task import Refiner, Task
+from learning.task import PlacementCheck, Refiner, Task
 
 __all__ = ["evaluate", "summarise_qos", "summarise_pipeline", "markdown_table"]
 
@@ -139,6 +139,13 @@ def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
     return table + "\n" + "\n".join(rows) + "\n"
 
 
+def _learned(utility: np.ndarray, observation: np.ndarray, peaks: PeakConfig,
+             check: PlacementCheck | None) -> np.ndarray:
+    """The learned placement of one scene: the peaks of its utility map, checked if asked."""
+    predicted = find_peaks(utility, peaks)
+    return predicted if check is None else check(observation, predicted)
+
+
 def _check_disjoint(train_data: dict[str, Any], test_seeds: np.ndarray) -> None:
     train_seeds = {sample_seed(train_data["seed"], train_data["split"], i) for i in range(train_data["n"])}
     shared = train_seeds.intersection(int(s) for s in test_seeds)
@@ -164,6 +171,7 @@ def evaluate(
     precision: str = "auto",
     tta: bool = False,
     refiner: Refiner | None = None,
+    check: PlacementCheck | None = None,
     progress: bool = True,
 ) -> dict[str, Any]:
     """Evaluate a checkpoint on ``n`` test scenes; write the results files into ``out_dir``.
@@ -185,6 +193,9 @@ def evaluate(
         tta: Average the utility maps of the 8 grid symmetries (test-time augmentation).
         refiner: The mission's refinement: report and time the refined placement beside the learned
             one (see the module docstring).
+        check: Mission knowledge applied to the learned peaks from the observation alone (the Wi-Fi
+            rule check): peaks at ``check.threshold_abs``, then what ``check`` keeps is the learned
+            placement (recorded as ``"check"`` in the summary).
         progress: Show progress bars.
 
     Returns:
@@ -198,6 +209,8 @@ def evaluate(
     ckpt = load_checkpoint(checkpoint, task_name=task.name, task_config=task.config.to_dict(),
                            input_shape=(task.channels, *task.shape))
     peaks = peak_config or ckpt.peak_config
+    if check is not None:
+        peaks = peaks.replace(threshold_abs=check.threshold_abs)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     data_dir = Path(data_dir) if data_dir is not None else out / "test-data"
@@ -223,10 +236,10 @@ def evaluate(
         if refiner is not None:  # each pipeline timed on this scene alone
             start = time.perf_counter()
             utilities.append(utility_maps(ckpt.model, inputs[i:i + 1], resolved, tta)[0])
-            predicted = find_peaks(utilities[i], peaks)
+            predicted = _learned(utilities[i], inputs[i], peaks, check)
             learned_ms = (time.perf_counter() - start) * 1e3
         else:
-            predicted = find_peaks(utilities[i], peaks)
+            predicted = _learned(utilities[i], inputs[i], peaks, check)
         score = score_sample(expert, predicted, eps_px)
         max_scores.append(score_sample(expert, predicted, eps_px, rule="max-matches"))
         scores.append(score)
@@ -261,6 +274,8 @@ def evaluate(
         **aggregate(scores), **summarise_qos(samples),
         "max_matches": {"corr": max_summary["corr"], "precision": max_summary["precision"]},
     }
+    if check is not None:
+        summary["check"] = check.settings()
     if refiner is not None:
         expert_times = np.array([s["expert_time_ms"] for s in samples])
         summary["learned"] = summarise_pipeline(scores, samples, "learned")

@@ -78,3 +78,22 @@ class Refiner(Protocol):
     def solve(self, scene: Any) -> np.ndarray:
         """The expert's placement computed from scratch (what the refinement is timed against)."""
         ...
+
+
+@runtime_checkable
+class PlacementCheck(Protocol):
+    """Mission knowledge applied to learned positions using only the observation the network saw.
+
+    Evaluation (``evaluate(..., check=...)``) extracts the peaks at ``threshold_abs`` and keeps what
+    the check returns (for the Wi-Fi missions: the UAVs their deployment rule justifies).
+    """
+
+    threshold_abs: float
+
+    def __call__(self, observation: np.ndarray, positions_px: np.ndarray) -> np.ndarray:
+        """The checked ``(k', 2)`` float64 pixel positions ``(x, y)`` among ``positions_px``."""
+        ...
+
+    def settings(self) -> dict[str, Any]:
+        """The check's settings, for results files."""
+        ...

@@ -77,6 +77,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate.add_argument("--refine", action="store_true",
                           help="also refine the learned placements (AGP, FP: repaired to full coverage; "
                           "Wi-Fi: local search on the crowd); time learned, refined and expert side by side")
+    evaluate.add_argument("--rule-check", action="store_true",
+                          help="Wi-Fi: keep only the learned UAVs the deployment rule justifies on the "
+                          "density raster, peaks at the check's threshold ([rule_check] of --config)")
 
 
 def _overrides(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, Any]:
@@ -126,7 +129,14 @@ def _train(args: argparse.Namespace) -> int:
 def _evaluate(args: argparse.Namespace) -> int:
     from learning.checkpoint import load_checkpoint
     from learning.evaluate import evaluate, markdown_table
-    from uav_swarm.missions.registry import TaskFactory, build_refiner, load_settings, make_task, task_factory
+    from uav_swarm.missions.registry import (
+        TaskFactory,
+        build_refiner,
+        build_rule_check,
+        load_settings,
+        make_task,
+        task_factory,
+    )
 
     if args.config is not None:  # must describe the task the checkpoint was trained on
         factory = task_factory(make_task(args.task, args.config))
@@ -136,10 +146,19 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.refine:  # the [refine] table of --config, else the defaults
         table = load_settings(args.task, args.config).refine if args.config is not None else {}
         refiner = build_refiner(factory(), table)
+    check = None
+    if args.rule_check:  # the [rule_check] table of --config, else the defaults
+        table = load_settings(args.task, args.config).rule_check if args.config is not None else {}
+        try:
+            check = build_rule_check(factory(), table)
+        except TypeError as exc:
+            print(f"uav-swarm evaluate: --rule-check: {exc}", file=sys.stderr)
+            return 2
     # peaks: the settings saved with (and validated during the training of) the checkpoint
     summary = evaluate(args.checkpoint, factory, args.n, args.seed, args.out, data_dir=args.data,
                        n_examples=args.examples, executor=args.executor, workers=args.workers,
-                       address=args.address, precision=args.precision, tta=args.tta, refiner=refiner)
+                       address=args.address, precision=args.precision, tta=args.tta, refiner=refiner,
+                       check=check)
     print(markdown_table(args.task, summary), end="")
     return 0
 

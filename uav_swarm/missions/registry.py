@@ -8,8 +8,9 @@ constructed as ``cls(config)``.
 
 A task settings file (``configs/tasks/<name>.toml``) may hold the tables
 ``[task]`` (the task's own config), ``[targets]`` (:class:`learning.targets.TargetConfig`),
-``[model]``, ``[train]`` and ``[peaks]`` (learning's configs) and ``[refine]`` (the mission's
-refinement of learned placements, :func:`build_refiner`); every table is optional.
+``[model]``, ``[train]`` and ``[peaks]`` (learning's configs), ``[refine]`` (the mission's
+refinement of learned placements, :func:`build_refiner`) and ``[rule_check]`` (Wi-Fi: the
+deployment rule checked on the observation, :func:`build_rule_check`); every table is optional.
 Without a ``[targets]`` table a task gets the paper's best (α2, σ2) from its grid search:
 S1 (50, 50), S2 (30, 30), AGP (40, 40), FP (40, 20) (pixels of the paper's rasters).
 
@@ -25,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from learning.task import Refiner, Task
+from learning.task import PlacementCheck, Refiner, Task
 from typed_config import Config, ConfigError, read_toml
 
 if TYPE_CHECKING:  # torch-importing modules are loaded only by load_settings
@@ -35,7 +36,7 @@ if TYPE_CHECKING:  # torch-importing modules are loaded only by load_settings
     from learning.train import TrainConfig
 
 __all__ = ["TASKS", "TaskEntry", "TaskSettings", "TaskFactory", "make_task", "build_task", "task_factory",
-           "build_refiner", "load_settings"]
+           "build_refiner", "build_rule_check", "load_settings"]
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ TASKS: dict[str, TaskEntry] = {
     "agp": TaskEntry("uav_swarm.missions.monitoring:ArtGalleryTask", alpha2=40.0, sigma2=40.0),
     "fp": TaskEntry("uav_swarm.missions.monitoring:FortressTask", alpha2=40.0, sigma2=20.0),
 }
-_SECTIONS = ("task", "targets", "model", "train", "peaks", "refine")
+_SECTIONS = ("task", "targets", "model", "train", "peaks", "refine", "rule_check")
 
 
 def _entry(name: str) -> TaskEntry:
@@ -114,6 +115,7 @@ class TaskSettings:
     train: TrainConfig
     peaks: PeakConfig
     refine: dict[str, Any] = field(default_factory=dict)
+    rule_check: dict[str, Any] = field(default_factory=dict)
 
 
 def build_refiner(task: Task, refine_table: Mapping[str, Any] | None = None) -> Refiner:
@@ -131,6 +133,22 @@ def build_refiner(task: Task, refine_table: Mapping[str, Any] | None = None) -> 
         raise TypeError(f"{type(task).__name__} has no refinement (not a registered mission)")
     config = refiner_class.config_class.from_dict(dict(refine_table or {}), where="[refine]")
     return refiner_class(task, config)
+
+
+def build_rule_check(task: Task, rule_check_table: Mapping[str, Any] | None = None) -> PlacementCheck:
+    """The rule check of ``task``'s learned placements, its config from a ``[rule_check]`` table.
+
+    Wi-Fi only: :class:`uav_swarm.missions.wifi_rule_check.WifiRuleCheck`.
+
+    Raises:
+        ConfigError: An invalid ``[rule_check]`` value.
+        TypeError: ``task`` has no rule check.
+    """
+    check_class = getattr(type(task), "rule_check_class", None)
+    if check_class is None:
+        raise TypeError(f"{type(task).__name__} has no rule check (Wi-Fi tasks only)")
+    config = check_class.config_class.from_dict(dict(rule_check_table or {}), where="[rule_check]")
+    return check_class(task, config)
 
 
 def _read_tables(config_path: str | Path | None) -> dict[str, Any]:
@@ -170,9 +188,15 @@ def load_settings(name: str, config_path: str | Path | None = None) -> TaskSetti
             refiner_class.config_class.from_dict(refine, where="[refine]")
         elif refine:
             raise ConfigError(f"[refine]: task {name!r} has no refinement")
+        rule_check = dict(tables.get("rule_check", {}))
+        check_class = getattr(_task_class(name), "rule_check_class", None)
+        if check_class is not None:  # validated here, built by build_rule_check
+            check_class.config_class.from_dict(rule_check, where="[rule_check]")
+        elif rule_check:
+            raise ConfigError(f"[rule_check]: task {name!r} has no rule check")
     except ConfigError as exc:
         raise ConfigError(f"{where}{exc}") from None
-    return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine)
+    return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine, rule_check)
 
 
 def make_task(name: str, config_path: str | Path | None = None, overrides: Mapping[str, Any] | None = None

@@ -46,6 +46,7 @@ from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi_expert import WifiExpertConfig, place_uavs
 from uav_swarm.missions.wifi_refine import WifiRefineConfig, refine_placement
+from uav_swarm.missions.wifi_rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi_rules import CoverageRules
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
 from uav_swarm.world.crowd import CrowdConfig, CrowdSim
@@ -160,6 +161,7 @@ class WifiTask:
     config_class = WifiConfig
     channels = 1
     refiner_class = WifiRefiner
+    rule_check_class = WifiRuleCheck
 
     def __init__(self, config: WifiConfig | None = None) -> None:
         config = WifiConfig() if config is None else config
