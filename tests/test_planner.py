@@ -237,3 +237,30 @@ def test_the_refining_planner_proposes_placements_that_obey_strategy_2():
         raw_state = assign_users(crowd, raw, rules.radius_m)
         if is_valid_placement(raw_state, rules):  # refining a valid placement never serves fewer users
             assert served >= raw_state.n_served
+
+
+def test_the_rule_checking_planner_keeps_only_peaks_the_raster_justifies():
+    from uav_swarm.missions.wifi import WifiTask
+    from uav_swarm.missions.wifi_rule_check import RuleCheckConfig, drop_unjustified, raster_users
+
+    config = WifiConfig(strategy=1)
+    checking = RuleCheckConfig(threshold_abs=0.05, slack_users=0)
+    planner = make_planner("learned", n_uavs=10, task_config=config,
+                           config=PlannerConfig(rule_check=True, rule_checking=checking))
+    both = make_planner("learned", n_uavs=10, task_config=config,
+                        config=PlannerConfig(rule_check=True, refine=True))
+    assert planner.name == "cnn-peaks-rulecheck-hungarian"
+    assert both.name == "cnn-peaks-rulecheck-refine-hungarian"
+    assert planner.peak_config.threshold_abs == 0.05
+    task = WifiTask(config)
+    rng = np.random.default_rng(8)
+    for _ in range(3):
+        crowd = task.sample(rng).users_m
+        raster = crowd_raster(crowd, config)
+        unchecked = find_peaks(planner.utility_map(raster), planner.peak_config, max_peaks=10)
+        proposed = planner.propose(crowd)[0]
+        pixels, counts = raster_users(raster, config.density_scale)
+        users = np.repeat(task.to_metres(pixels), counts, axis=0)
+        expected = drop_unjustified(users, task.to_metres(unchecked), task.rules, 0)
+        np.testing.assert_allclose(proposed, expected)
+        assert len(proposed) <= len(unchecked)

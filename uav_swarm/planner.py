@@ -10,7 +10,9 @@ Two planners share one interface (:class:`Planner`) and one assignment step:
   With ``PlannerConfig.refine`` the peaks are then refined on the live crowd
   (:func:`uav_swarm.missions.wifi_refine.refine_placement`: drop, split, add, merge, centre under
   the strategy's rules, for at most ``n`` UAVs); the planner is then named
-  ``cnn-peaks-refine-hungarian``.
+  ``cnn-peaks-refine-hungarian``. With ``PlannerConfig.rule_check`` the peaks (extracted at the
+  check's threshold) are first kept only where the strategy's deployment rule justifies them on the
+  same density raster (:mod:`uav_swarm.missions.wifi_rule_check`), and ``-rulecheck`` joins the name.
 - :class:`ExpertPlanner` (``"expert"``, the reference): the Wi-Fi expert optimiser
   (:meth:`uav_swarm.missions.wifi.WifiTask.expert_placement_m`) for at most ``n`` UAVs.
 
@@ -57,6 +59,7 @@ from uav_swarm.assignment import assign_targets
 from uav_swarm.env_config import MAX_UAVS
 from uav_swarm.missions.wifi import WifiConfig, WifiTask, coverage_rules, crowd_raster
 from uav_swarm.missions.wifi_refine import WifiRefineConfig, refine_placement
+from uav_swarm.missions.wifi_rule_check import RuleCheckConfig, WifiRuleCheck
 
 if TYPE_CHECKING:
     import torch
@@ -88,6 +91,10 @@ class PlannerConfig(Config):
     refine: bool = param(False, doc="learned: refine the peaks on the live crowd under the strategy's rules")
     refinement: WifiRefineConfig = param(WifiRefineConfig(), doc="learned: the refinement's effort "
                                          "([planning.refinement])")
+    rule_check: bool = param(False, doc="learned: keep only the peaks the strategy's deployment rule "
+                             "justifies on the density raster (uav_swarm.missions.wifi_rule_check)")
+    rule_checking: RuleCheckConfig = param(RuleCheckConfig(), doc="learned: the rule check's threshold and "
+                                           "slack ([planning.rule_checking])")
 
 
 @dataclass(frozen=True)
@@ -287,10 +294,13 @@ class LearnedPlanner(AssigningPlanner):
             torch.set_num_threads(self.config.torch_threads)
         self.checkpoint = ckpt
         self.checkpoint_path = path
-        if self.config.refine:
-            self.name = "cnn-peaks-refine-hungarian"
+        self.name = ("cnn-peaks" + ("-rulecheck" if self.config.rule_check else "")
+                     + ("-refine" if self.config.refine else "") + "-hungarian")
+        self._check = WifiRuleCheck(self.task, self.config.rule_checking) if self.config.rule_check else None
         self._rules = coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
         self.peak_config = ckpt.peak_config
+        if self._check is not None:
+            self.peak_config = self.peak_config.replace(threshold_abs=self._check.threshold_abs)
         self.precision = resolve_precision(self.config.precision, next(ckpt.model.parameters()).device)
         dtype = torch.bfloat16 if self.precision == "bfloat16" else torch.float32
         self._model = ckpt.model.eval().to(dtype=dtype, memory_format=torch.channels_last)
@@ -307,8 +317,12 @@ class LearnedPlanner(AssigningPlanner):
 
     def propose(self, pedestrians_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The ``n_uavs`` highest peaks of the utility map (metres), refined if configured, and the map."""
-        utility = self.utility_map(crowd_raster(pedestrians_m, self.task.config))
-        peaks_m = self.task.to_metres(find_peaks(utility, self.peak_config, max_peaks=self.n_uavs))
+        raster = crowd_raster(pedestrians_m, self.task.config)
+        utility = self.utility_map(raster)
+        peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
+        if self._check is not None:
+            peaks_px = self._check(raster, peaks_px)
+        peaks_m = self.task.to_metres(peaks_px)
         if self.config.refine:
             peaks_m = refine_placement(pedestrians_m, peaks_m, self._rules, self.task.width_m,
                                        self.task.height_m, self.config.refinement)

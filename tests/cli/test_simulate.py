@@ -243,3 +243,7 @@ def test_refine_flag_merges_into_the_planning_table_of_the_file(tmp_path):
     assert config.planning.refinement.grid_step_m == 5.0 and config.n_uavs == 4
     plain_args = build_parser().parse_args(["simulate", "--config", str(path)])
     assert not load_simulate_config(path, _overrides(plain_args)).planning.refine
+    both = build_parser().parse_args(["simulate", "--config", str(path), "--refine", "--rule-check"])
+    planning = load_simulate_config(path, _overrides(both)).planning
+    assert planning.refine and planning.rule_check and planning.hysteresis_m == 7.0
+    assert not load_simulate_config(path, _overrides(plain_args)).planning.rule_check

@@ -38,6 +38,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--planner", choices=("learned", "expert"), help="the planner flown (default: learned)")
     add("--checkpoint", help="learned planner checkpoint (default: uav_swarm/checkpoints/wifi-s1.pt)")
     add("--refine", action="store_true", help="refine the learned peaks on the crowd ([planning] refine)")
+    add("--rule-check", action="store_true",
+        help="keep the learned peaks the deployment rule justifies on the raster ([planning] rule_check)")
     add("--duration-s", type=float, help="simulated seconds (default: 180)")
     add("--n-uavs", type=int, help="number of UAVs, 1..10 (default: 10)")
     add("--seed", type=int, help="sequence seed (default: 0)")
@@ -55,8 +57,9 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
               "n_uavs": args.n_uavs, "seed": args.seed, "replan_every": args.replan_every,
               "bridge_config": args.bridge_config}
     overrides = {key: value for key, value in values.items() if value is not None}
-    if args.refine:
-        overrides["planning"] = {"refine": True}
+    planning = {key: True for key, on in (("refine", args.refine), ("rule_check", args.rule_check)) if on}
+    if planning:
+        overrides["planning"] = planning
     if args.no_expert:
         overrides["compare_expert"] = False
     if args.no_telemetry:
