@@ -49,7 +49,7 @@ from learning.precision import Precision, autocast, resolve_precision
 from learning.targets import TargetConfig
 from typed_config import Config, param
 
-__all__ = ["TrainConfig", "TrainResult", "train", "pick_device", "validate"]
+__all__ = ["TrainConfig", "TrainResult", "train", "pick_device", "split_indices", "validate"]
 
 log = logging.getLogger(__name__)
 
@@ -95,6 +95,13 @@ class TrainResult:
     checkpoint: Path
     best_checkpoint: Path
     history: list[dict[str, float]]
+
+
+def split_indices(n: int, config: TrainConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The sorted training and validation indices of ``n`` scenes (by ``seed`` and ``val_fraction``)."""
+    order = np.random.default_rng(config.seed).permutation(n)
+    n_val = min(n - 1, max(1, round(config.val_fraction * n))) if config.val_fraction > 0 and n > 1 else 0
+    return np.sort(order[n_val:]), np.sort(order[:n_val])
 
 
 def pick_device(choice: str) -> torch.device:
@@ -218,12 +225,11 @@ def train(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
 
-    n = len(arrays["inputs"])
-    order = np.random.default_rng(cfg.seed).permutation(n)
-    n_val = min(n - 1, max(1, round(cfg.val_fraction * n))) if cfg.val_fraction > 0 and n > 1 else 0
-    train_set = ShardDataset(arrays, target_config, np.sort(order[n_val:]), cfg.augment, cfg.seed,
+    train_indices, val_indices = split_indices(len(arrays["inputs"]), cfg)
+    train_set = ShardDataset(arrays, target_config, train_indices, cfg.augment, cfg.seed,
                              peak_heatmaps=model_config.peak_head)
-    val_set = ShardDataset(arrays, target_config, np.sort(order[:n_val]))
+    val_set = ShardDataset(arrays, target_config, val_indices)
+    n_val = len(val_indices)
     eps_px = MATCH_FRACTION * manifest["mission_dimension_px"]
 
     precision = resolve_precision(cfg.precision, device)
