@@ -151,6 +151,22 @@ def build_rule_check(task: Task, rule_check_table: Mapping[str, Any] | None = No
     return check_class(task, config)
 
 
+def _mission_table(name: str, tables: Mapping[str, Any], table: str, attribute: str, what: str
+                   ) -> dict[str, Any]:
+    """A table configuring a mission's class (``[refine]``, ``[rule_check]``), validated here, built later.
+
+    Raises:
+        ConfigError: An invalid value, or the table given for a task without that class.
+    """
+    values = dict(tables.get(table, {}))
+    mission_class = getattr(_task_class(name), attribute, None)
+    if mission_class is not None:
+        mission_class.config_class.from_dict(values, where=f"[{table}]")
+    elif values:
+        raise ConfigError(f"[{table}]: task {name!r} has no {what}")
+    return values
+
+
 def _read_tables(config_path: str | Path | None) -> dict[str, Any]:
     if config_path is None:
         return {}
@@ -182,18 +198,8 @@ def load_settings(name: str, config_path: str | Path | None = None) -> TaskSetti
         model = ModelConfig.from_dict(tables.get("model", {}), where="[model]")
         train = TrainConfig.from_dict(tables.get("train", {}), where="[train]")
         peaks = PeakConfig.from_dict(tables.get("peaks", {}), where="[peaks]")
-        refine = dict(tables.get("refine", {}))
-        refiner_class = getattr(_task_class(name), "refiner_class", None)
-        if refiner_class is not None:  # validated here, built by build_refiner
-            refiner_class.config_class.from_dict(refine, where="[refine]")
-        elif refine:
-            raise ConfigError(f"[refine]: task {name!r} has no refinement")
-        rule_check = dict(tables.get("rule_check", {}))
-        check_class = getattr(_task_class(name), "rule_check_class", None)
-        if check_class is not None:  # validated here, built by build_rule_check
-            check_class.config_class.from_dict(rule_check, where="[rule_check]")
-        elif rule_check:
-            raise ConfigError(f"[rule_check]: task {name!r} has no rule check")
+        refine = _mission_table(name, tables, "refine", "refiner_class", "refinement")
+        rule_check = _mission_table(name, tables, "rule_check", "rule_check_class", "rule check")
     except ConfigError as exc:
         raise ConfigError(f"{where}{exc}") from None
     return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine, rule_check)
