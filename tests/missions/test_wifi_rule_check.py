@@ -74,7 +74,7 @@ def test_the_check_keeps_a_subset_of_the_proposals_and_the_experts_placement():
         proposals = np.vstack([expert, noise])
         kept = check(observation, proposals)
         assert {tuple(np.round(p, 6)) for p in kept} <= {tuple(np.round(p, 6)) for p in proposals}
-        assert len(check(observation, expert)) == len(expert)  # the expert's UAVs all pass (4 users of slack)
+        assert len(check(observation, expert)) == len(expert)  # the expert's UAVs all pass
 
 
 def test_the_rule_check_table_is_validated_and_only_wifi_has_one(tmp_path):

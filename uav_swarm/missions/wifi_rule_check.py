@@ -43,12 +43,16 @@ __all__ = ["RuleCheckConfig", "WifiRuleCheck", "raster_users", "drop_unjustified
 
 @dataclass(frozen=True)
 class RuleCheckConfig(Config):
-    """Settings of the rule check (the ``[rule_check]`` table of a Wi-Fi task settings file)."""
+    """Settings of the rule check (the ``[rule_check]`` table of a Wi-Fi task settings file).
+
+    The defaults are those ``uav-swarm calibrate-check`` chose for the shipped S1 network
+    (``configs/tasks/wifi-s1.toml``), so the planner's ``[planning.rule_checking]`` starts from them.
+    """
 
     threshold_abs: float = param(
         0.2, ge=0.0, le=100.0, doc="peaks are extracted at this threshold (utility-map units), then checked")
     slack_users: int = param(
-        4, ge=0, le=1000, doc="the rule's minimum of users is lowered by this many (users at pixel centres)")
+        8, ge=0, le=1000, doc="the rule's minimum of users is lowered by this many (users at pixel centres)")
 
 
 def raster_users(observation: np.ndarray, density_scale: float) -> tuple[np.ndarray, np.ndarray]:
