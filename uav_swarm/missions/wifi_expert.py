@@ -77,7 +77,9 @@ class CandidatePairs:
         near = cKDTree(users_m).sparse_distance_matrix(
             cKDTree(candidates_m), rules.radius_m * (1.0 + 1e-9) + 1e-9, output_type="ndarray")
         u, c = near["i"].astype(np.int64), near["j"].astype(np.int64)
-        d = ((users_m[u] - candidates_m[c]) ** 2).sum(axis=1)  # exact, not the tree's rounding
+        dx = users_m[:, 0][u] - candidates_m[:, 0][c]
+        dy = users_m[:, 1][u] - candidates_m[:, 1][c]
+        d = dx * dx + dy * dy  # exact, not the tree's rounding
         inside = d <= r2
         u, c, d = u[inside], c[inside], d[inside]
         useful = np.bincount(c, minlength=len(candidates_m)) >= rules.min_users

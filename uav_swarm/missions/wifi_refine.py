@@ -37,9 +37,12 @@ import numpy as np
 
 from typed_config import Config, param
 from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch
+from uav_swarm.missions.wifi_relocation import adopt_by_relocation, relocate
 from uav_swarm.missions.wifi_rules import CoverageRules, candidate_grid
 
 __all__ = ["WifiRefineConfig", "refine_placement"]
+
+_ADD_RELOCATE_ROUNDS = 4  # rounds of (greedy additions, relocations) before polishing
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,14 @@ class WifiRefineConfig(Config):
     branching: int = param(
         3, ge=1, le=50, doc="greedy fills try this many separated first candidates and keep the best")
     centre_passes: int = param(3, ge=0, le=100, doc="passes centring each UAV on the users it serves")
+    relocation: bool = param(
+        False, doc="strategy 2 only: adopt, repair and improve by relocating single UAVs (wifi_relocation)")
+    max_relocations: int = param(
+        50, ge=0, le=1000, doc="relocations allowed per relocation pass (each the best of all UAVs x candidates)")
+    polish_radius_m: float = param(
+        0.0, ge=0.0, le=30.0, doc="strategy 2 with relocation: a last relocation pass on a finer grid within "
+        "this radius of each UAV (0: none), metres")
+    polish_step_m: float = param(1.0, gt=0.0, le=10.0, doc="spacing of the polishing grid, metres")
 
 
 def refine_placement(
@@ -81,9 +92,13 @@ def refine_placement(
         ``(y, x)``, obeying ``rules``.
 
     Raises:
-        ValueError: ``users_m`` or ``proposals_m`` is not a finite ``(n, 2)`` array.
+        ValueError: ``users_m`` or ``proposals_m`` is not a finite ``(n, 2)`` array, or
+            ``config.relocation`` with strategy 1's rules.
     """
     config = config or WifiRefineConfig()
+    if config.relocation and rules.exclusive:
+        raise ValueError("WifiRefineConfig.relocation = true needs strategy 2's rules (users a UAV serves); "
+                         "strategy 1 counts the users a UAV alone covers: allowed relocation = false")
     arrays = []
     for name, value in (("users_m", users_m), ("proposals_m", proposals_m)):
         array = np.asarray(value, dtype=np.float64)
@@ -103,9 +118,34 @@ def refine_placement(
         candidates = np.concatenate([candidates, fine[distance2 <= config.fine_radius_m ** 2]])
     search = PlacementSearch(users, rules, CandidatePairs(users, candidates, rules))
     search.branching = config.branching
-    search.adopt(proposals)
-    search.greedy()
-    search.ruin_and_recreate(config.max_moves)
+    if config.relocation:
+        _relocation_search(search, proposals, config, width_m, height_m)
+    else:
+        search.adopt(proposals)
+        search.greedy()
+        search.ruin_and_recreate(config.max_moves)
     search.refine(config.centre_passes)
     uavs = search.uavs_m
     return uavs[np.lexsort((uavs[:, 0], uavs[:, 1]))] if len(uavs) else np.zeros((0, 2))
+
+
+def _relocation_search(
+    search: PlacementSearch, proposals: np.ndarray, config: WifiRefineConfig, width_m: float, height_m: float,
+) -> None:
+    """Strategy 2: adopt by relocation, add UAVs (relocating after each round), ruin and recreate, polish."""
+    adopt_by_relocation(search, proposals, config.max_relocations)  # ends where no relocation helps
+    for _ in range(_ADD_RELOCATE_ROUNDS):
+        before = len(search.uavs_m)
+        search.greedy()
+        if len(search.uavs_m) == before:
+            break
+        relocate(search, config.max_relocations)
+    search.ruin_and_recreate(config.max_moves)
+    if config.polish_radius_m > 0 and len(search.uavs_m):
+        reach = np.arange(-config.polish_radius_m, config.polish_radius_m + 1e-9, config.polish_step_m)
+        offsets = np.stack(np.meshgrid(reach, reach), axis=-1).reshape(-1, 2)
+        offsets = offsets[(offsets ** 2).sum(axis=1) <= config.polish_radius_m ** 2 + 1e-9]
+        upper = np.nextafter(np.array([width_m, height_m]), 0.0)
+        local = np.clip((search.uavs_m[:, None, :] + offsets[None]).reshape(-1, 2), 0.0, upper)
+        search.pairs = CandidatePairs(search.users_m, local, search.rules)
+        relocate(search, config.max_relocations)

@@ -89,7 +89,9 @@ def assign_users(users_m: np.ndarray, uavs_m: np.ndarray, radius_m: float) -> As
     if k == 0:
         none = np.zeros(0, np.int64)
         return Assignment(np.full(n, -1, np.int64), np.full(n, np.inf), none, np.zeros(n, np.int64), none)
-    d2 = ((users_m[:, None, :] - uavs_m[None, :, :]) ** 2).sum(-1)  # (N, K)
+    dx = users_m[:, 0, None] - uavs_m[None, :, 0]
+    dy = users_m[:, 1, None] - uavs_m[None, :, 1]
+    d2 = dx * dx + dy * dy  # (N, K)
     nearest = np.argmin(d2, axis=1)
     best = d2[np.arange(n), nearest]
     association = np.where(best <= radius_m * radius_m, nearest, -1)
