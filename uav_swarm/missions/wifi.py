@@ -131,6 +131,9 @@ class WifiRefiner:
     Args:
         task: The Wi-Fi task (strategy 1 or 2).
         config: The refinement's effort; default ``WifiRefineConfig()``.
+
+    Raises:
+        ConfigError: ``config.relocation`` on strategy 1.
     """
 
     config_class = WifiRefineConfig
@@ -138,6 +141,9 @@ class WifiRefiner:
     def __init__(self, task: WifiTask, config: WifiRefineConfig | None = None) -> None:
         self.task = task
         self.config = config or WifiRefineConfig()
+        if self.config.relocation and task.rules.exclusive:
+            raise ConfigError(f"[refine] relocation = true is for strategy 2 (users a UAV serves); {task.name} "
+                              "counts the users a UAV alone covers: allowed relocation = false")
 
     def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
         """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""

@@ -37,7 +37,7 @@ import numpy as np
 
 from typed_config import Config, param
 from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch
-from uav_swarm.missions.wifi_relocation import adopt_by_relocation, relocate
+from uav_swarm.missions.wifi_relocation import adopt_by_relocation, insert_by_relocation, relocate
 from uav_swarm.missions.wifi_rules import CoverageRules, candidate_grid
 
 __all__ = ["WifiRefineConfig", "refine_placement"]
@@ -63,6 +63,9 @@ class WifiRefineConfig(Config):
         False, doc="strategy 2 only: adopt, repair and improve by relocating single UAVs (wifi_relocation)")
     max_relocations: int = param(
         50, ge=0, le=1000, doc="relocations allowed per relocation pass (each the best of all UAVs x candidates)")
+    insertion_tries: int = param(
+        0, ge=0, le=50, doc="strategy 2 with relocation: places tried for one more UAV whose neighbours "
+        "then make room by relocation (0: none)")
     polish_radius_m: float = param(
         0.0, ge=0.0, le=30.0, doc="strategy 2 with relocation: a last relocation pass on a finer grid within "
         "this radius of each UAV (0: none), metres")
@@ -137,9 +140,10 @@ def _relocation_search(
     for _ in range(_ADD_RELOCATE_ROUNDS):
         before = len(search.uavs_m)
         search.greedy()
-        if len(search.uavs_m) == before:
+        if len(search.uavs_m) != before:
+            relocate(search, config.max_relocations)
+        elif not insert_by_relocation(search, config.max_relocations, config.insertion_tries):
             break
-        relocate(search, config.max_relocations)
     search.ruin_and_recreate(config.max_moves)
     if config.polish_radius_m > 0 and len(search.uavs_m):
         reach = np.arange(-config.polish_radius_m, config.polish_radius_m + 1e-9, config.polish_step_m)

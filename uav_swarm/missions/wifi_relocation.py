@@ -37,7 +37,7 @@ import numpy as np
 from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch
 from uav_swarm.missions.wifi_rules import Assignment, CoverageRules, assign_users, is_valid_placement
 
-__all__ = ["placement_violation", "relocation_scores", "relocate", "adopt_by_relocation"]
+__all__ = ["placement_violation", "relocation_scores", "relocate", "adopt_by_relocation", "insert_by_relocation"]
 
 
 def placement_violation(counts: np.ndarray, rules: CoverageRules) -> np.ndarray:
@@ -102,22 +102,23 @@ def relocation_scores(
     k1 = k + 1
     cand, user, pair_d2 = pairs.cand, pairs.user, pairs.d2
     pair_owner = owner[user] + 1  # 0: an uncovered user
-    # Capture against the current placement, per candidate and per owner: also, for each UAV, the users
-    # it would lose to the candidate (column j + 1), which its own relocation gives back.
+    # Arrays are (owner + 1, [moved UAV,] candidate): reductions over owners run along the first axis.
+    # Capture against the current placement, per owner and candidate: also, for each UAV, the users it
+    # would lose to the candidate (row j + 1), which its own relocation gives back.
     captured = pair_d2 < e1[user]
-    base = np.bincount((cand * k1 + pair_owner)[captured], minlength=m * k1).reshape(m, k1)
-    # The moved UAV's users, captured against their fallback instead (block 0: uncovered users, unused).
+    base = np.bincount((pair_owner * m + cand)[captured], minlength=k1 * m).reshape(k1, m)
+    # The moved UAV's users, captured against their fallback instead (moved block 0: uncovered, unused).
     regained = pair_d2 < np.where(fallback >= 0, e2, np.inf)[user]
-    slot = ((pair_owner * m + cand) * k1 + fallback[user] + 1)[regained]
-    gained = np.bincount(slot, minlength=k1 * m * k1)[m * k1:].reshape(k, m, k1)
+    slot = (((fallback[user] + 1) * k1 + pair_owner) * m + cand)[regained]
+    gained = np.bincount(slot, minlength=k1 * k1 * m).reshape(k1, k1, m)[:, 1:, :]
 
-    load = base.sum(axis=1)[None, :] - base[:, 1:].T + gained.sum(axis=2)
-    newly = base[:, 0][None, :] + gained[:, :, 0]
-    stolen = base[:, 1:].astype(np.int32)
-    left = counts_without.astype(np.int32)[:, None, :] - stolen[None] - gained[:, :, 1:].astype(np.int32)
-    others = placement_violation(left, rules)  # (K, M, K): the other UAVs' violations
-    others[np.arange(k), :, np.arange(k)] = 0  # the moved UAV's own column is its new load
-    violation = others.sum(axis=2) + placement_violation(load, rules)
+    load = base.sum(axis=0)[None, :] - base[1:] + gained.sum(axis=0)
+    newly = base[0][None, :] + gained[0]
+    stolen = base[1:].astype(np.int32)
+    left = counts_without.T.astype(np.int32)[:, :, None] - stolen[:, None, :] - gained[1:].astype(np.int32)
+    others = placement_violation(left, rules)  # (K, K, M): the other UAVs' violations
+    others[np.arange(k), np.arange(k), :] = 0  # the moved UAV's own row is its new load
+    violation = others.sum(axis=0) + placement_violation(load, rules)
     return violation, served_without[:, None] + newly
 
 
@@ -166,3 +167,37 @@ def adopt_by_relocation(search: PlacementSearch, proposals_m: np.ndarray, max_mo
         if is_valid_placement(search.state, rules):
             return search.state
         uavs_m = np.delete(search.uavs_m, int(np.argmax(placement_violation(search.state.counts, rules))), axis=0)
+
+
+def insert_by_relocation(search: PlacementSearch, max_moves: int, tries: int) -> bool:
+    """Add one UAV where the most uncovered users are, then repair its neighbours by relocation.
+
+    The greedy addition of :class:`uav_swarm.missions.wifi_expert.PlacementSearch` adds a UAV only
+    where it is valid at once; here the new UAV may first take users its neighbours need, and
+    relocations move the neighbours until the placement is valid again. Up to ``tries`` well-separated
+    places are tried (most uncovered users first); the first that ends valid and serving more users is
+    kept. Returns whether a UAV was added.
+    """
+    rules, pairs = search.rules, search.pairs
+    if len(search.uavs_m) >= rules.max_uavs or len(pairs.candidates_m) == 0:
+        return False
+    uncovered = search.state.association[pairs.user] < 0
+    newly = np.bincount(pairs.cand[uncovered], minlength=len(pairs.candidates_m))
+    ranked = np.lexsort((np.arange(len(newly)), -newly))
+    ranked = ranked[newly[ranked] > 0]
+    start_uavs, start_state = search.uavs_m, search.state
+    taken: list[np.ndarray] = []
+    for c in ranked[:200]:
+        position = pairs.candidates_m[c]
+        if any(np.hypot(*(position - t)) < rules.radius_m for t in taken):
+            continue
+        taken.append(position)
+        uavs_m = np.vstack([start_uavs, position])
+        search.uavs_m, search.state = uavs_m, assign_users(search.users_m, uavs_m, rules.radius_m)
+        relocate(search, max_moves)
+        if is_valid_placement(search.state, rules) and search.state.n_served > start_state.n_served:
+            return True
+        search.uavs_m, search.state = start_uavs, start_state
+        if len(taken) == tries:
+            break
+    return False
