@@ -15,6 +15,7 @@ from learning.peaks import find_peaks
 from typed_config import ConfigError
 from uav_swarm import planner as planner_module
 from uav_swarm.missions.wifi import WifiConfig, crowd_raster
+from uav_swarm.missions.wifi_refine import WifiRefineConfig
 from uav_swarm.planner import (
     AssigningPlanner,
     ExpertPlanner,
@@ -223,6 +224,9 @@ def test_the_refining_planner_proposes_placements_that_obey_strategy_2():
     config = WifiConfig(strategy=2)
     planner = make_planner("learned", n_uavs=6, task_config=config, config=PlannerConfig(refine=True))
     plain = make_planner("learned", n_uavs=6, task_config=config)
+    relocating = make_planner("learned", n_uavs=6, task_config=config, config=PlannerConfig(
+        refine=True, refinement=WifiRefineConfig(grid_step_m=5.0, fine_radius_m=5.0, max_moves=0,
+                                                 relocation=True, insertion_tries=2, polish_radius_m=3.0)))
     assert planner.name == "cnn-peaks-refine-hungarian" and plain.name == "cnn-peaks-hungarian"
     rules = coverage_rules(config, max_uavs=6)
     rng = np.random.default_rng(5)
@@ -237,6 +241,15 @@ def test_the_refining_planner_proposes_placements_that_obey_strategy_2():
         raw_state = assign_users(crowd, raw, rules.radius_m)
         if is_valid_placement(raw_state, rules):  # refining a valid placement never serves fewer users
             assert served >= raw_state.n_served
+        relocated = relocating.plan(crowd, np.zeros((6, 2)) + np.arange(6)[:, None]).peaks_m
+        assert len(relocated) <= 6
+        assert is_valid_placement(assign_users(crowd, relocated, rules.radius_m), rules)
+
+
+def test_relocation_in_the_planner_is_refused_for_strategy_1():
+    relocation = PlannerConfig(refine=True, refinement=WifiRefineConfig(relocation=True))
+    with pytest.raises(ConfigError, match=r"\[planning.refinement\] relocation = true is for strategy 2"):
+        make_planner("learned", n_uavs=4, task_config=WifiConfig(strategy=1), config=relocation)
 
 
 def test_the_rule_checking_planner_keeps_only_peaks_the_raster_justifies():

@@ -273,6 +273,9 @@ class LearnedPlanner(AssigningPlanner):
         task_config = task_config or WifiConfig()
         self.task = WifiTask(task_config)
         task_name = self.task.name
+        if self.config.refine and self.config.refinement.relocation and task_config.strategy == 1:
+            raise ConfigError("[planning.refinement] relocation = true is for strategy 2; the task is "
+                              "strategy 1: allowed relocation = false")
         path = default_checkpoint(task_name) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
             if checkpoint in (None, ""):

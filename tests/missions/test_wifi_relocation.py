@@ -64,7 +64,8 @@ def test_relocation_only_improves_and_repairs_broken_proposals():
 
 def test_an_empty_proposal_jumps_to_the_group_it_missed():
     rng = np.random.default_rng(3)
-    users = np.concatenate([rng.normal([40.0, 40.0], 3.0, size=(35, 2)), rng.normal([160.0, 150.0], 3.0, size=(38, 2))])
+    users = np.concatenate([rng.normal([40.0, 40.0], 3.0, size=(35, 2)),
+                            rng.normal([160.0, 150.0], 3.0, size=(38, 2))])
     search = PlacementSearch(users, S2, CandidatePairs(users, candidate_grid(200.0, 200.0, 5.0)[0], S2))
     state = adopt_by_relocation(search, np.array([[40.0, 40.0], [100.0, 190.0]]), max_moves=10)
     assert len(search.uavs_m) == 2 and state.n_served == 73
@@ -77,7 +78,8 @@ def test_refinement_with_relocation_obeys_strategy_2_and_is_deterministic():
         for proposals in (np.zeros((0, 2)), rng.uniform(0.0, 200.0, size=(10, 2)), users[:12]):
             placed = refine_placement(users, proposals, S2, 200.0, 200.0, RELOCATION)
             assert len(placed) <= 10 and is_valid_placement(assign_users(users, placed, 30.0), S2)
-            np.testing.assert_array_equal(placed, refine_placement(users, proposals, S2, 200.0, 200.0, RELOCATION))
+            again = refine_placement(users, proposals, S2, 200.0, 200.0, RELOCATION)
+            np.testing.assert_array_equal(placed, again)
 
 
 def test_relocation_serves_at_least_the_ruin_and_recreate_refinement_on_packed_crowds():

@@ -142,8 +142,8 @@ class WifiRefiner:
         self.task = task
         self.config = config or WifiRefineConfig()
         if self.config.relocation and task.rules.exclusive:
-            raise ConfigError(f"[refine] relocation = true is for strategy 2 (users a UAV serves); {task.name} "
-                              "counts the users a UAV alone covers: allowed relocation = false")
+            raise ConfigError(f"[refine] relocation = true is for strategy 2 (users a UAV serves); "
+                              f"{task.name} counts the users a UAV alone covers: allowed relocation = false")
 
     def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
         """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""

@@ -14,6 +14,19 @@ pedestrian stands nor the missions' rules, so its placements may leave users out
    when two do better than one, a **move** otherwise).
 4. **Centre** each UAV on the users it serves when that loses nobody (a **move**).
 
+With ``relocation`` (strategy 2, ``configs/tasks/wifi-s2.toml``) the search moves single UAVs, each
+move the best of every UAV moved to every candidate (:mod:`uav_swarm.missions.wifi_relocation`):
+
+1. **Adopt** the proposals, repaired by relocation (an unjustified UAV jumps to users nobody serves, an
+   overloaded one shifts until it serves at most 40); a UAV is dropped only when no relocation repairs.
+2. **Add** UAVs greedily, relocating after each round; when none can be added at once, **insert** one
+   where most users are uncovered and let relocations of its neighbours make room (``insertion_tries``
+   places), kept only when the placement ends valid and serves more users.
+3. **Polish**: relocations on a grid of ``polish_step_m`` within ``polish_radius_m`` of each UAV.
+
+Ruin and recreate (``max_moves``; none in the shipped S2 settings) runs between 2 and 3, the centring
+after 3.
+
 Candidates for additions come from a grid of ``grid_step_m`` (10 m by default, four times the
 expert's step, which is what makes the refinement cheap), plus, within ``fine_radius_m`` of each
 proposal, a grid of ``fine_step_m`` (strategy 2 splits groups between UAVs and needs the finer
@@ -62,7 +75,7 @@ class WifiRefineConfig(Config):
     relocation: bool = param(
         False, doc="strategy 2 only: adopt, repair and improve by relocating single UAVs (wifi_relocation)")
     max_relocations: int = param(
-        50, ge=0, le=1000, doc="relocations allowed per relocation pass (each the best of all UAVs x candidates)")
+        50, ge=0, le=1000, doc="relocations allowed per pass (each the best of all UAVs x candidates)")
     insertion_tries: int = param(
         0, ge=0, le=50, doc="strategy 2 with relocation: places tried for one more UAV whose neighbours "
         "then make room by relocation (0: none)")

@@ -37,7 +37,8 @@ import numpy as np
 from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch
 from uav_swarm.missions.wifi_rules import Assignment, CoverageRules, assign_users, is_valid_placement
 
-__all__ = ["placement_violation", "relocation_scores", "relocate", "adopt_by_relocation", "insert_by_relocation"]
+__all__ = ["placement_violation", "relocation_scores", "relocate", "adopt_by_relocation",
+           "insert_by_relocation"]
 
 
 def placement_violation(counts: np.ndarray, rules: CoverageRules) -> np.ndarray:
@@ -166,7 +167,8 @@ def adopt_by_relocation(search: PlacementSearch, proposals_m: np.ndarray, max_mo
         relocate(search, max_moves)
         if is_valid_placement(search.state, rules):
             return search.state
-        uavs_m = np.delete(search.uavs_m, int(np.argmax(placement_violation(search.state.counts, rules))), axis=0)
+        worst = int(np.argmax(placement_violation(search.state.counts, rules)))
+        uavs_m = np.delete(search.uavs_m, worst, axis=0)
 
 
 def insert_by_relocation(search: PlacementSearch, max_moves: int, tries: int) -> bool:
