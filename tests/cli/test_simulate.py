@@ -247,3 +247,20 @@ def test_refine_flag_merges_into_the_planning_table_of_the_file(tmp_path):
     planning = load_simulate_config(path, _overrides(both)).planning
     assert planning.refine and planning.rule_check and planning.hysteresis_m == 7.0
     assert not load_simulate_config(path, _overrides(plain_args)).planning.rule_check
+
+
+def test_the_strategy_2_config_flies_the_evaluated_relocation_refinement(tmp_path):
+    from uav_swarm.missions.registry import load_settings
+    from uav_swarm.missions.wifi_refine import WifiRefineConfig
+    from uav_swarm.simulate_config import load_simulate_config
+
+    root = Path(__file__).resolve().parents[2]
+    config = load_simulate_config(root / "configs/simulate/wifi-s2-refined.toml", {})
+    evaluated = load_settings("wifi-s2", root / "configs/tasks/wifi-s2.toml").refine
+    assert config.task.strategy == 2 and config.planning.refine
+    assert config.planning.refinement == WifiRefineConfig.from_dict(evaluated)
+    short = SimulateConfig.from_dict({**config.to_dict(), "duration_s": 2.0, "n_uavs": 4, "gif": False,
+                                      "compare_expert": False, "publish_telemetry": False})
+    run = simulate(short, tmp_path / "out", progress=False).runs["learned"]
+    assert run.planner_name == "cnn-peaks-refine-hungarian" and run.latency_ms.size == 2
+    assert np.all(run.qos_s2 <= run.qos_s1 + 1e-12)
