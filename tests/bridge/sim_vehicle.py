@@ -9,7 +9,9 @@ with a ``MAV_MISSION_RESULT`` code, or use the legacy MISSION_REQUEST. It answer
 position it starts at.
 
 ``personality="ardupilot"`` makes it answer as ArduPilot Copter does (independently of
-the bridge's own rules): the first ``boot_no_space_s`` seconds every MISSION_COUNT gets
+the bridge's own rules): for ``boot_no_space_s`` seconds from the first MISSION_COUNT (an upload
+right after boot, before the mission storage is ready; counted from that first upload so that the
+test does not depend on how fast the GCS connects) every MISSION_COUNT gets
 STATUSTEXT "Only 0 items are supported" and ``MAV_MISSION_NO_SPACE``; a mission larger
 than ``max_items`` gets the same with its real capacity; items are asked for with the
 legacy MISSION_REQUEST and stored as ArduPilot stores them (item 0 replaced by its own
@@ -122,7 +124,7 @@ class SimVehicle:
         self.uploads = 0
         self.reposition_target: tuple[int, int, float] | None = None
         self.custom_mode = AUTO
-        self._started_s = time.monotonic()
+        self._first_count_s: float | None = None
         self._rx: dict | None = None
         self._last_done_seq: int | None = None
         self._conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=1)
@@ -281,7 +283,9 @@ class SimVehicle:
 
     def _on_mission_count(self, msg) -> None:
         if self.personality == "ardupilot":
-            if time.monotonic() - self._started_s < self.boot_no_space_s:
+            if self._first_count_s is None:
+                self._first_count_s = time.monotonic()
+            if time.monotonic() - self._first_count_s < self.boot_no_space_s:
                 self._refuse_count(msg, 0)  # the mission storage is not ready yet
                 return
             if msg.count > self.max_items:
