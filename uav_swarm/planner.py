@@ -255,7 +255,7 @@ class LearnedPlanner(AssigningPlanner):
         config: Assignment and inference settings.
 
     Raises:
-        ConfigError: ``n_uavs`` out of range.
+        ConfigError: ``n_uavs`` out of range, or a relocation refinement on strategy 1.
         learning.checkpoint.CheckpointError: The checkpoint is missing (the message says how to train
             one), corrupt, trained on another task, or on another raster (size, density scale, area).
     """
@@ -273,9 +273,8 @@ class LearnedPlanner(AssigningPlanner):
         task_config = task_config or WifiConfig()
         self.task = WifiTask(task_config)
         task_name = self.task.name
-        if self.config.refine and self.config.refinement.relocation and task_config.strategy == 1:
-            raise ConfigError("[planning.refinement] relocation = true is for strategy 2; the task is "
-                              "strategy 1: allowed relocation = false")
+        if self.config.refine:
+            self.config.refinement.check_rules(self.task.rules, "[planning.refinement]")
         path = default_checkpoint(task_name) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
             if checkpoint in (None, ""):

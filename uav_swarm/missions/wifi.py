@@ -141,9 +141,7 @@ class WifiRefiner:
     def __init__(self, task: WifiTask, config: WifiRefineConfig | None = None) -> None:
         self.task = task
         self.config = config or WifiRefineConfig()
-        if self.config.relocation and task.rules.exclusive:
-            raise ConfigError(f"[refine] relocation = true is for strategy 2 (users a UAV serves); "
-                              f"{task.name} counts the users a UAV alone covers: allowed relocation = false")
+        self.config.check_rules(task.rules, "[refine]")
 
     def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
         """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""

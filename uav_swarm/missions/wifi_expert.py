@@ -51,7 +51,7 @@ from uav_swarm.missions.wifi_rules import (
     is_valid_placement,
 )
 
-__all__ = ["WifiExpertConfig", "CandidatePairs", "PlacementSearch", "place_uavs"]
+__all__ = ["WifiExpertConfig", "CandidatePairs", "PlacementSearch", "separated_candidates", "place_uavs"]
 
 
 @dataclass(frozen=True)
@@ -158,7 +158,9 @@ def _best_exclusive_addition(
     return order[ok[order]], newly
 
 
-def _spread(candidates_m: np.ndarray, ranked: np.ndarray, count: int, separation_m: float) -> list[int]:
+def separated_candidates(
+    candidates_m: np.ndarray, ranked: np.ndarray, count: int, separation_m: float,
+) -> list[int]:
     """Up to ``count`` candidates in rank order, each ``separation_m`` from those already taken."""
     taken: list[int] = []
     for j in ranked[:200]:
@@ -200,8 +202,8 @@ class PlacementSearch:
             if len(ranked) == 0:
                 break
             if branching > 1:
-                outcomes = [self._fill(np.vstack([uavs_m, pairs.candidates_m[j]]), pairs)
-                            for j in _spread(pairs.candidates_m, ranked, branching, self.rules.radius_m / 2)]
+                firsts = separated_candidates(pairs.candidates_m, ranked, branching, self.rules.radius_m / 2)
+                outcomes = [self._fill(np.vstack([uavs_m, pairs.candidates_m[j]]), pairs) for j in firsts]
                 return max((o for o in outcomes if o is not None), default=None,
                            key=lambda o: (o[1].n_served, -len(o[0])))
             uavs_m = np.vstack([uavs_m, pairs.candidates_m[ranked[0]]])

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from typed_config import Config, param
+from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch
 from uav_swarm.missions.wifi_relocation import adopt_by_relocation, insert_by_relocation, relocate
 from uav_swarm.missions.wifi_rules import CoverageRules, candidate_grid
@@ -84,6 +84,16 @@ class WifiRefineConfig(Config):
         "this radius of each UAV (0: none), metres")
     polish_step_m: float = param(1.0, gt=0.0, le=10.0, doc="spacing of the polishing grid, metres")
 
+    def check_rules(self, rules: CoverageRules, where: str) -> None:
+        """Refuse ``relocation`` under strategy 1's rules; ``where`` names the table in the message.
+
+        Raises:
+            ConfigError: ``relocation`` with exclusive coverage (strategy 1).
+        """
+        if self.relocation and rules.exclusive:
+            raise ConfigError(f"{where} relocation = true is for strategy 2 (users a UAV serves); strategy 1 "
+                              "counts the users a UAV alone covers: allowed relocation = false")
+
 
 def refine_placement(
     users_m: np.ndarray,
@@ -108,13 +118,11 @@ def refine_placement(
         ``(y, x)``, obeying ``rules``.
 
     Raises:
-        ValueError: ``users_m`` or ``proposals_m`` is not a finite ``(n, 2)`` array, or
-            ``config.relocation`` with strategy 1's rules.
+        ValueError: ``users_m`` or ``proposals_m`` is not a finite ``(n, 2)`` array.
+        ConfigError: ``config.relocation`` with strategy 1's rules (a ``ValueError`` too).
     """
     config = config or WifiRefineConfig()
-    if config.relocation and rules.exclusive:
-        raise ValueError("WifiRefineConfig.relocation = true needs strategy 2's rules (users a UAV serves); "
-                         "strategy 1 counts the users a UAV alone covers: allowed relocation = false")
+    config.check_rules(rules, "WifiRefineConfig:")
     arrays = []
     for name, value in (("users_m", users_m), ("proposals_m", proposals_m)):
         array = np.asarray(value, dtype=np.float64)

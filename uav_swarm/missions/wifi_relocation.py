@@ -34,8 +34,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch
-from uav_swarm.missions.wifi_rules import Assignment, CoverageRules, assign_users, is_valid_placement
+from uav_swarm.missions.wifi_expert import CandidatePairs, PlacementSearch, separated_candidates
+from uav_swarm.missions.wifi_rules import (
+    Assignment,
+    CoverageRules,
+    assign_users,
+    is_valid_placement,
+    squared_distances,
+)
 
 __all__ = ["placement_violation", "relocation_scores", "relocate", "adopt_by_relocation",
            "insert_by_relocation"]
@@ -54,9 +60,7 @@ def _nearest_two(users_m: np.ndarray, uavs_m: np.ndarray) -> tuple[np.ndarray, .
     Ties go to the lower UAV index, as :func:`uav_swarm.missions.wifi_rules.assign_users` breaks them.
     """
     n, k = len(users_m), len(uavs_m)
-    dx = users_m[:, 0, None] - uavs_m[None, :, 0]
-    dy = users_m[:, 1, None] - uavs_m[None, :, 1]
-    d2 = dx * dx + dy * dy
+    d2 = squared_distances(users_m, uavs_m)
     rows = np.arange(n)
     if k == 1:
         return np.zeros(n, np.int64), d2[:, 0], np.full(n, -1), np.full(n, np.inf)
@@ -181,25 +185,18 @@ def insert_by_relocation(search: PlacementSearch, max_moves: int, tries: int) ->
     kept. Returns whether a UAV was added.
     """
     rules, pairs = search.rules, search.pairs
-    if len(search.uavs_m) >= rules.max_uavs or len(pairs.candidates_m) == 0:
+    if tries == 0 or len(search.uavs_m) >= rules.max_uavs or len(pairs.candidates_m) == 0:
         return False
     uncovered = search.state.association[pairs.user] < 0
     newly = np.bincount(pairs.cand[uncovered], minlength=len(pairs.candidates_m))
     ranked = np.lexsort((np.arange(len(newly)), -newly))
     ranked = ranked[newly[ranked] > 0]
     start_uavs, start_state = search.uavs_m, search.state
-    taken: list[np.ndarray] = []
-    for c in ranked[:200]:
-        position = pairs.candidates_m[c]
-        if any(np.hypot(*(position - t)) < rules.radius_m for t in taken):
-            continue
-        taken.append(position)
-        uavs_m = np.vstack([start_uavs, position])
+    for c in separated_candidates(pairs.candidates_m, ranked, tries, rules.radius_m):
+        uavs_m = np.vstack([start_uavs, pairs.candidates_m[c]])
         search.uavs_m, search.state = uavs_m, assign_users(search.users_m, uavs_m, rules.radius_m)
         relocate(search, max_moves)
         if is_valid_placement(search.state, rules) and search.state.n_served > start_state.n_served:
             return True
         search.uavs_m, search.state = start_uavs, start_state
-        if len(taken) == tries:
-            break
     return False

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CoverageRules", "Assignment", "assign_users", "is_valid_placement", "candidate_grid"]
+__all__ = ["CoverageRules", "Assignment", "squared_distances", "assign_users", "is_valid_placement",
+           "candidate_grid"]
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,13 @@ class Assignment:
         return int(np.count_nonzero(self.association >= 0))
 
 
+def squared_distances(users_m: np.ndarray, uavs_m: np.ndarray) -> np.ndarray:
+    """``(N, K)`` squared horizontal distances from every user to every UAV, metres squared."""
+    dx = users_m[:, 0, None] - uavs_m[None, :, 0]
+    dy = users_m[:, 1, None] - uavs_m[None, :, 1]
+    return dx * dx + dy * dy
+
+
 def assign_users(users_m: np.ndarray, uavs_m: np.ndarray, radius_m: float) -> Assignment:
     """Associate every user with its nearest UAV within ``radius_m``.
 
@@ -89,9 +97,7 @@ def assign_users(users_m: np.ndarray, uavs_m: np.ndarray, radius_m: float) -> As
     if k == 0:
         none = np.zeros(0, np.int64)
         return Assignment(np.full(n, -1, np.int64), np.full(n, np.inf), none, np.zeros(n, np.int64), none)
-    dx = users_m[:, 0, None] - uavs_m[None, :, 0]
-    dy = users_m[:, 1, None] - uavs_m[None, :, 1]
-    d2 = dx * dx + dy * dy  # (N, K)
+    d2 = squared_distances(users_m, uavs_m)
     nearest = np.argmin(d2, axis=1)
     best = d2[np.arange(n), nearest]
     association = np.where(best <= radius_m * radius_m, nearest, -1)
