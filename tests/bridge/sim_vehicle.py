@@ -32,9 +32,10 @@ same ground station) and gives up after 5 requests again (``request_retries``).
 
 from __future__ import annotations
 
-import math
 import threading
 import time
+
+from ardupilot_storage import stored_by_ardupilot
 
 from bridge.mavlink import use_mavlink2
 from bridge.mission import DEG_E7, MissionItem
@@ -47,24 +48,6 @@ __all__ = ["SimVehicle", "endpoint_pair", "TRANSPORTS"]
 TRANSPORTS = ("udpin", "udpout", "tcp")
 PERSONALITIES = ("generic", "ardupilot", "px4")
 AUTO = 3  # ArduCopter custom mode AUTO
-
-# ArduPilot's AP_Mission::stored_in_location, for the commands these tests use
-_WITH_LOCATION = {
-    m.MAV_CMD_NAV_WAYPOINT,
-    m.MAV_CMD_NAV_LOITER_UNLIM,
-    m.MAV_CMD_NAV_LOITER_TURNS,
-    m.MAV_CMD_NAV_LOITER_TIME,
-    m.MAV_CMD_NAV_LAND,
-    m.MAV_CMD_NAV_TAKEOFF,
-    m.MAV_CMD_NAV_SPLINE_WAYPOINT,
-    m.MAV_CMD_DO_SET_ROI,
-}
-_DE_INT = {
-    m.MAV_FRAME_GLOBAL_INT: m.MAV_FRAME_GLOBAL,
-    m.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: m.MAV_FRAME_GLOBAL_RELATIVE_ALT,
-    m.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: m.MAV_FRAME_GLOBAL_TERRAIN_ALT,
-}
-
 
 def endpoint_pair(transport: str, port: int) -> tuple[str, str]:
     """``(vehicle_url, ground_station_url)`` on 127.0.0.1 for the ground station's transport."""
@@ -248,31 +231,7 @@ class SimVehicle:
 
     def _stored(self, item: MissionItem) -> MissionItem:
         """The item as this vehicle keeps it (ArduPilot: as AP_Mission stores and returns it)."""
-        if self.personality != "ardupilot":
-            return item
-        if item.seq == 0:  # always the vehicle's own home
-            lat, lon, alt_m = self.home
-            return MissionItem(
-                seq=0, frame=m.MAV_FRAME_GLOBAL, command=m.MAV_CMD_NAV_WAYPOINT, x=lat, y=lon, z=alt_m
-            )
-        params = [0.0 if math.isnan(p) else p for p in (item.param1, item.param2, item.param3, item.param4)]
-        if item.command == m.MAV_CMD_NAV_WAYPOINT:
-            params[1] = params[3] = 0.0  # Copter keeps only the delay
-        if item.command == m.MAV_CMD_NAV_LOITER_TIME:
-            params[2] = -1.0 if params[2] < 0 else 1.0  # only the direction
-        located = item.command in _WITH_LOCATION
-        return MissionItem(
-            seq=item.seq,
-            frame=_DE_INT.get(item.frame, item.frame) if located else m.MAV_FRAME_GLOBAL,
-            command=item.command,
-            param1=params[0],
-            param2=params[1],
-            param3=params[2],
-            param4=params[3],
-            x=item.x if located else 0,
-            y=item.y if located else 0,
-            z=round(item.z * 100) / 100 if located else 0.0,
-        )
+        return stored_by_ardupilot(item, self.home) if self.personality == "ardupilot" else item
 
     def _refuse_count(self, msg, capacity: int) -> None:
         self.refused_counts += 1
