@@ -23,8 +23,8 @@ import numpy as np
 import torch
 import vmas
 
-from uav_swarm.batched_env import BatchedUAVSwarm
-from uav_swarm.env import parallel_env
+from uav_swarm.env.batched import BatchedUAVSwarm
+from uav_swarm.env.parallel import parallel_env
 
 N_UAVS = 10
 CROWD = {"n_groups_min": 5, "n_groups_max": 5, "group_size_min": 40, "group_size_max": 40}  # 200 people

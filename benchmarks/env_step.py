@@ -18,7 +18,7 @@ import time
 import numpy as np
 from mpe2 import simple_spread_v3
 
-from uav_swarm.env import parallel_env
+from uav_swarm.env.parallel import parallel_env
 
 
 def crowd_of(n_pedestrians: int) -> dict:

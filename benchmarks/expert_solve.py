@@ -19,9 +19,9 @@ import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import csr_array
 
-from uav_swarm.missions.guards import art_gallery_problem, fortress_problem, solve_guards
-from uav_swarm.missions.polygons import PolygonConfig, random_polygon
-from uav_swarm.missions.setcover import InfeasibleCoverError
+from uav_swarm.missions.monitoring.guards import art_gallery_problem, fortress_problem, solve_guards
+from uav_swarm.missions.monitoring.polygons import PolygonConfig, random_polygon
+from uav_swarm.missions.monitoring.setcover import InfeasibleCoverError
 
 GOAL_S = 0.5
 

@@ -22,7 +22,7 @@ import torch
 from learning.checkpoint import load_checkpoint
 from learning.data import sample_seed
 from learning.inference import predict_positions
-from uav_swarm.missions.guards import solve_guards
+from uav_swarm.missions.monitoring.guards import solve_guards
 from uav_swarm.missions.registry import build_task
 
 TASKS = ("wifi-s1", "wifi-s2", "agp", "fp")

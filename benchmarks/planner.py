@@ -35,10 +35,10 @@ from learning.peaks import PeakConfig, find_peaks
 from learning.precision import BF16_CPU_FLAGS, cpu_flags, resolve_precision
 from learning.targets import TargetConfig
 from learning.train import TrainConfig
-from uav_swarm.assignment import assign_targets
 from uav_swarm.missions.registry import load_settings
-from uav_swarm.missions.wifi import WifiConfig, WifiTask, crowd_raster
-from uav_swarm.planner import ExpertPlanner, LearnedPlanner, PlannerConfig, default_checkpoint
+from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, crowd_raster
+from uav_swarm.planning.assignment import assign_targets
+from uav_swarm.planning.planner import ExpertPlanner, LearnedPlanner, PlannerConfig, default_checkpoint
 
 GOAL_MS = 2.0
 GOAL_P95_MS = 4.0

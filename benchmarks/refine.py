@@ -26,7 +26,7 @@ from learning.inference import utility_maps
 from learning.peaks import find_peaks
 from learning.precision import cpu_flags, resolve_precision
 from uav_swarm.missions.registry import build_refiner, build_task, load_settings
-from uav_swarm.planner import default_checkpoint
+from uav_swarm.planning.planner import default_checkpoint
 
 SEED = 20261201
 """Scene seed: not a dataset seed of any shipped checkpoint (their sample seeds come from 1 and 2)."""

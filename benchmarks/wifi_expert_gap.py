@@ -1,7 +1,7 @@
 """Optimality gap of the Wi-Fi expert against the exact MILP (HiGHS) on small scenes.
 
 Scenes: clusters of users (Gaussian, 6 m spread) in a small square; the reference is
-``uav_swarm.missions.wifi_exact.exact_placement`` over a regular candidate grid, solved to proven
+``uav_swarm.missions.wifi.exact.exact_placement`` over a regular candidate grid, solved to proven
 optimality (scenes whose MILP hits the time limit are reported and left out). Gap =
 (exact served - expert served) / exact served; negative when the expert, whose positions are not
 bound to the grid, serves more. Also prints both solve times.
@@ -16,10 +16,10 @@ import time
 
 import numpy as np
 
-from uav_swarm.missions.wifi import WifiConfig, coverage_rules
-from uav_swarm.missions.wifi_exact import exact_placement
-from uav_swarm.missions.wifi_expert import WifiExpertConfig, place_uavs
-from uav_swarm.missions.wifi_rules import assign_users, candidate_grid
+from uav_swarm.missions.wifi.exact import exact_placement
+from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi.rules import assign_users, candidate_grid
+from uav_swarm.missions.wifi.task import WifiConfig, coverage_rules
 
 # strategy: (side_m, grid_step_m, clusters, cluster size range, max UAVs)
 SETTINGS = {1: (120.0, 5.0, 4, (25, 60), 3), 2: (60.0, 6.0, 2, (32, 45), 2)}

@@ -16,15 +16,28 @@ import select
 import threading
 import time
 from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING
+from typing import Protocol
 
-if TYPE_CHECKING:
-    from bridge.mavlink import MavlinkLink
-
-__all__ = ["LinkReader", "POLL_S"]
+__all__ = ["LinkReader", "POLL_S", "ReadableLink"]
 
 POLL_S = 0.02
 """Longest wait of one ``select``: how often heartbeats and reconnections are checked."""
+
+
+class ReadableLink(Protocol):
+    """What the reader needs of a link (:class:`bridge.mavlink.MavlinkLink` registers itself as one)."""
+
+    def reader_fd(self) -> int | None:
+        """The socket to wait on; ``None`` while closed or disconnected."""
+
+    def heartbeat_if_due(self, now_s: float) -> None:
+        """Send the ground station's HEARTBEAT when one is due."""
+
+    def reconnect_if_due(self, now_s: float) -> bool:
+        """Try to reopen a closed connection when due; True once it is open again."""
+
+    def read_available(self) -> bool:
+        """Receive and dispatch what is waiting; False once the stream ended."""
 
 
 class LinkReader:
@@ -38,19 +51,19 @@ class LinkReader:
 
     def __init__(self, name: str = "mavlink reader") -> None:
         self._name = name
-        self._links: tuple[MavlinkLink, ...] = ()
+        self._links: tuple[ReadableLink, ...] = ()
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._turn = threading.Condition(threading.Lock())  # guards _lent and _reading
         self._lent = False
         self._reading = False
-        self._built_for: tuple[MavlinkLink, ...] | None = None
-        self._by_fd: dict[int, MavlinkLink] = {}
+        self._built_for: tuple[ReadableLink, ...] | None = None
+        self._by_fd: dict[int, ReadableLink] = {}
         self._fds: list[int] = []
         self._next_heartbeat_check_s = 0.0
 
-    def add(self, link: MavlinkLink) -> None:
+    def add(self, link: ReadableLink) -> None:
         """Start reading ``link`` (starting the thread on first use)."""
         with self._lock:
             self._links = (*self._links, link)
@@ -58,7 +71,7 @@ class LinkReader:
                 self._thread = threading.Thread(target=self._loop, name=self._name, daemon=True)
                 self._thread.start()
 
-    def remove(self, link: MavlinkLink) -> None:
+    def remove(self, link: ReadableLink) -> None:
         """Stop reading ``link``."""
         with self._lock:
             self._links = tuple(other for other in self._links if other is not link)

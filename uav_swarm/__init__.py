@@ -1,3 +1,3 @@
 """uav-swarm: place and fly a swarm of up to 10 UAVs over a moving crowd."""
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"

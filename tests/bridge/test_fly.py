@@ -26,8 +26,8 @@ from bridge.telemetry_config import TelemetryConfig
 from bridge.telemetry_schema import Plan, Presence, Qos, UavState
 from bridge.vehicle_state import VehicleStateTracker
 from uav_swarm.cli import main
-from uav_swarm.fly import fly
-from uav_swarm.fly_config import load_fly_config
+from uav_swarm.runs.fly import fly
+from uav_swarm.runs.fly_config import load_fly_config
 
 FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
 

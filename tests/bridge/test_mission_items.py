@@ -113,7 +113,7 @@ def test_one_altitude_model_never_descends_after_take_off_unasked(points, takeof
 def test_simulate_missions_fly_at_the_simulated_altitude(tmp_path):
     from bridge.config import BridgeConfig
     from bridge.mission_files import load_plan
-    from uav_swarm.simulate import _final_plans, _write_plan_files
+    from uav_swarm.runs.simulate import _final_plans, _write_plan_files
 
     bridge = BridgeConfig()  # take-off 20 m by default
     plans = _final_plans(bridge, np.array([[30.0, 40.0], [5.0, 60.0]]), 10.0)

@@ -11,7 +11,7 @@ import pytest
 from bridge.geo import Home, geodetic_to_enu
 from bridge.mission_files import load_plan
 from uav_swarm.cli import main
-from uav_swarm.missions.footprint import read_footprint
+from uav_swarm.missions.monitoring.footprint import read_footprint
 
 BUILDINGS = Path(__file__).resolve().parents[1] / "data" / "buildings"
 

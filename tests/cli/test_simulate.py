@@ -20,8 +20,8 @@ from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry_config import TelemetryConfig
 from bridge.telemetry_schema import Plan, Qos, UavState
 from uav_swarm.cli import main
-from uav_swarm.simulate import simulate
-from uav_swarm.simulate_config import SimulateConfig
+from uav_swarm.runs.simulate import simulate
+from uav_swarm.runs.simulate_config import SimulateConfig
 
 SMALL_TOML = """
 n_uavs = 3
@@ -146,7 +146,7 @@ def test_unknown_config_key_exits_2(tmp_path, capsys):
 
 def test_a_telemetry_endpoint_in_use_exits_2_before_the_first_step_and_writes_nothing(
         tmp_path, small_config, tiny_checkpoint, capsys, monkeypatch):
-    import uav_swarm.simulate as simulate_module
+    import uav_swarm.runs.simulate as simulate_module
 
     def no_step(*args, **kwargs):
         raise AssertionError("a step ran before the telemetry endpoint was checked")
@@ -233,7 +233,7 @@ def free_udp_port() -> int:
 def test_refine_flag_merges_into_the_planning_table_of_the_file(tmp_path):
     from uav_swarm.cli import build_parser
     from uav_swarm.cli.simulate import _overrides
-    from uav_swarm.simulate_config import load_simulate_config
+    from uav_swarm.runs.simulate_config import load_simulate_config
 
     path = tmp_path / "sim.toml"
     path.write_text("[planning]\nhysteresis_m = 7.0\n\n[planning.refinement]\ngrid_step_m = 5.0\n")
@@ -251,8 +251,8 @@ def test_refine_flag_merges_into_the_planning_table_of_the_file(tmp_path):
 
 def test_the_strategy_2_config_flies_the_evaluated_relocation_refinement(tmp_path):
     from uav_swarm.missions.registry import load_settings
-    from uav_swarm.missions.wifi_refine import WifiRefineConfig
-    from uav_swarm.simulate_config import load_simulate_config
+    from uav_swarm.missions.wifi.refine import WifiRefineConfig
+    from uav_swarm.runs.simulate_config import load_simulate_config
 
     root = Path(__file__).resolve().parents[2]
     config = load_simulate_config(root / "configs/simulate/wifi-s2-refined.toml", {})

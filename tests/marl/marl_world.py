@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from uav_swarm.env import parallel_env
+from uav_swarm.env.parallel import parallel_env
 
 SMALL_WORLD = {
     "scenario": {"width_m": 80.0, "height_m": 80.0, "n_waypoints": 3, "route_length_max": 3,

@@ -10,7 +10,7 @@ from marl_world import SMALL_WORLD, random_actions, raw_trajectory  # noqa: E402
 from pettingzoo.test import parallel_api_test  # noqa: E402
 
 import uav_swarm.marl.supersuit_vec as supersuit_module  # noqa: E402
-from uav_swarm.env import parallel_env  # noqa: E402
+from uav_swarm.env.parallel import parallel_env  # noqa: E402
 from uav_swarm.marl import supersuit_vec_env  # noqa: E402
 
 N_UAVS, MAX_CYCLES = 3, 20

@@ -12,7 +12,7 @@ from tensordict import TensorDict  # noqa: E402
 from torchrl.envs.utils import MarlGroupMapType, check_env_specs  # noqa: E402
 
 import uav_swarm.marl.torchrl_pettingzoo as torchrl_module  # noqa: E402
-from uav_swarm.env import parallel_env  # noqa: E402
+from uav_swarm.env.parallel import parallel_env  # noqa: E402
 from uav_swarm.marl import torchrl_env  # noqa: E402
 
 N_UAVS, MAX_CYCLES, N_STEPS = 3, 25, 100  # four episodes per rollout

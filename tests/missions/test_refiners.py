@@ -12,9 +12,9 @@ from learning.evaluate import evaluate
 from learning.task import Refiner
 from typed_config import ConfigError
 from uav_swarm.cli import main
-from uav_swarm.missions.guard_repair import RepairConfig
+from uav_swarm.missions.monitoring.guard_repair import RepairConfig
 from uav_swarm.missions.registry import TaskFactory, build_refiner, build_task, load_settings
-from uav_swarm.planner import default_checkpoint
+from uav_swarm.planning.planner import default_checkpoint
 
 
 def test_every_task_has_a_refiner_configured_by_its_refine_table(tmp_path):

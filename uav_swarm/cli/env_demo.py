@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from uav_swarm.env import parallel_env
+    from uav_swarm.env.parallel import parallel_env
 
     if args.steps < 1 or args.replan_every < 1:
         print(f"uav-swarm env-demo: --steps ({args.steps}) and --replan-every ({args.replan_every}) "

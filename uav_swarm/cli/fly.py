@@ -70,8 +70,8 @@ def run(args: argparse.Namespace) -> int:
     from bridge.telemetry_config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
-    from uav_swarm.fly import fly
-    from uav_swarm.fly_config import load_fly_config
+    from uav_swarm.runs.fly import fly
+    from uav_swarm.runs.fly_config import load_fly_config
 
     try:
         config = load_fly_config(args.config, _overrides(args))

@@ -3,12 +3,12 @@
     uav-swarm place --task fp --building shop.geojson --out out/shop
     uav-swarm place --task agp --building hall.csv --out out/hall --method expert --bridge-config bridge.toml
 
-The building (:mod:`uav_swarm.missions.footprint`: a GeoJSON Polygon in WGS84, or vertices in metres)
-is fitted to the monitoring raster and placed with one of three methods:
+The building (:mod:`uav_swarm.missions.monitoring.footprint`: a GeoJSON Polygon in WGS84, or vertices in
+metres) is fitted to the monitoring raster and placed with one of three methods:
 
 - ``learned``: the shipped network's peaks (milliseconds, no guarantee);
 - ``refined`` (default): the peaks repaired until every witness is seen
-  (:mod:`uav_swarm.missions.guard_repair`);
+  (:mod:`uav_swarm.missions.monitoring.guard_repair`);
 - ``expert``: the exact set cover (fewest guards; slower).
 
 Outputs in ``--out`` (written only when everything succeeded): ``guards.geojson`` (the guards as
@@ -70,7 +70,7 @@ def _place(task: Any, scene: Any, method: str, checkpoint: str | None) -> tuple[
     from learning.inference import utility_maps
     from learning.peaks import find_peaks
     from learning.precision import resolve_precision
-    from uav_swarm.planner import default_checkpoint
+    from uav_swarm.planning.planner import default_checkpoint
 
     path = checkpoint or default_checkpoint(task.name)
     ckpt = load_checkpoint(path, task_name=task.name, input_shape=(task.channels, *task.shape))
@@ -159,10 +159,10 @@ def run(args: argparse.Namespace) -> int:
     from learning.checkpoint import CheckpointError
     from learning.files import write_json_atomic
     from typed_config import ConfigError
-    from uav_swarm.missions.footprint import FootprintError, fit_to_raster, read_footprint
-    from uav_swarm.missions.monitoring import MonitoringScene
+    from uav_swarm.missions.monitoring.footprint import FootprintError, fit_to_raster, read_footprint
+    from uav_swarm.missions.monitoring.setcover import InfeasibleCoverError
+    from uav_swarm.missions.monitoring.task import MonitoringScene
     from uav_swarm.missions.registry import build_task
-    from uav_swarm.missions.setcover import InfeasibleCoverError
 
     task = build_task(args.task)
     try:

@@ -95,8 +95,8 @@ def run(args: argparse.Namespace) -> int:
     from bridge.telemetry_config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
-    from uav_swarm.simulate import simulate
-    from uav_swarm.simulate_config import load_simulate_config
+    from uav_swarm.runs.simulate import simulate
+    from uav_swarm.runs.simulate_config import load_simulate_config
 
     try:
         config = load_simulate_config(args.config, _overrides(args))

@@ -8,7 +8,7 @@ time at 0.1 s per step:
 - ``random``: velocity actions drawn uniformly from the action box (seeded);
 - ``mappo``: a policy trained by :func:`uav_swarm.marl.mappo.train_mappo`, velocity actions, the
   deterministic (mean) action;
-- ``learned`` and ``expert``: the placement planners (:mod:`uav_swarm.planner`) in waypoint mode,
+- ``learned`` and ``expert``: the placement planners (:mod:`uav_swarm.planning.planner`) in waypoint mode,
   replanning every ``replan_every`` steps from the live crowd, as ``uav-swarm simulate`` flies them.
 
 Measures per controller, over all steps of all episodes: mean QoS S1, mean QoS S2, mean user
@@ -27,12 +27,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from tqdm import tqdm
 
-from uav_swarm.env import parallel_env
-from uav_swarm.env_config import EnvConfig
+from uav_swarm.env.config import EnvConfig
+from uav_swarm.env.parallel import parallel_env
 
 if TYPE_CHECKING:
-    from uav_swarm.planner import Planner
-    from uav_swarm.simulate_config import SimulateConfig
+    from uav_swarm.planning.planner import Planner
+    from uav_swarm.runs.simulate_config import SimulateConfig
 
 __all__ = ["ControllerScore", "CONTROLLERS", "compare_controllers"]
 
@@ -92,7 +92,7 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
     Raises:
         ValueError: An unknown controller, or ``mappo`` without a policy.
     """
-    from uav_swarm.simulate_config import SimulateConfig
+    from uav_swarm.runs.simulate_config import SimulateConfig
 
     unknown = [name for name in controllers if name not in CONTROLLERS]
     if unknown:
@@ -151,7 +151,7 @@ def _controller(name: str, velocity: EnvConfig, world: SimulateConfig, mappo_pol
             return dict(zip(agents, actions, strict=True))
 
         return velocity, mappo_actions, None
-    from uav_swarm.planner import make_planner
+    from uav_swarm.planning.planner import make_planner
 
     planner = make_planner(name, world.n_uavs, world.task, checkpoint=checkpoint or None,
                            config=world.planning)

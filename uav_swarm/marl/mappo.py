@@ -32,7 +32,7 @@ from torch import nn
 
 from learning.files import write_bytes_atomic, write_json_atomic, write_text_atomic
 from typed_config import Config, param
-from uav_swarm.env_config import MAX_UAVS, EnvConfig
+from uav_swarm.env.config import MAX_UAVS, EnvConfig
 
 __all__ = ["MappoConfig", "train_mappo", "load_policy", "MappoPolicy", "FeatureNorm"]
 

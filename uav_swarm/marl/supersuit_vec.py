@@ -26,7 +26,7 @@ from typing import Any
 
 from pettingzoo import ParallelEnv
 
-from uav_swarm.env import parallel_env
+from uav_swarm.env.parallel import parallel_env
 from uav_swarm.marl._optional import require
 
 __all__ = ["supersuit_vec_env"]
@@ -54,7 +54,7 @@ def supersuit_vec_env(
         wrap: Applied to each parallel env before it is vectorised, e.g.
             ``lambda env: ss.frame_stack_v1(env, 4)``.
         num_cpus: 0 steps the copies in this process; more runs them in that many worker processes.
-        **env_kwargs: Arguments of :func:`uav_swarm.env.parallel_env` (``n_uavs``, ``max_cycles``, ...).
+        **env_kwargs: Arguments of :func:`~uav_swarm.env.parallel.parallel_env` (``n_uavs``...).
 
     Raises:
         ImportError: SuperSuit is not installed (``pip install 'uav-swarm[marl]'``).

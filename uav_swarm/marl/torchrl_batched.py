@@ -1,6 +1,6 @@
 """TorchRL view of the batched environment: many copies of ``uav_swarm_v0`` as one ``EnvBase``.
 
-:class:`UAVSwarmTorchRLEnv` wraps :class:`uav_swarm.batched_env.BatchedUAVSwarm` the way TorchRL's
+:class:`UAVSwarmTorchRLEnv` wraps :class:`uav_swarm.env.batched.BatchedUAVSwarm` the way TorchRL's
 own VMAS wrapper exposes a vectorised multi-agent simulator: ``batch_size = (num_envs,)`` and all
 agents in one group, ``"agents"``:
 
@@ -37,8 +37,8 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from uav_swarm.batched_env import BatchedUAVSwarm
-from uav_swarm.env_config import EnvConfig
+from uav_swarm.env.batched import BatchedUAVSwarm
+from uav_swarm.env.config import EnvConfig
 
 __all__ = ["UAVSwarmTorchRLEnv", "INFO_KEYS"]
 
@@ -53,7 +53,7 @@ class UAVSwarmTorchRLEnv(EnvBase):
         num_envs: Number of copies (the batch size).
         config: The environment settings (default ``EnvConfig()``).
         seed: Seed of the first reset (copy ``k`` gets ``seed + k``); None draws fresh entropy.
-        **overrides: ``EnvConfig`` fields, as for ``uav_swarm.env.raw_env``.
+        **overrides: ``EnvConfig`` fields, as for ``uav_swarm.env.parallel.raw_env``.
     """
 
     group = "agents"

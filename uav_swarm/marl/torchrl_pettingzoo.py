@@ -16,7 +16,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from uav_swarm.env import parallel_env
+from uav_swarm.env.parallel import parallel_env
 from uav_swarm.marl._optional import require
 
 if TYPE_CHECKING:
@@ -54,7 +54,7 @@ def torchrl_env(
             that ``PettingZooWrapper`` takes (a ``MarlGroupMapType`` or a dict of group -> agents).
         seed: Seed of the reset that builds the specs (None: unseeded).
         return_state: Add the env's global ``state()`` as the root key ``"state"``.
-        **env_kwargs: Arguments of :func:`uav_swarm.env.parallel_env` (``n_uavs``, ``max_cycles``,
+        **env_kwargs: Arguments of :func:`uav_swarm.env.parallel.parallel_env` (``n_uavs``, ``max_cycles``,
             ``action_mode``, ``scenario={...}``, ``config``, ``scene``, ``render_mode``, ...).
 
     Raises:

@@ -1,1 +1,6 @@
-"""Missions implemented as :class:`learning.task.Task`: Wi-Fi strategies and building monitoring."""
+"""Missions implemented as :class:`learning.task.Task`.
+
+- :mod:`~uav_swarm.missions.wifi`: Wi-Fi strategies 1 and 2.
+- :mod:`~uav_swarm.missions.monitoring`: Art Gallery and Fortress guards.
+- :mod:`~uav_swarm.missions.registry`: task names to Tasks, refiners and rule checks.
+"""

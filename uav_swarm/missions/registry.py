@@ -50,10 +50,10 @@ class TaskEntry:
 
 
 TASKS: dict[str, TaskEntry] = {
-    "wifi-s1": TaskEntry("uav_swarm.missions.wifi:WifiTask", {"strategy": 1}, alpha2=50.0, sigma2=50.0),
-    "wifi-s2": TaskEntry("uav_swarm.missions.wifi:WifiTask", {"strategy": 2}, alpha2=30.0, sigma2=30.0),
-    "agp": TaskEntry("uav_swarm.missions.monitoring:ArtGalleryTask", alpha2=40.0, sigma2=40.0),
-    "fp": TaskEntry("uav_swarm.missions.monitoring:FortressTask", alpha2=40.0, sigma2=20.0),
+    "wifi-s1": TaskEntry("uav_swarm.missions.wifi.task:WifiTask", {"strategy": 1}, alpha2=50.0, sigma2=50.0),
+    "wifi-s2": TaskEntry("uav_swarm.missions.wifi.task:WifiTask", {"strategy": 2}, alpha2=30.0, sigma2=30.0),
+    "agp": TaskEntry("uav_swarm.missions.monitoring.task:ArtGalleryTask", alpha2=40.0, sigma2=40.0),
+    "fp": TaskEntry("uav_swarm.missions.monitoring.task:FortressTask", alpha2=40.0, sigma2=20.0),
 }
 _SECTIONS = ("task", "targets", "model", "train", "peaks", "refine", "rule_check")
 
@@ -121,8 +121,8 @@ class TaskSettings:
 def build_refiner(task: Task, refine_table: Mapping[str, Any] | None = None) -> Refiner:
     """The refinement of ``task``'s learned placements, its config from a ``[refine]`` table.
 
-    Art Gallery and Fortress: :class:`uav_swarm.missions.monitoring.GuardRefiner` (repair to full
-    coverage); Wi-Fi: :class:`uav_swarm.missions.wifi.WifiRefiner` (local search on the crowd).
+    Art Gallery and Fortress: :class:`uav_swarm.missions.monitoring.task.GuardRefiner` (repair to full
+    coverage); Wi-Fi: :class:`uav_swarm.missions.wifi.task.WifiRefiner` (local search on the crowd).
 
     Raises:
         ConfigError: An invalid ``[refine]`` value.
@@ -138,7 +138,7 @@ def build_refiner(task: Task, refine_table: Mapping[str, Any] | None = None) -> 
 def build_rule_check(task: Task, rule_check_table: Mapping[str, Any] | None = None) -> PlacementCheck:
     """The rule check of ``task``'s learned placements, its config from a ``[rule_check]`` table.
 
-    Wi-Fi only: :class:`uav_swarm.missions.wifi_rule_check.WifiRuleCheck`.
+    Wi-Fi only: :class:`uav_swarm.missions.wifi.rule_check.WifiRuleCheck`.
 
     Raises:
         ConfigError: An invalid ``[rule_check]`` value.

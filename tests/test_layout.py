@@ -1,0 +1,117 @@
+"""The house's shape: packages by concept, no import circles, every package says what lives in it."""
+
+from __future__ import annotations
+
+import ast
+from collections import defaultdict
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGES = ("uav_swarm", "learning", "bridge", "typed_config")
+DEPRECATED = {"batched_env.py", "vector_env.py"}  # re-exports kept for one release (0.2), README "Layout"
+
+
+def _modules() -> dict[str, Path]:
+    modules = {}
+    for package in PACKAGES:
+        for path in (REPO / package).rglob("*.py"):
+            parts = path.relative_to(REPO).with_suffix("").parts
+            name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+            modules[name] = path
+    return modules
+
+
+def _imports(path: Path, known: set[str]) -> set[str]:
+    """Every project module ``path`` imports, at any depth (function-level and TYPE_CHECKING too)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        names: list[str] = []
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [node.module, *(f"{node.module}.{alias.name}" for alias in node.names)]
+        elif isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        found.update(name for name in names if name in known)
+    return found
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_import_circles():
+    modules = _modules()
+    graph = defaultdict(set)
+    for name, path in modules.items():
+        graph[name] = {target for target in _imports(path, set(modules)) if target != name}
+    assert _cycles(graph) == []
+
+
+def test_cycle_finder_sees_a_circle():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_libraries_never_import_the_product():
+    modules = _modules()
+    for name, path in modules.items():
+        if name.startswith(("learning", "bridge", "typed_config")):
+            assert not any(t.startswith("uav_swarm") for t in _imports(path, set(modules))), name
+
+
+def test_uav_swarm_top_level_holds_packages_only():
+    loose = {p.name for p in (REPO / "uav_swarm").glob("*.py")} - {"__init__.py"}
+    assert loose == DEPRECATED
+    folders = {p.name for p in (REPO / "uav_swarm").iterdir() if (p / "__init__.py").exists()}
+    assert {"world", "missions", "env", "planning", "runs", "marl", "cli"} <= folders
+
+
+def test_every_package_says_what_lives_there():
+    for init in REPO.glob("*/**/__init__.py"):
+        if init.parts[len(REPO.parts)] not in PACKAGES:
+            continue
+        doc = ast.get_docstring(ast.parse(init.read_text()))
+        assert doc and len(doc) > 40, f"{init.relative_to(REPO)} has no docstring"
+
+
+def test_deprecated_paths_warn_and_re_export():
+    import importlib
+    import sys
+
+    import pytest
+
+    for old, new, name in (("uav_swarm.batched_env", "uav_swarm.env.batched", "BatchedUAVSwarm"),
+                           ("uav_swarm.vector_env", "uav_swarm.env.vector", "UAVSwarmVectorEnv")):
+        sys.modules.pop(old, None)
+        with pytest.warns(DeprecationWarning, match=new):
+            module = importlib.import_module(old)
+        assert getattr(module, name) is getattr(importlib.import_module(new), name)

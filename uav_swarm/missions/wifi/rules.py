@@ -1,0 +1,128 @@
+"""The Wi-Fi placement problem in geometric form: rules, user association and candidate grids.
+
+Shared by the greedy expert (:mod:`uav_swarm.missions.wifi.expert`, which describes the problem) and
+the exact MILP (:mod:`uav_swarm.missions.wifi.exact`): a user is covered within ``radius_m`` of a UAV
+and associates with the nearest one (ties to the lower index); every UAV must be justified by
+``min_users`` users and may serve at most ``max_users``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["CoverageRules", "Assignment", "squared_distances", "assign_users", "is_valid_placement",
+           "candidate_grid"]
+
+
+@dataclass(frozen=True)
+class CoverageRules:
+    """The placement constraints in geometric form.
+
+    Attributes:
+        radius_m: Horizontal coverage radius (a user at this distance is still covered).
+        min_users: Every deployed UAV is justified by at least this many users.
+        max_users: Every deployed UAV serves at most this many users (``None``: no cap).
+        max_uavs: Largest number of UAVs.
+        exclusive: How ``min_users`` counts: True (strategy 1) the users this UAV alone
+            covers (who would lose the network without it); False (strategy 2) the users it
+            serves (its association).
+    """
+
+    radius_m: float
+    min_users: int
+    max_users: int | None
+    max_uavs: int
+    exclusive: bool = False
+
+    def __post_init__(self) -> None:
+        if not (self.radius_m > 0.0 and math.isfinite(self.radius_m)):
+            raise ValueError(f"CoverageRules.radius_m = {self.radius_m!r} must be finite and > 0")
+        if self.min_users < 1:
+            raise ValueError(f"CoverageRules.min_users = {self.min_users} must be >= 1")
+        if self.max_users is not None and self.max_users < self.min_users:
+            raise ValueError(
+                f"CoverageRules.max_users = {self.max_users} must be >= min_users = {self.min_users}")
+        if self.max_uavs < 0:
+            raise ValueError(f"CoverageRules.max_uavs = {self.max_uavs} must be >= 0")
+
+    @property
+    def cap(self) -> int:
+        """``max_users`` as an int (a huge number when uncapped)."""
+        return np.iinfo(np.int64).max // 4 if self.max_users is None else self.max_users
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """Users' association with a placement.
+
+    Attributes:
+        association: ``(N,)`` index of the serving UAV, -1 when uncovered.
+        distance_sq_m2: ``(N,)`` squared distance to the nearest UAV (``inf`` without UAVs).
+        counts: ``(K,)`` number of users each UAV serves.
+        n_covering: ``(N,)`` number of UAVs within the radius of each user.
+        exclusive_counts: ``(K,)`` number of users each UAV alone covers.
+    """
+
+    association: np.ndarray
+    distance_sq_m2: np.ndarray
+    counts: np.ndarray
+    n_covering: np.ndarray
+    exclusive_counts: np.ndarray
+
+    @property
+    def n_served(self) -> int:
+        """Number of covered (served) users."""
+        return int(np.count_nonzero(self.association >= 0))
+
+
+def squared_distances(users_m: np.ndarray, uavs_m: np.ndarray) -> np.ndarray:
+    """``(N, K)`` squared horizontal distances from every user to every UAV, metres squared."""
+    dx = users_m[:, 0, None] - uavs_m[None, :, 0]
+    dy = users_m[:, 1, None] - uavs_m[None, :, 1]
+    return dx * dx + dy * dy
+
+
+def assign_users(users_m: np.ndarray, uavs_m: np.ndarray, radius_m: float) -> Assignment:
+    """Associate every user with its nearest UAV within ``radius_m``.
+
+    Args:
+        users_m: ``(N, 2)`` user positions, metres.
+        uavs_m: ``(K, 2)`` UAV positions, metres.
+        radius_m: Coverage radius, metres.
+    """
+    n, k = len(users_m), len(uavs_m)
+    if k == 0:
+        none = np.zeros(0, np.int64)
+        return Assignment(np.full(n, -1, np.int64), np.full(n, np.inf), none, np.zeros(n, np.int64), none)
+    d2 = squared_distances(users_m, uavs_m)
+    nearest = np.argmin(d2, axis=1)
+    best = d2[np.arange(n), nearest]
+    association = np.where(best <= radius_m * radius_m, nearest, -1)
+    counts = np.bincount(association[association >= 0], minlength=k)
+    n_covering = np.count_nonzero(d2 <= radius_m * radius_m, axis=1)
+    exclusive_counts = np.bincount(association[n_covering == 1], minlength=k)
+    return Assignment(association, best, counts, n_covering, exclusive_counts)
+
+
+def is_valid_placement(state: Assignment, rules: CoverageRules) -> bool:
+    """Whether a placement's assignment obeys the rules (UAV budget, per-UAV bounds)."""
+    justified = state.exclusive_counts if rules.exclusive else state.counts
+    return bool(len(state.counts) <= rules.max_uavs and np.all(justified >= rules.min_users)
+                and np.all(state.counts <= rules.cap))
+
+
+def candidate_grid(width_m: float, height_m: float, step_m: float) -> tuple[np.ndarray, int]:
+    """Cell centres of a regular grid over the area, row-major from the lower-left corner.
+
+    Returns:
+        The ``(M, 2)`` candidate positions in metres and the number of columns.
+    """
+    nx = max(1, int(math.floor(width_m / step_m)))
+    ny = max(1, int(math.floor(height_m / step_m)))
+    xs = (np.arange(nx) + 0.5) * (width_m / nx)
+    ys = (np.arange(ny) + 0.5) * (height_m / ny)
+    gx, gy = np.meshgrid(xs, ys)
+    return np.stack([gx.ravel(), gy.ravel()], axis=1), nx

@@ -1,0 +1,246 @@
+"""The Wi-Fi missions as :class:`learning.task.Task`: strategy 1 (``wifi-s1``) and strategy 2 (``wifi-s2``).
+
+A scene is the crowd of a random scenario (:func:`uav_swarm.world.scenario.random_scenario`)
+after a warm-up of the social-force simulation (:class:`uav_swarm.world.crowd.CrowdSim`),
+drawn uniformly in ``[warmup_min_s, warmup_max_s]`` so that groups have formed and walk
+their routes; the expert placement (:func:`uav_swarm.missions.wifi.expert.place_uavs`) is
+solved by ``expert(scene)``, so regenerating a scene only for its QoS (as evaluation does)
+costs the warm-up alone.
+
+Observation (``float32``, shape ``(1, size_px, size_px)``): the pedestrian density map
+(:func:`uav_swarm.world.raster.density_map`, row 0 = South) divided by ``density_scale``
+(pedestrians per pixel that read as 1.0). The same function, :func:`crowd_raster`, rasterises
+the live crowd for the placement planner.
+
+Positions crossing the Task interface are pixel coordinates ``(x = column, y = row)``
+(:func:`uav_swarm.world.raster.metres_to_pixels`); ``mission_dimension_px`` is the raster side,
+so the metrics' match radius (10 %) is 6.4 px = 20 m on the default 64 px raster of 200 m.
+
+The experts' rules (:class:`uav_swarm.missions.wifi.rules.CoverageRules`): a user is covered
+within the radio's horizontal coverage radius (30 m by default); every UAV must be justified by
+more than ``expert.min_group_size`` (30) users (strategy 1: users only it covers; strategy 2:
+users it serves); strategy 2 also caps a UAV at ``capacity / min_user_rate`` (200 / 5 = 40)
+users so that every covered user gets at least 5 Mbps.
+
+QoS (:meth:`WifiTask.qos`, judged on the real crowd with :func:`uav_swarm.world.comms.evaluate_coverage`):
+``"qos"`` is the strategy's QoS (strategy 1: share of users covered; strategy 2: share covered
+with at least ``min_user_rate_mbps``), plus ``"qos_s1"``, ``"qos_s2"`` and ``"mean_throughput_mbps"``.
+
+Example:
+    >>> task = WifiTask(WifiConfig(strategy=1))
+    >>> scene = task.sample(np.random.default_rng(0))
+    >>> task.observe(scene).shape
+    (1, 64, 64)
+    >>> task.qos(scene, task.expert(scene))["qos"] > 0.5
+    True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from learning.task import MAX_POSITIONS
+from typed_config import Config, ConfigError, param
+from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement
+from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
+from uav_swarm.missions.wifi.rules import CoverageRules
+from uav_swarm.world.comms import RadioConfig, evaluate_coverage
+from uav_swarm.world.crowd import CrowdConfig, CrowdSim
+from uav_swarm.world.raster import density_map, metres_to_pixels, pixels_to_metres
+from uav_swarm.world.scenario import ScenarioConfig, random_scenario
+
+__all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster"]
+
+
+@dataclass(frozen=True)
+class WifiConfig(Config):
+    """Config of the Wi-Fi task (both strategies)."""
+
+    strategy: int = param(1, ge=1, le=2, doc="1: maximise covered users; 2: the same with >= 5 Mbps each")
+    size_px: int = param(64, ge=8, le=1024, doc="side of the square density raster (pixels)")
+    density_scale: float = param(4.0, gt=0.0, le=1000.0, doc="pedestrians per pixel that read as 1.0")
+    warmup_min_s: float = param(5.0, ge=0.0, le=3600.0, doc="shortest crowd warm-up before a scene (s)")
+    warmup_max_s: float = param(30.0, ge=0.0, le=3600.0, doc="longest crowd warm-up before a scene (s)")
+    scenario: ScenarioConfig = param(ScenarioConfig(), doc="random scenarios (table [task.scenario])")
+    crowd: CrowdConfig = param(CrowdConfig(), doc="social-force crowd (table [task.crowd])")
+    radio: RadioConfig = param(RadioConfig(), doc="Wi-Fi model (table [task.radio])")
+    expert: WifiExpertConfig = param(WifiExpertConfig(), doc="the expert optimiser (table [task.expert])")
+
+    def check(self) -> None:
+        """A square area (the raster is square), an ordered warm-up range, a radius above the altitude."""
+        if self.warmup_min_s > self.warmup_max_s:
+            raise ConfigError(f"WifiConfig.warmup_min_s = {self.warmup_min_s} must be <= "
+                              f"warmup_max_s = {self.warmup_max_s}")
+        if self.scenario.width_m != self.scenario.height_m:
+            raise ConfigError(f"WifiConfig.scenario: width_m = {self.scenario.width_m} must equal "
+                              f"height_m = {self.scenario.height_m} (the raster is square)")
+        if self.radio.coverage_radius_m <= 0.0:
+            raise ConfigError(f"WifiConfig.radio.altitude_m = {self.radio.altitude_m} leaves no coverage: "
+                              "allowed altitude_m < the radio range")
+
+
+@dataclass(frozen=True, eq=False)
+class WifiScene:
+    """One crowd.
+
+    Attributes:
+        users_m: ``(N, 2)`` float64 read-only pedestrian positions, metres.
+        time_s: Simulated warm-up time of the crowd (s).
+    """
+
+    users_m: np.ndarray
+    time_s: float
+
+
+def _scene(users_m: np.ndarray, time_s: float) -> WifiScene:
+    users_m.setflags(write=False)
+    return WifiScene(users_m, time_s)
+
+
+def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageRules:
+    """The geometric constraints of the config's strategy (see the module docstring).
+
+    Args:
+        config: The task config.
+        max_uavs: UAV budget; default ``config.expert.max_uavs``.
+    """
+    radio = config.radio
+    max_users = None
+    if config.strategy == 2 and radio.min_user_rate_mbps > 0:
+        max_users = int(math.floor(radio.capacity_mbps / radio.min_user_rate_mbps + 1e-9))
+    return CoverageRules(radius_m=radio.coverage_radius_m, min_users=config.expert.min_group_size + 1,
+                         max_users=max_users,
+                         max_uavs=config.expert.max_uavs if max_uavs is None else max_uavs,
+                         exclusive=config.strategy == 1)
+
+
+def crowd_raster(users_m: np.ndarray, config: WifiConfig) -> np.ndarray:
+    """The observation of a crowd: ``(1, size_px, size_px)`` float32 scaled density (module docstring)."""
+    side = config.size_px
+    density = density_map(users_m, config.scenario.width_m, config.scenario.height_m, (side, side))
+    return (density / np.float32(config.density_scale))[None]
+
+
+class WifiRefiner:
+    """Learned UAV positions refined on the real crowd (:mod:`uav_swarm.missions.wifi.refine`).
+
+    Args:
+        task: The Wi-Fi task (strategy 1 or 2).
+        config: The refinement's effort; default ``WifiRefineConfig()``.
+
+    Raises:
+        ConfigError: ``config.relocation`` on strategy 1.
+    """
+
+    config_class = WifiRefineConfig
+
+    def __init__(self, task: WifiTask, config: WifiRefineConfig | None = None) -> None:
+        self.task = task
+        self.config = config or WifiRefineConfig()
+        self.config.check_rules(task.rules, "[refine]")
+
+    def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
+        """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""
+        task = self.task
+        refined_m = refine_placement(scene.users_m, task.to_metres(positions_px), task.rules, task.width_m,
+                                     task.height_m, self.config)
+        return task.to_pixels(refined_m)
+
+    def solve(self, scene: WifiScene) -> np.ndarray:
+        """The expert's placement (pixels), computed from the crowd."""
+        return self.task.expert(scene)
+
+
+class WifiTask:
+    """Wi-Fi placement over a moving crowd, strategy 1 or 2 (see the module docstring).
+
+    Args:
+        config: The task config; default ``WifiConfig()`` (strategy 1).
+    """
+
+    config_class = WifiConfig
+    channels = 1
+    refiner_class = WifiRefiner
+    rule_check_class = WifiRuleCheck
+
+    def __init__(self, config: WifiConfig | None = None) -> None:
+        config = WifiConfig() if config is None else config
+        if not isinstance(config, WifiConfig):
+            raise TypeError(f"WifiTask needs a WifiConfig, got {type(config).__name__}")
+        self.config = config
+        self.name = f"wifi-s{config.strategy}"
+        self.shape = (config.size_px, config.size_px)
+        self.mission_dimension_px = float(config.size_px)
+        self.rules = coverage_rules(config, min(config.expert.max_uavs, MAX_POSITIONS))
+        self.width_m = config.scenario.width_m
+        self.height_m = config.scenario.height_m
+
+    def to_pixels(self, xy_m: np.ndarray) -> np.ndarray:
+        """Metres to raster pixel coordinates ``(x, y)``."""
+        return metres_to_pixels(np.asarray(xy_m, np.float64).reshape(-1, 2), self.width_m, self.height_m,
+                                self.shape)
+
+    def to_metres(self, xy_px: np.ndarray) -> np.ndarray:
+        """Raster pixel coordinates ``(x, y)`` to metres."""
+        return pixels_to_metres(np.asarray(xy_px, np.float64).reshape(-1, 2), self.width_m, self.height_m,
+                                self.shape)
+
+    def expert_placement_m(self, users_m: np.ndarray) -> np.ndarray:
+        """The expert's ``(k, 2)`` UAV positions (metres) for any crowd ``users_m`` (metres)."""
+        return place_uavs(users_m, self.rules, self.width_m, self.height_m, self.config.expert)
+
+    def sample(self, rng: np.random.Generator) -> WifiScene:
+        """Draw a scenario and warm its crowd up for a random time."""
+        cfg = self.config
+        scenario = random_scenario(rng, cfg.scenario)
+        crowd = CrowdSim(scenario, cfg.crowd, rng)
+        warmup_s = float(rng.uniform(cfg.warmup_min_s, cfg.warmup_max_s))
+        steps = int(round(warmup_s / cfg.crowd.dt_s))
+        if steps:
+            crowd.step(steps)
+        return _scene(np.array(crowd.positions_m, dtype=np.float64), crowd.time_s)
+
+    def transform_scene(self, scene: WifiScene, flip_x: bool, flip_y: bool, transpose: bool) -> WifiScene:
+        """The crowd under a symmetry of the square area (as :mod:`learning.symmetry` acts on pixels)."""
+        users_m = np.array(scene.users_m, dtype=np.float64)
+        if flip_x:
+            users_m[:, 0] = self.width_m - users_m[:, 0]
+        if flip_y:
+            users_m[:, 1] = self.height_m - users_m[:, 1]
+        if transpose:
+            users_m = users_m[:, ::-1].copy()
+        return _scene(users_m, scene.time_s)
+
+    def jitter_scene(self, scene: WifiScene, rng: np.random.Generator, scale: float) -> WifiScene:
+        """The crowd, each pedestrian moved by a normal draw of ``scale`` metres per axis, kept inside."""
+        users_m = scene.users_m + rng.normal(0.0, scale, scene.users_m.shape)
+        upper = np.nextafter(np.array([self.width_m, self.height_m]), 0.0)
+        return _scene(np.clip(users_m, 0.0, upper), scene.time_s)
+
+    def observe(self, scene: WifiScene) -> np.ndarray:
+        """``(1, size, size)`` float32 scaled pedestrian density."""
+        return crowd_raster(scene.users_m, self.config)
+
+    def expert(self, scene: WifiScene) -> np.ndarray:
+        """The expert's ``(k, 2)`` float64 positions in pixels, ``0 <= k <= 10``, sorted by ``(y, x)``."""
+        return self.to_pixels(self.expert_placement_m(scene.users_m))
+
+    def qos(self, scene: WifiScene, positions_px: np.ndarray) -> dict[str, float]:
+        """QoS of UAVs at ``positions_px`` over the scene's crowd (see the module docstring).
+
+        Raises:
+            ValueError: ``positions_px`` is not a finite ``(k, 2)`` array.
+        """
+        positions = np.asarray(positions_px, dtype=np.float64)
+        if positions.size == 0:
+            positions = positions.reshape(0, 2)
+        if positions.ndim != 2 or positions.shape[1] != 2 or not np.all(np.isfinite(positions)):
+            raise ValueError(f"positions_px must be a finite (k, 2) array, got shape {positions.shape}")
+        coverage = evaluate_coverage(scene.users_m, self.to_metres(positions), self.config.radio)
+        qos = coverage.qos_s1 if self.config.strategy == 1 else coverage.qos_s2
+        return {"qos": float(qos), "qos_s1": float(coverage.qos_s1), "qos_s2": float(coverage.qos_s2),
+                "mean_throughput_mbps": float(coverage.mean_throughput_mbps)}

@@ -1,0 +1,8 @@
+"""The runs users start: ``simulate`` (crowd and swarm simulated) and ``fly`` (real or SITL autopilots).
+
+- :mod:`~uav_swarm.runs.simulate`, :mod:`~uav_swarm.runs.simulate_config`: the main loop and its TOML config.
+- :mod:`~uav_swarm.runs.fly`, :mod:`~uav_swarm.runs.fly_config`, :mod:`~uav_swarm.runs.flight_loop`:
+  closed-loop guided flight through :mod:`bridge.fleet`.
+- :mod:`~uav_swarm.runs.records`: what a run records (the types the plots and the animation draw).
+- :mod:`~uav_swarm.runs.plots`, :mod:`~uav_swarm.runs.animation`: QoS figures, CSV and the scene GIF.
+"""

@@ -1,0 +1,390 @@
+"""The live loop of ``uav-swarm fly``: launch, replan from measured positions, faults, the end.
+
+:class:`Flight` runs the crowd world in real time (or ``speedup`` times faster) and, every
+``replan_every_s`` of crowd time, plans from the vehicles' **measured** positions and sends each
+live vehicle its new target while it flies (``MAV_CMD_DO_REPOSITION``, or a new mission flown in
+AUTO). Vehicles are launched as soon as they are heard (:mod:`bridge.flight`); a vehicle silent for
+``flight.link_timeout_s`` is lost and replanned around, and launched again when heard; a live vehicle
+seen disarmed is left out. At the end every launch still running is cancelled and every vehicle
+heard is sent RTL or LAND. States are published as each position arrives, plans and QoS as they
+are made. :func:`uav_swarm.runs.fly.fly` opens the fleet and telemetry and writes the outputs.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from concurrent.futures import Future, ThreadPoolExecutor, wait
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from bridge.errors import BridgeError
+from bridge.flight import ARDUPILOT, AUTO_MODE, end_flight, launch, set_mode
+from uav_swarm.planning.planner import Planner, make_planner
+from uav_swarm.runs.fly_config import FlyConfig
+from uav_swarm.runs.records import QosTrace
+from uav_swarm.world.comms import evaluate_coverage
+from uav_swarm.world.crowd import CrowdSim
+from uav_swarm.world.scenario import random_scenario
+
+if TYPE_CHECKING:
+    from bridge.config import BridgeConfig
+    from bridge.fleet import Fleet
+    from bridge.telemetry import SwarmPublisher
+    from bridge.vehicle_state import VehicleState
+
+__all__ = ["Flight"]
+
+logger = logging.getLogger(__name__)
+
+_RESEND_M = 0.5  # a target moved less than this is not sent again
+_TICK_S = 0.02  # longest sleep of the loop (wall clock)
+
+
+@dataclass
+class _Vehicle:
+    """One vehicle of the flight; ``status``: waiting, launching, live, lost, landed, failed or ended."""
+
+    system_id: int
+    uav_id: int
+    status: str = "waiting"
+    target_m: tuple[float, float, float] | None = None
+    sent_m: tuple[float, float, float] | None = None
+    seq: int = 0
+    in_auto: bool = False
+    lost_at_s: float = 0.0
+    job: Future | None = None
+    command_failures: int = 0
+    launches: int = 0
+
+
+class Flight:
+    """One live flight of the vehicles of ``bridge`` under the planner (see the module docstring).
+
+    Args:
+        config: The flight's settings.
+        bridge: The bridge config (:func:`load_flight_bridge`).
+        fleet: The open fleet of ``bridge``'s vehicles.
+        publisher: An open telemetry publisher, or None.
+        planner: The planner for every vehicle of the flight, when already built (others are built
+            when vehicles are lost).
+    """
+
+    def __init__(self, config: FlyConfig, bridge: BridgeConfig, fleet: Fleet,
+                 publisher: SwarmPublisher | None = None, planner: Planner | None = None) -> None:
+        self.config = config
+        self.bridge = bridge
+        self.fleet = fleet
+        self.publisher = publisher
+        n = config.n_uavs or len(bridge.vehicles)
+        self.vehicles = [_Vehicle(v.system_id, uav_id) for uav_id, v in enumerate(bridge.vehicles[:n])]
+        self._by_sid = {v.system_id: v for v in self.vehicles}
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._pool = ThreadPoolExecutor(max_workers=2 * len(self.vehicles), thread_name_prefix="flight")
+        self._planners: dict[int, Planner] = {} if planner is None else {planner.n_uavs: planner}
+        self.events: list[dict[str, Any]] = []
+        self._clock_s = 0.0
+        rng = np.random.default_rng(config.seed)
+        self.scenario = random_scenario(rng, config.task.scenario)
+        self.crowd = CrowdSim(self.scenario, config.task.crowd, rng)
+        self.alt_m = float(config.uav.alt_m)
+        fleet.tracker.add_listener(self._on_state)
+
+    # -- control -------------------------------------------------------------------------------
+    def stop(self) -> None:
+        """End the flight at the next loop turn (safe from a signal handler)."""
+        self._stop.set()
+
+    def run(self) -> tuple[QosTrace, list[dict[str, Any]]]:
+        """Launch, fly the loop, end every vehicle; the QoS trace and the track records.
+
+        Raises:
+            BridgeError: No vehicle could be launched (every one named in the message).
+        """
+        try:
+            self._launch_all()
+            trace, track = self._loop()
+        finally:
+            self._end_all()
+            self._pool.shutdown(wait=True)
+        return trace, track
+
+    def _event(self, kind: str, vehicle: _Vehicle | None, detail: str = "") -> None:
+        record = {"time_s": round(self._clock_s, 3), "event": kind, "detail": detail}
+        if vehicle is not None:
+            record |= {"system_id": vehicle.system_id, "uav_id": vehicle.uav_id}
+        with self._lock:
+            self.events.append(record)
+
+    def _state(self, vehicle: _Vehicle) -> VehicleState | None:
+        return self.fleet.tracker.state(vehicle.system_id)
+
+    def _heard_within(self, vehicle: _Vehicle, seconds: float) -> bool:
+        state = self._state(vehicle)
+        return (state is not None and state.heartbeat_time_s is not None
+                and time.time() - state.heartbeat_time_s <= seconds)
+
+    # -- launch --------------------------------------------------------------------------------
+    def _start_launch(self, vehicle: _Vehicle) -> None:
+        vehicle.status = "launching"
+        vehicle.launches += 1
+        vehicle.in_auto = False
+        vehicle.sent_m = None
+        vehicle.job = self._pool.submit(self._launch_one, vehicle)
+
+    def _launch_one(self, vehicle: _Vehicle) -> None:
+        state = self._state(vehicle)
+        autopilot = state.autopilot if state is not None and state.autopilot is not None else 0
+        try:
+            self.fleet.check_home(vehicle.system_id)  # before anything that moves it
+            launch(self.fleet.link(vehicle.system_id), self.fleet.tracker, vehicle.system_id, autopilot,
+                   self.alt_m, self.config.flight, self.bridge.protocol, cancel=self._stop)
+        except BridgeError as exc:
+            if vehicle.status == "lost" or self._stop.is_set():  # taken back when heard / the flight ends
+                return
+            vehicle.status = "failed"
+            logger.warning("vehicle %d not launched: %s: %s", vehicle.system_id, type(exc).__name__, exc)
+            self._event("launch_failed", vehicle, f"{type(exc).__name__}: {exc}")
+            return
+        if vehicle.status == "launching":
+            vehicle.status = "live"
+            if self.publisher is not None:
+                self.publisher.announce(vehicle.uav_id)
+            self._event("live", vehicle)
+
+    def _launch_all(self) -> None:
+        """Launch each vehicle as soon as it is heard; return when none is still waiting or launching."""
+        flight = self.config.flight
+        deadline_s = time.monotonic() + flight.ready_timeout_s
+        while not self._stop.is_set():
+            for vehicle in self.vehicles:
+                if vehicle.status == "waiting" and self._heard_within(vehicle, flight.link_timeout_s):
+                    self._start_launch(vehicle)
+            waiting = [v for v in self.vehicles if v.status == "waiting"]
+            if waiting and time.monotonic() >= deadline_s:
+                for vehicle in waiting:
+                    vehicle.status, vehicle.lost_at_s = "lost", time.time()
+                    logger.warning("vehicle %d: no heartbeat within %.0f s; flying without it until heard",
+                                   vehicle.system_id, flight.ready_timeout_s)
+                    self._event("absent", vehicle)
+                waiting = []
+            if not waiting and not any(v.status == "launching" for v in self.vehicles):
+                break
+            time.sleep(_TICK_S)
+        if not self._stop.is_set() and not any(v.status == "live" for v in self.vehicles):
+            failed = "; ".join(f"vehicle {v.system_id}: {v.status}" for v in self.vehicles)
+            raise BridgeError(f"no vehicle could be launched ({failed}); see the warnings above")
+
+    # -- links ---------------------------------------------------------------------------------
+    def _check_links(self) -> None:
+        timeout_s = self.config.flight.link_timeout_s
+        for vehicle in self.vehicles:
+            state = self._state(vehicle)
+            if vehicle.status == "live" and state is not None and state.armed is False:
+                vehicle.status, vehicle.target_m = "landed", None
+                if self.publisher is not None:
+                    self.publisher.retire(vehicle.uav_id)
+                logger.warning("vehicle %d disarmed in flight (landed or taken over): left out of the plan",
+                               vehicle.system_id)
+                self._event("disarmed", vehicle)
+            elif vehicle.status in ("live", "launching") and not self._heard_within(vehicle, timeout_s):
+                vehicle.status, vehicle.lost_at_s = "lost", time.time()
+                vehicle.target_m = None
+                if self.publisher is not None:
+                    self.publisher.retire(vehicle.uav_id)
+                logger.warning("vehicle %d lost: no heartbeat for %.1f s; replanning without it",
+                               vehicle.system_id, timeout_s)
+                self._event("lost", vehicle)
+            elif vehicle.status == "lost":
+                if state is not None and (state.heartbeat_time_s or 0.0) > vehicle.lost_at_s:
+                    logger.warning("vehicle %d heard again: taking it back", vehicle.system_id)
+                    self._event("heard_again", vehicle)
+                    self._start_launch(vehicle)
+
+    # -- planning ------------------------------------------------------------------------------
+    def _planner(self, n: int) -> Planner:
+        if n not in self._planners:
+            cfg = self.config
+            self._planners[n] = make_planner(cfg.planner, n, cfg.task, checkpoint=cfg.checkpoint or None,
+                                             config=cfg.planning)
+        return self._planners[n]
+
+    def _live(self) -> list[tuple[_Vehicle, VehicleState]]:
+        live = []
+        for vehicle in self.vehicles:
+            state = self._state(vehicle)
+            if vehicle.status == "live" and state is not None and state.x_m is not None:
+                live.append((vehicle, state))
+        return live
+
+    def _replan(self, seq: int, previous_ids: tuple[int, ...]) -> tuple[int, ...]:
+        live = self._live()
+        ids = tuple(v.system_id for v, _ in live)
+        if not live:
+            return ids
+        planner = self._planner(len(live))
+        if ids != previous_ids:
+            planner.reset()
+        positions = np.array([(s.x_m, s.y_m) for _, s in live])
+        result = planner.plan(self.crowd.positions_m, positions)
+        targets = [(float(x), float(y), self.alt_m) for x, y in result.targets_m]
+        if self.publisher is not None:
+            from bridge.telemetry_schema import Plan, PlanTarget
+
+            self.publisher.publish_plan(Plan(
+                stamp_s=time.time(), seq=seq, source="vehicle", planner=planner.name,
+                latency_ms=float(result.latency_ms),
+                targets=tuple(PlanTarget(uav_id=v.uav_id, target_enu_m=t)
+                              for (v, _), t in zip(live, targets, strict=True))))
+        for (vehicle, _), target in zip(live, targets, strict=True):
+            moved = vehicle.sent_m is None or np.hypot(target[0] - vehicle.sent_m[0],
+                                                       target[1] - vehicle.sent_m[1]) > _RESEND_M
+            if moved and (vehicle.job is None or vehicle.job.done()):
+                vehicle.job = self._pool.submit(self._send_target, vehicle, target)
+        return ids
+
+    def _send_target(self, vehicle: _Vehicle, target: tuple[float, float, float]) -> None:
+        sid = vehicle.system_id
+        try:
+            if self.config.mode == "guided":
+                self.fleet.reposition(sid, *target)
+            else:
+                self._fly_mission(vehicle, target)
+        except BridgeError as exc:
+            vehicle.command_failures += 1
+            logger.warning("vehicle %d: target (%.1f, %.1f, %.1f) not sent: %s: %s", sid, *target,
+                           type(exc).__name__, exc)
+            self._event("command_failed", vehicle, f"{type(exc).__name__}: {exc}")
+            return
+        vehicle.sent_m = vehicle.target_m = target
+
+    def _fly_mission(self, vehicle: _Vehicle, target: tuple[float, float, float]) -> None:
+        from pymavlink.dialects.v20.common import MAV_CMD_NAV_WAYPOINT as NAV_WAYPOINT
+
+        from bridge.mission import build_mission
+
+        sid = vehicle.system_id
+        state = self._state(vehicle)
+        autopilot = state.autopilot if state is not None and state.autopilot is not None else 0
+        shape = self.bridge.mission.replace(takeoff_alt_m=self.alt_m, cruise_alt_m=self.alt_m)
+        mission = build_mission([target], self.bridge.home, shape, self.bridge.geofence, autopilot)
+        client = self.fleet.client(sid)
+        client.upload(mission.items)
+        first_waypoint = next(i.seq for i in mission.items if i.command == NAV_WAYPOINT and i.seq > 0)
+        client.set_current(first_waypoint)
+        if not vehicle.in_auto:
+            set_mode(self.fleet.link(sid), sid, AUTO_MODE.get(autopilot, AUTO_MODE[ARDUPILOT]),
+                     self.bridge.protocol)
+            vehicle.in_auto = True
+
+    # -- loop ----------------------------------------------------------------------------------
+    def _record(self, times: list[float], rows: list[tuple[float, float, float]],
+                track: list[dict[str, Any]], seq: int) -> None:
+        live = self._live()
+        users = self.crowd.positions_m
+        uavs = np.array([(s.x_m, s.y_m) for _, s in live]).reshape(-1, 2)
+        cov = evaluate_coverage(users, uavs, self.config.task.radio)
+        times.append(self._clock_s)
+        rows.append((float(cov.qos_s1), float(cov.qos_s2), float(cov.mean_throughput_mbps)))
+        if self.publisher is not None:
+            from bridge.telemetry_schema import Qos
+
+            self.publisher.publish_qos(Qos(stamp_s=time.time(), seq=seq, source="vehicle", qos_s1=rows[-1][0],
+                                           qos_s2=rows[-1][1], mean_throughput_mbps=rows[-1][2],
+                                           n_users=int(users.shape[0])))
+        for vehicle in self.vehicles:
+            state = self._state(vehicle)
+            if state is None or state.x_m is None:
+                continue
+            target = vehicle.target_m or (None, None, None)
+            track.append({"time_s": self._clock_s, "uav_id": vehicle.uav_id, "system_id": vehicle.system_id,
+                          "status": vehicle.status, "x_m": state.x_m, "y_m": state.y_m, "z_m": state.z_m,
+                          "target_x_m": target[0], "target_y_m": target[1], "target_z_m": target[2]})
+
+    def _loop(self) -> tuple[QosTrace, list[dict[str, Any]]]:
+        cfg = self.config
+        dt_s = cfg.task.crowd.dt_s
+        steps_per_replan = max(1, round(cfg.replan_every_s / dt_s))
+        steps_per_record = max(1, round(cfg.record_every_s / dt_s))
+        n_steps = max(1, round(cfg.duration_s / dt_s))
+        times: list[float] = []
+        rows: list[tuple[float, float, float]] = []
+        track: list[dict[str, Any]] = []
+        ids: tuple[int, ...] = ()
+        start_s = time.monotonic()
+        step = 0
+        self._event("loop_started", None)
+        while step < n_steps and not self._stop.is_set():
+            due = min(n_steps, int((time.monotonic() - start_s) * cfg.speedup / dt_s) + 1)
+            while step < due:
+                self._check_links()
+                if step % steps_per_replan == 0:
+                    ids = self._replan(step // steps_per_replan, ids)
+                self.crowd.step(1)
+                step += 1
+                self._clock_s = step * dt_s
+                if step % steps_per_record == 0 or step == n_steps:
+                    self._record(times, rows, track, step)
+            wake_s = start_s + step * dt_s / cfg.speedup
+            self._stop.wait(min(_TICK_S, max(0.0, wake_s - time.monotonic())))
+        name = self._planner(max(1, len(ids) or len(self.vehicles))).name
+        values = np.array(rows, dtype=np.float64).reshape(-1, 3)
+        trace = QosTrace(planner_name=name, times_s=np.array(times), qos_s1=values[:, 0], qos_s2=values[:, 1],
+                         throughput_mbps=values[:, 2])
+        return trace, track
+
+    # -- end -----------------------------------------------------------------------------------
+    def _end_all(self) -> None:
+        """Send every vehicle heard (and not landed) the end action, concurrently; failures are named.
+
+        Launches still running are cancelled first (they stop between two steps), so no vehicle
+        takes off after its end action.
+        """
+        action = self.config.flight.end_action
+        self._stop.set()
+        wait([v.job for v in self.vehicles if v.job is not None])
+
+        def end(vehicle: _Vehicle) -> None:
+            try:
+                sid = vehicle.system_id
+                end_flight(self.fleet.link(sid), sid, action, self.bridge.protocol)
+            except BridgeError as exc:
+                logger.warning("vehicle %d: %s not acknowledged: %s: %s", vehicle.system_id, action.upper(),
+                               type(exc).__name__, exc)
+                self._event("end_failed", vehicle, f"{type(exc).__name__}: {exc}")
+                return
+            vehicle.status = "ended"
+            self._event(action, vehicle)
+
+        heard = [v for v in self.vehicles if self._state(v) is not None and v.status != "landed"]
+        for job in [self._pool.submit(end, v) for v in heard]:
+            job.result()
+
+    def _on_state(self, state: VehicleState) -> None:
+        """Publish a vehicle's state as each position arrives (on the link's reader thread)."""
+        from bridge.telemetry_schema import state_from_vehicle
+
+        vehicle = self._by_sid.get(state.system_id)
+        if (self.publisher is None or vehicle is None or vehicle.status in ("waiting", "lost")
+                or state.position_time_s != state.updated_time_s):
+            return
+        payload = state_from_vehicle(state, vehicle.seq, uav_id=vehicle.uav_id, target_enu_m=vehicle.target_m)
+        if payload is not None:
+            vehicle.seq += 1
+            try:
+                self.publisher.publish_state(payload)
+            except Exception as exc:  # a closing session must not break the reader thread
+                logger.debug("vehicle %d: state not published: %s", state.system_id, exc)
+
+    def summary(self) -> dict[str, Any]:
+        """Per-vehicle outcome (status, launches, command failures) and the events, for ``summary.json``."""
+        return {
+            "vehicles": [{"system_id": v.system_id, "uav_id": v.uav_id, "status": v.status,
+                          "launches": v.launches, "command_failures": v.command_failures}
+                         for v in self.vehicles],
+            "events": list(self.events),
+        }

@@ -1,0 +1,164 @@
+"""Closed-loop flight: the placement planner flies real or SITL autopilots over the simulated crowd.
+
+:func:`fly` runs the crowd world in real time (or ``speedup`` times faster) and, every
+``replan_every_s`` of crowd time, plans from the vehicles' **measured** positions
+(GLOBAL_POSITION_INT in the East-North-Up frame of the bridge config's home) and sends each
+live vehicle its new target while it flies: ``MAV_CMD_DO_REPOSITION`` in guided mode, or a new
+mission flown in AUTO (``mode = "mission"``).
+
+The sequence is the real one (:mod:`bridge.flight`): every vehicle's heartbeat and first position
+fix, the guided mode, arming, take-off to ``uav.alt_m`` above its home; then the loop; at the end
+(``duration_s`` reached, or :meth:`Flight.stop` from Ctrl-C or SIGTERM) every vehicle is sent
+RTL or LAND (``flight.end_action``) and the outputs are written.
+
+Faults in flight: a vehicle silent for ``flight.link_timeout_s`` is marked lost (its liveliness
+token withdrawn, a warning naming it) and the planner replans with the others; when its
+heartbeat returns it is launched again (only switched back to guided mode if still airborne) and
+rejoins the plan. A refused or unanswered command is retried by the command protocol, then
+reported by name; a target outside the geofence is never sent.
+
+Telemetry (Zenoh, loopback by default): each vehicle's state on ``uav_swarm/<swarm>/uav/<id>/state``
+(``source = "vehicle"``) as each GLOBAL_POSITION_INT arrives, with its accepted target; the plans on
+``/plan``; the QoS of the measured positions over the simulated crowd on ``/qos``.
+
+The loop itself is :class:`uav_swarm.runs.flight_loop.Flight`. Outputs in ``out_dir``: ``qos.png``,
+``timeseries.csv`` (QoS over time), ``track.csv`` (each
+vehicle's measured track and target) and ``summary.json`` (events, failures, QoS, the config).
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from bridge.errors import BridgeError
+from uav_swarm.planning.planner import make_planner
+from uav_swarm.runs.flight_loop import Flight
+from uav_swarm.runs.fly_config import FlyConfig
+from uav_swarm.runs.records import QosTrace
+
+if TYPE_CHECKING:
+    from bridge.config import BridgeConfig
+
+__all__ = ["FlightResult", "fly", "load_flight_bridge"]
+
+
+@dataclass
+class FlightResult:
+    """What :func:`fly` did: the summary written to ``summary.json`` and the files."""
+
+    summary: dict[str, Any]
+    files: list[Path] = field(default_factory=list)
+
+
+def load_flight_bridge(config: FlyConfig) -> BridgeConfig:
+    """The bridge config, checked for the flight: vehicles listed, the area inside the fence at ``uav.alt_m``.
+
+    Raises:
+        ConfigError: Unreadable or invalid bridge config, no vehicles, or fewer than ``n_uavs``.
+        GeofenceError: The area at the cruise altitude is not inside the geofence.
+    """
+    from bridge.config import BridgeConfig
+    from bridge.geofence import check_geofence
+    from typed_config import ConfigError, load_toml
+
+    bridge = load_toml(BridgeConfig, config.bridge_config)
+    if bridge.home_source != "config":
+        raise ConfigError(f"{config.bridge_config}: home_source = {bridge.home_source!r}: fly plans every "
+                          "vehicle in one frame, around [home]; give the vehicles' common home there")
+    if not bridge.vehicles:
+        raise ConfigError(f"{config.bridge_config}: no [[vehicles]]: fly needs at least one vehicle")
+    if config.n_uavs > len(bridge.vehicles):
+        raise ConfigError(f"{config.bridge_config}: {len(bridge.vehicles)} vehicles for "
+                          f"n_uavs = {config.n_uavs}")
+    width_m, height_m, alt_m = config.task.scenario.width_m, config.task.scenario.height_m, config.uav.alt_m
+    corners = [(0.0, 0.0), (width_m, 0.0), (0.0, height_m), (width_m, height_m)]
+    check_geofence([(x, y, alt_m) for x, y in corners], bridge.geofence,
+                   labels=[f"the crowd area's corner ({x:g}, {y:g}) at uav.alt_m" for x, y in corners])
+    return bridge
+
+
+def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
+    from learning.files import write_bytes_atomic
+
+    columns = ["time_s", "uav_id", "system_id", "status", "x_m", "y_m", "z_m", "target_x_m", "target_y_m",
+               "target_z_m"]
+
+    def text(value: Any) -> str:
+        return "" if value is None else f"{value:.3f}" if isinstance(value, float) else str(value)
+
+    lines = [",".join(columns)] + [",".join(text(row[c]) for c in columns) for row in track]
+    write_bytes_atomic(path, ("\n".join(lines) + "\n").encode())
+    return path
+
+
+def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event | None = None) -> FlightResult:
+    """Fly the vehicles of ``config.bridge_config`` under the planner and write the outputs.
+
+    Args:
+        config: The flight's settings.
+        out_dir: Output folder.
+        stop_event: Set it (e.g. from a signal handler) to end the flight early; it still ends safely.
+
+    Raises:
+        typed_config.ConfigError: Invalid bridge config, no vehicles.
+        bridge.errors.GeofenceError: The area at the cruise altitude is outside the geofence.
+        learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
+        bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened.
+        bridge.errors.BridgeError: No vehicle could be launched (outputs are written).
+    """
+    from bridge.fleet import Fleet
+    from bridge.telemetry import SwarmPublisher
+    from learning.files import write_bytes_atomic
+    from uav_swarm.runs.plots import write_qos_figure
+
+    out_dir = Path(out_dir)
+    bridge = load_flight_bridge(config)
+    n = config.n_uavs or len(bridge.vehicles)
+    planner = make_planner(config.planner, n, config.task, checkpoint=config.checkpoint or None,
+                           config=config.planning)
+    publisher = SwarmPublisher(config.telemetry, home=bridge.home) if config.publish_telemetry else None
+    if publisher is not None:
+        publisher.open()
+    summary: dict[str, Any] = {"config": config.to_dict(), "mode": config.mode}
+    trace: QosTrace | None = None
+    track: list[dict[str, Any]] = []
+    error: BaseException | None = None
+    try:
+        with Fleet(bridge) as fleet:
+            flight = Flight(config, bridge, fleet, publisher, planner)
+            watcher = None
+            if stop_event is not None:
+                watcher = threading.Thread(target=lambda: (stop_event.wait(), flight.stop()), daemon=True)
+                watcher.start()
+            try:
+                trace, track = flight.run()
+            except BridgeError as exc:
+                error = exc
+            summary |= flight.summary()
+    finally:
+        if publisher is not None:
+            publisher.close()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files: list[Path] = []
+    if trace is not None and trace.times_s.size:
+        from uav_swarm.runs.plots import write_timeseries
+
+        files += [write_qos_figure({"flown": trace}, out_dir / "qos.png"),
+                  write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]
+        summary |= {"duration_s": float(trace.times_s[-1]), "planner": trace.planner_name,
+                    "mean_qos_s1": float(trace.qos_s1.mean()), "mean_qos_s2": float(trace.qos_s2.mean()),
+                    "mean_throughput_mbps": float(trace.throughput_mbps.mean())}
+    files.append(_write_track(track, out_dir / "track.csv"))
+    if error is not None:
+        summary["error"] = f"{type(error).__name__}: {error}"
+    summary["files"] = [p.name for p in files] + ["summary.json"]
+    text = json.dumps(summary, indent=1, sort_keys=True) + "\n"
+    write_bytes_atomic(out_dir / "summary.json", text.encode())
+    files.append(out_dir / "summary.json")
+    if error is not None:
+        raise error
+    return FlightResult(summary, files)

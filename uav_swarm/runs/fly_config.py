@@ -1,0 +1,72 @@
+"""Configuration of a live flight (``uav-swarm fly``): one dataclass, defaults embedded.
+
+A TOML file (``uav-swarm fly --config file.toml``) holds the top-level keys below and the tables
+``[task]`` (the crowd world and Wi-Fi model, as for ``simulate``), ``[uav]`` (``alt_m`` is the cruise
+altitude above each vehicle's home), ``[planning]``, ``[telemetry]`` and ``[flight]``
+(:class:`bridge.flight.FlightConfig`: launch timeouts, link timeout, end action). Every key is
+optional except the bridge config, which names the vehicles.
+
+Example:
+    >>> cfg = FlyConfig.from_dict({"bridge_config": "configs/bridge/ardupilot_sitl_10.toml", "speedup": 2})
+    >>> cfg.mode, cfg.flight.end_action, cfg.speedup
+    ('guided', 'rtl', 2.0)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from bridge.flight import FlightConfig
+from bridge.telemetry_config import TelemetryConfig
+from typed_config import Config, ConfigError, load_with_overrides, param
+from uav_swarm.env.config import MAX_UAVS
+from uav_swarm.missions.wifi.task import WifiConfig
+from uav_swarm.planning.planner import PlannerConfig
+from uav_swarm.world.uav import UAVConfig
+
+__all__ = ["FlyConfig", "load_fly_config"]
+
+
+@dataclass(frozen=True)
+class FlyConfig(Config):
+    """Everything ``uav-swarm fly`` needs besides the bridge config's vehicles."""
+
+    bridge_config: str = param("", doc="bridge TOML: home, geofence, protocol and the vehicles (required)")
+    n_uavs: int = param(0, ge=0, le=MAX_UAVS, doc="vehicles flown: the bridge config's first ones (0: all)")
+    seed: int = param(0, ge=0, doc="seed of the simulated scenario and crowd")
+    duration_s: float = param(300.0, gt=0.0, le=86400.0, doc="simulated crowd time of the flight, seconds")
+    speedup: float = param(1.0, ge=0.1, le=100.0, doc="simulated crowd seconds per wall-clock second")
+    replan_every_s: float = param(1.0, ge=0.1, le=600.0, doc="simulated seconds between two replans")
+    record_every_s: float = param(0.5, ge=0.1, le=60.0,
+                                  doc="simulated seconds between two QoS / track records (and /qos messages)")
+    planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    mode: Literal["guided", "mission"] = param(
+        "guided", doc="how targets reach the vehicles: 'guided' (MAV_CMD_DO_REPOSITION) or 'mission' "
+                      "(a new mission uploaded and flown in AUTO)")
+    publish_telemetry: bool = param(True, doc="publish states, plans and QoS over Zenoh ([telemetry])")
+    task: WifiConfig = param(WifiConfig(), doc="the crowd world and Wi-Fi model ([task])")
+    uav: UAVConfig = param(UAVConfig(), doc="alt_m: cruise altitude above each vehicle's home ([uav])")
+    planning: PlannerConfig = param(PlannerConfig(), doc="assignment and inference ([planning])")
+    telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
+    flight: FlightConfig = param(FlightConfig(), doc="launch, link and end of the flight ([flight])")
+
+    def check(self) -> None:
+        """A bridge config is required; the radio is 2-D (the altitude is the flight's)."""
+        if not self.bridge_config:
+            raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
+                              "vehicles (--bridge-config FILE)")
+        if self.task.radio.altitude_m != 0.0:
+            raise ConfigError(f"FlyConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the flight's "
+                              "QoS uses 2-D radio distances at uav.alt_m; set altitude_m = 0")
+
+
+def load_fly_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None) -> FlyConfig:
+    """The config from an optional TOML file, then ``overrides`` (top-level keys; a table's dict is merged).
+
+    Raises:
+        ConfigError: Unreadable file, unknown key or table, or an invalid value (named).
+    """
+    return load_with_overrides(FlyConfig, path, overrides)

@@ -1,0 +1,74 @@
+"""Record types of a run: what :mod:`~uav_swarm.runs.simulate` and :mod:`~uav_swarm.runs.flight_loop` produce.
+
+They live below the code that draws them (:mod:`~uav_swarm.runs.plots`, :mod:`~uav_swarm.runs.animation`),
+so no drawing module imports its caller.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Frame", "QosTrace", "SequenceRun"]
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A snapshot of a run for the animation (all positions in metres)."""
+
+    time_s: float
+    pedestrians_m: np.ndarray
+    covered: np.ndarray
+    uavs_m: np.ndarray
+    targets_m: np.ndarray
+    peaks_m: np.ndarray
+    utility: np.ndarray | None
+    qos_s1: float
+    qos_s2: float
+
+
+@dataclass
+class SequenceRun:
+    """What one planner did over the sequence.
+
+    Attributes:
+        planner: ``"learned"`` or ``"expert"``.
+        planner_name: The planner's published name.
+        times_s: ``(T,)`` simulated time after each step.
+        qos_s1: ``(T,)`` share of the crowd covered after each step.
+        qos_s2: ``(T,)`` share covered with at least the minimum rate.
+        throughput_mbps: ``(T,)`` mean user throughput (uncovered users count 0).
+        latency_ms: ``(R,)`` wall time of each replan.
+        target_changes: ``(R - 1,)`` UAVs whose target moved (by more than ``min_gap_m``) at each replan.
+        final_targets_m: ``(n, 2)`` the last plan.
+        final_pedestrians_m: ``(N, 2)`` the crowd at the end.
+        n_pedestrians: Crowd size.
+        obstacles_m: ``(M, 4)`` the scenario's obstacle segments.
+        frames: Snapshots for the animation (empty unless asked for).
+    """
+
+    planner: str
+    planner_name: str
+    times_s: np.ndarray
+    qos_s1: np.ndarray
+    qos_s2: np.ndarray
+    throughput_mbps: np.ndarray
+    latency_ms: np.ndarray
+    target_changes: np.ndarray
+    final_targets_m: np.ndarray
+    final_pedestrians_m: np.ndarray
+    n_pedestrians: int
+    obstacles_m: np.ndarray
+    frames: list[Frame] = field(default_factory=list)
+
+
+@dataclass
+class QosTrace:
+    """QoS over time of a flight (the shape :func:`uav_swarm.runs.plots.write_qos_figure` draws)."""
+
+    planner_name: str
+    times_s: np.ndarray
+    qos_s1: np.ndarray
+    qos_s2: np.ndarray
+    throughput_mbps: np.ndarray

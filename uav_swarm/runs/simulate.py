@@ -1,0 +1,312 @@
+"""The main job: fly the planner over a dynamic crowd sequence and compare it with the expert.
+
+:func:`simulate` runs ``uav_swarm_v0`` in waypoint mode for ``duration_s`` of simulated time,
+replanning every ``replan_every`` steps with the configured planner (:mod:`uav_swarm.planning.planner`),
+and records per step the QoS of both strategies and the mean user throughput, and per replan the
+planning latency. The same sequence is then flown with the expert planner: the environment is reset
+with the same seed, and the crowd does not react to the UAVs, so both planners face the same crowd.
+
+While the flown planner runs, UAV states, plans and QoS are published over Zenoh
+(:class:`bridge.telemetry.SwarmPublisher`, loopback only, multicast scouting off). Positions are
+East-North-Up metres from the home, which is the area's South-West corner ``(0, 0)``, at the
+simulated flight altitude ``uav.alt_m``.
+
+Outputs in ``out_dir`` (:mod:`uav_swarm.runs.plots` draws the pictures):
+
+- ``qos.png``: QoS S1 and S2 and mean user throughput over time, both planners on one figure;
+- ``scene.gif``: the flown planner's run (UAVs, coverage discs, pedestrians; utility map panel);
+- ``summary.json`` (atomic): per planner mean/min QoS S1 and S2, mean throughput, median/p95
+  planning latency; learned/expert ratios; the resolved config;
+- ``timeseries.csv``: the per-step values of every run;
+- ``missions/vehicle_<id>.plan``: each UAV's mission to its final target (QGroundControl files);
+  with a bridge config that lists vehicles, the missions are also uploaded (:class:`bridge.fleet.Fleet`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from uav_swarm.env.parallel import parallel_env
+from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
+from uav_swarm.runs.records import Frame, SequenceRun
+from uav_swarm.runs.simulate_config import SimulateConfig
+
+if TYPE_CHECKING:
+    from bridge.config import BridgeConfig
+    from bridge.telemetry import SwarmPublisher
+
+__all__ = ["SimulationResult", "run_sequence", "simulate", "summarise_run"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass
+class SimulationResult:
+    """The runs of :func:`simulate`, its summary and the files written."""
+
+    runs: dict[str, SequenceRun]
+    summary: dict[str, Any]
+    files: list[Path]
+
+
+def _publish(publisher: SwarmPublisher, env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> None:
+    from bridge.telemetry_schema import Qos, UavState
+
+    stamp_s = time.time()
+    positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
+    for uav_id in range(len(positions)):
+        publisher.publish_state(UavState(
+            stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
+            position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), alt_m),
+            velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
+            target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), alt_m)))
+    cov = env.coverage
+    publisher.publish_qos(Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1),
+                              qos_s2=float(cov.qos_s2), mean_throughput_mbps=float(cov.mean_throughput_mbps),
+                              n_users=int(cov.covered.shape[0])))
+
+
+def _publish_plan(publisher: SwarmPublisher, planner: Planner, targets_m: np.ndarray, alt_m: float,
+                  latency_ms: float, seq: int) -> None:
+    from bridge.telemetry_schema import Plan, PlanTarget
+
+    targets = tuple(PlanTarget(uav_id=i, target_enu_m=(float(x), float(y), alt_m))
+                    for i, (x, y) in enumerate(targets_m))
+    publisher.publish_plan(Plan(stamp_s=time.time(), seq=seq, source="sim", targets=targets,
+                                planner=planner.name, latency_ms=float(latency_ms)))
+
+
+def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
+                 publisher: SwarmPublisher | None = None, frame_every: int = 0, progress: bool = False
+                 ) -> SequenceRun:
+    """Fly one planner over the sequence of ``config`` (same seed, same crowd, for every planner).
+
+    Args:
+        config: The sequence (seed, duration, UAVs, replanning period, world).
+        planner: The planner, for ``config.n_uavs`` UAVs.
+        kind: Its label in the results (``"learned"`` or ``"expert"``).
+        publisher: Publish states and QoS every ``config.telemetry_every`` steps and every plan.
+        frame_every: Keep a :class:`Frame` every this many steps (and the last); 0 keeps none.
+        progress: Show a progress bar.
+
+    Raises:
+        ValueError: The planner is for another number of UAVs.
+    """
+    if planner.n_uavs != config.n_uavs:
+        raise ValueError(f"the planner is for {planner.n_uavs} UAVs, the sequence has {config.n_uavs}")
+    env = parallel_env(config=config.env_config())
+    env.reset(seed=config.seed)
+    planner.reset()
+    agents = list(env.possible_agents)
+    steps, alt_m = config.n_steps, float(config.uav.alt_m)
+    qos_s1, qos_s2, rate = (np.zeros(steps) for _ in range(3))
+    latencies: list[float] = []
+    changes: list[int] = []
+    frames: list[Frame] = []
+    targets = np.asarray(env.uav_positions_m).copy()
+    result = None
+    for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
+        if step % config.replan_every == 0:
+            result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m)
+            if latencies:
+                moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
+                changes.append(int(np.count_nonzero(moved)))
+            targets = result.targets_m
+            latencies.append(result.latency_ms)
+            if publisher is not None:
+                _publish_plan(publisher, planner, targets, alt_m, result.latency_ms, len(latencies) - 1)
+        env.step(dict(zip(agents, targets, strict=True)))
+        cov = env.coverage
+        qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
+        if publisher is not None and step % config.telemetry_every == 0:
+            _publish(publisher, env, targets, alt_m, step)
+        if frame_every and (step % frame_every == 0 or step == steps - 1):
+            frames.append(Frame(
+                time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
+                covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=targets.copy(),
+                peaks_m=result.peaks_m.copy(), utility=result.utility, qos_s1=float(cov.qos_s1),
+                qos_s2=float(cov.qos_s2)))
+    return SequenceRun(
+        planner=kind, planner_name=planner.name, times_s=np.arange(1, steps + 1) * env.dt_s, qos_s1=qos_s1,
+        qos_s2=qos_s2, throughput_mbps=rate, latency_ms=np.asarray(latencies),
+        target_changes=np.asarray(changes, dtype=np.int64), final_targets_m=np.array(targets),
+        final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
+        obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames)
+
+
+def summarise_run(run: SequenceRun) -> dict[str, float | int | str]:
+    """Mean/min QoS S1 and S2, mean throughput, median/p95 latency and churn of one run."""
+    changes = float(run.target_changes.mean()) if run.target_changes.size else 0.0
+    return {
+        "planner": run.planner_name,
+        "mean_qos_s1": float(run.qos_s1.mean()), "min_qos_s1": float(run.qos_s1.min()),
+        "mean_qos_s2": float(run.qos_s2.mean()), "min_qos_s2": float(run.qos_s2.min()),
+        "mean_throughput_mbps": float(run.throughput_mbps.mean()),
+        "median_latency_ms": float(np.median(run.latency_ms)),
+        "p95_latency_ms": float(np.percentile(run.latency_ms, 95)),
+        "n_replans": int(run.latency_ms.size), "n_pedestrians": run.n_pedestrians,
+        "mean_target_changes_per_replan": changes,
+    }
+
+
+def _ratios(learned: dict[str, Any], expert: dict[str, Any]) -> dict[str, float | None]:
+    def ratio(a: float, b: float) -> float | None:
+        return float(a / b) if b > 0 else None
+
+    return {
+        "mean_qos_s1": ratio(learned["mean_qos_s1"], expert["mean_qos_s1"]),
+        "mean_qos_s2": ratio(learned["mean_qos_s2"], expert["mean_qos_s2"]),
+        "mean_throughput_mbps": ratio(learned["mean_throughput_mbps"], expert["mean_throughput_mbps"]),
+        "expert_over_learned_median_latency": ratio(expert["median_latency_ms"],
+                                                    learned["median_latency_ms"]),
+    }
+
+
+def _load_bridge(config: SimulateConfig) -> BridgeConfig:
+    from bridge.config import BridgeConfig
+    from bridge.geofence import check_geofence
+    from bridge.mission import takeoff_altitude
+    from typed_config import ConfigError, load_toml
+
+    bridge = load_toml(BridgeConfig, config.bridge_config) if config.bridge_config else BridgeConfig()
+    if bridge.vehicles and len(bridge.vehicles) < config.n_uavs:
+        raise ConfigError(f"{config.bridge_config}: {len(bridge.vehicles)} vehicles for n_uavs = "
+                          f"{config.n_uavs}: list at least one vehicle per UAV")
+    # Every target lies in the area: its corners at the flight altitude must be inside the fence.
+    width_m, height_m, alt_m = config.task.scenario.width_m, config.task.scenario.height_m, config.uav.alt_m
+    corners = [(0.0, 0.0, alt_m), (width_m, 0.0, alt_m), (0.0, height_m, alt_m), (width_m, height_m, alt_m)]
+    check_geofence([(0.0, 0.0, takeoff_altitude(corners, bridge.mission)), *corners], bridge.geofence)
+    return bridge
+
+
+def _checkpoint_name(path: Path) -> str:
+    """The checkpoint as a user can name it on any machine: the shipped one by its package path."""
+    from learning.checkpoint import checkpoint_label
+
+    if path.resolve() == default_checkpoint(path.stem).resolve():
+        return f"uav_swarm/checkpoints/{path.name} (shipped)"
+    return checkpoint_label(path)
+
+
+def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, alt_m: float) -> dict[int, list[tuple]]:
+    """Each UAV's plan, its final target at the simulated altitude ``alt_m``, by vehicle system id.
+
+    Ids are the configured vehicles' (else 1..n). The take-off then climbs no higher than
+    ``alt_m`` (:func:`bridge.mission.takeoff_altitude`): the mission never descends.
+    """
+    ids = [v.system_id for v in bridge.vehicles[:len(targets_m)]] or list(range(1, len(targets_m) + 1))
+    return {sid: [(float(x), float(y), alt_m)] for sid, (x, y) in zip(ids, targets_m, strict=True)}
+
+
+def _write_plan_files(bridge: BridgeConfig, plans: dict[int, list[tuple]], folder: Path) -> list[Path]:
+    """One QGroundControl ``.plan`` per UAV (generic autopilot convention)."""
+    from bridge.mission import build_mission
+    from bridge.mission_files import save_mission
+
+    folder.mkdir(parents=True, exist_ok=True)
+    files = []
+    for sid, points in plans.items():
+        path = folder / f"vehicle_{sid}.plan"
+        save_mission(path, build_mission(points, bridge.home, bridge.mission, bridge.geofence))
+        files.append(path)
+    return files
+
+
+def _upload(bridge: BridgeConfig, plans: dict[int, list[tuple]]) -> None:
+    """Upload each UAV's mission to its vehicle (each on its own: heartbeat, home check, verified upload).
+
+    Raises:
+        bridge.fleet.FleetError: Naming each vehicle that failed; the others have their missions.
+    """
+    from bridge.fleet import Fleet
+
+    with Fleet(bridge) as fleet:
+        fleet.upload_plans(plans)
+    logger.info("uploaded the final missions to vehicles %s", sorted(plans))
+
+
+def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = True) -> SimulationResult:
+    """Run the main job and write its outputs (see the module docstring).
+
+    Everything that can fail on bad input (planner kind, checkpoint, bridge config, telemetry
+    session) is checked before the first step.
+
+    Raises:
+        typed_config.ConfigError: Invalid bridge config or too few vehicles.
+        bridge.errors.GeofenceError: The area at the flight altitude is not inside the bridge's geofence.
+        learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
+        bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened, e.g. a
+            listen endpoint is in use (nothing is written).
+        bridge.errors.BridgeError: Uploading to the configured vehicles failed (outputs are written).
+    """
+    from bridge.errors import BridgeError
+    from bridge.telemetry import SwarmPublisher
+    from learning.files import write_bytes_atomic
+    from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
+
+    out_dir = Path(out_dir)
+    bridge = _load_bridge(config)
+    kinds = [config.planner] + (["expert"] if config.compare_expert and config.planner != "expert" else [])
+    planners = {kind: make_planner(kind, config.n_uavs, config.task, checkpoint=config.checkpoint or None,
+                                   config=config.planning) for kind in kinds}
+    frame_every = -(-config.n_steps // (config.gif_max_frames - 1)) if config.gif else 0
+    runs: dict[str, SequenceRun] = {}
+    publisher = SwarmPublisher(config.telemetry, home=bridge.home) if config.publish_telemetry else None
+    if publisher is not None:
+        publisher.open()
+    try:
+        if publisher is not None and config.wait_for_subscriber_s > 0:
+            if not publisher.wait_for_subscriber(config.wait_for_subscriber_s):
+                logger.warning("no telemetry subscriber after %.1f s: flying anyway",
+                               config.wait_for_subscriber_s)
+        for kind, planner in planners.items():
+            flown = kind == config.planner
+            runs[kind] = run_sequence(config, planner, kind, publisher=publisher if flown else None,
+                                      frame_every=frame_every if flown else 0, progress=progress)
+    finally:
+        if publisher is not None:
+            publisher.close()
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    summary: dict[str, Any] = {"planners": {kind: summarise_run(run) for kind, run in runs.items()},
+                               "flown": config.planner, "duration_s": config.n_steps * config.dt_s,
+                               "n_uavs": config.n_uavs, "seed": config.seed, "config": config.to_dict()}
+    if "learned" in runs and "expert" in runs:
+        summary["ratios_learned_over_expert"] = _ratios(summary["planners"]["learned"],
+                                                        summary["planners"]["expert"])
+    learned = planners.get("learned")
+    if learned is not None:
+        summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
+        summary["network_precision"] = learned.precision  # type: ignore[attr-defined]
+    files = [write_qos_figure(runs, out_dir / "qos.png"), write_timeseries(runs, out_dir / "timeseries.csv")]
+    flown = runs[config.planner]
+    if config.gif and flown.frames:
+        files.append(write_scene_gif(flown, config, out_dir / "scene.gif"))
+    plans = _final_plans(bridge, flown.final_targets_m, float(config.uav.alt_m))
+    files += _write_plan_files(bridge, plans, out_dir / "missions")
+    summary["files"] = [str(p.relative_to(out_dir)) for p in files] + ["summary.json"]
+    summary["uploaded_to_vehicles"] = []
+    try:
+        if bridge.vehicles:
+            _upload(bridge, plans)
+            summary["uploaded_to_vehicles"] = sorted(plans)
+    except BridgeError as exc:
+        summary["upload_error"] = str(exc)
+        raise
+    finally:
+        write_bytes_atomic(out_dir / "summary.json", _json(summary).encode())
+    files.append(out_dir / "summary.json")
+    return SimulationResult(runs, summary, files)
+
+
+def _json(data: Any) -> str:
+    import json
+
+    return json.dumps(data, indent=1, sort_keys=True) + "\n"
