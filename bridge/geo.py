@@ -3,7 +3,7 @@
 All geodesy is delegated to :mod:`pymap3d` (WGS84 ellipsoid); nothing here is
 hand-written trigonometry.
 
-Example:
+Examples:
     >>> home = Home(lat_deg=47.3977418, lon_deg=8.5455938, alt_m=488.0)
     >>> lat_deg, lon_deg, alt_m = enu_to_geodetic(home, 100.0, 0.0, 10.0)
     >>> [round(v, 3) for v in geodetic_to_enu(home, lat_deg, lon_deg, alt_m)]

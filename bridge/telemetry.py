@@ -76,7 +76,7 @@ class SwarmPublisher:
             get it filled in.
         uav_ids: UAVs announced (liveliness token) at once; others are announced on their first state.
 
-    Example:
+    Examples:
         ``with SwarmPublisher(config) as pub: pub.publish_state(state); pub.publish_plan(plan)``
     """
 

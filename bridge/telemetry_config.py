@@ -7,7 +7,7 @@ every connect, listen and query wait bounded by ``timeout_s``. Before the sessio
 ``host:port`` it is to listen on is tried with a plain socket, so an endpoint held by another process
 is reported by name ("tcp/127.0.0.1:7447 is in use") instead of as Zenoh's timeout.
 
-Example:
+Examples:
     >>> config = TelemetryConfig(swarm="demo", listen=(), connect=("tcp/127.0.0.1:7447",))
     >>> zenoh_config(config).get_json("scouting/multicast/enabled")
     'false'

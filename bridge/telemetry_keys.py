@@ -7,7 +7,7 @@
 - ``uav_swarm/<swarm>/qos``: the swarm's quality of service.
 - ``uav_swarm/<swarm>/uav/<id>/alive``: a liveliness token held while the UAV's publisher lives.
 
-Example:
+Examples:
     >>> state_key("demo", 3)
     'uav_swarm/demo/uav/3/state'
     >>> uav_id_from_key("uav_swarm/demo/uav/3/alive")

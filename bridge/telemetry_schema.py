@@ -15,7 +15,7 @@ and range validated, in compiled code. Constructing a payload does not validate 
 They hold only numbers, strings and tuples, so they are not tracked by the garbage collector
 (``gc=False``): high telemetry rates do not trigger collections.
 
-Example:
+Examples:
     >>> state = UavState(stamp_s=1.5, seq=0, source="sim", uav_id=3,
     ...                  position_enu_m=(1.0, 2.0, 30.0), velocity_enu_m_s=(0.0, 0.0, 0.0))
     >>> parse_payload(state_key("demo", 3), state.to_json()) == state

@@ -10,7 +10,7 @@ best epoch (correspondence + precision), over a small grid of ``threshold_abs`` 
 configured). Ties go to the first grid point (lowest threshold, then lowest contrast), so the
 choice is deterministic.
 
-Example:
+Examples:
     >>> u = np.zeros((16, 16)); u[4, 4] = 0.3; u[11, 11] = 0.2
     >>> best, _ = calibrate_peaks([u], [np.array([[4.0, 4.0], [11.0, 11.0]])], 1.6, PeakConfig())
     >>> best.threshold_abs <= 0.2

@@ -4,7 +4,7 @@ A reader never sees a half-written file, and a write that fails (or is killed) l
 previous file intact and no temporary file behind (except after a hard kill, as a hidden
 ``.<name>.<pid>.tmp`` that the next write of the same name replaces).
 
-Example:
+Examples:
     >>> import tempfile
     >>> folder = Path(tempfile.mkdtemp())
     >>> write_json_atomic(folder / "a.json", {"b": 1})

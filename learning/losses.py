@@ -23,7 +23,7 @@ def focal_loss(logits: torch.Tensor, heatmap: torch.Tensor, alpha: float = 2.0, 
 
     Positives are the pixels where ``heatmap == 1``; the sum is divided by their number (at least 1).
 
-    Example:
+    Examples:
         >>> target = torch.zeros(1, 1, 3, 3); target[0, 0, 1, 1] = 1.0
         >>> good, bad = torch.full((1, 1, 3, 3), -6.0), torch.zeros(1, 1, 3, 3)
         >>> good[0, 0, 1, 1] = 6.0

@@ -119,7 +119,7 @@ def score_sample(expert: np.ndarray, predicted: np.ndarray, eps: float, rule: Ma
         eps: Match radius, same units (``MATCH_FRACTION`` × mission dimension).
         rule: The assignment rule of :func:`match_positions`.
 
-    Example:
+    Examples:
         >>> s = score_sample(np.array([[0.0, 0.0], [10.0, 0.0]]), np.array([[1.0, 0.0]]), eps=2.0)
         >>> (s.n_matched, s.corr, s.precision)
         (1, 0.5, 1.0)

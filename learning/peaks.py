@@ -77,7 +77,7 @@ def find_peaks(utility: np.ndarray, config: PeakConfig | None = None, max_peaks:
     Raises:
         ValueError: ``utility`` is not a finite 2-D array, or ``max_peaks < 0``.
 
-    Example:
+    Examples:
         >>> u = np.zeros((9, 9)); u[4, 6] = 1.0; u[4, 5] = u[4, 7] = 0.5
         >>> find_peaks(u).tolist()
         [[6.0, 4.0]]

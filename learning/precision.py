@@ -6,7 +6,7 @@ than float32 (``benchmarks/train_speed.py``); elsewhere bfloat16 is emulated and
 ``"auto"`` picks it only where it is native. Training under autocast keeps float32 master
 weights, optimiser state and loss: only the convolutions run in bfloat16.
 
-Example:
+Examples:
     >>> resolve_precision("float32", torch.device("cpu"))
     'float32'
 """

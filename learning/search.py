@@ -188,7 +188,7 @@ def _differences(old: Any, new: Any, where: str = "") -> list[str]:
 def executor_label(trials: Sequence[dict[str, Any]]) -> str:
     """Where the trials ran: ``"local"``, ``"ray"``, or e.g. ``"local + ray"`` for a search resumed elsewhere.
 
-    Example:
+    Examples:
         >>> executor_label([{"executor": "ray"}, {"executor": "local"}, {"executor": "ray"}])
         'local + ray'
     """

@@ -25,7 +25,7 @@ def parse_grid(text: str, name: str, *, positive: bool = False) -> tuple[float, 
         ConfigError: Malformed text, ``step <= 0``, ``stop < start`` (empty range),
             a value out of range, or more than 1,000 values.
 
-    Example:
+    Examples:
         >>> parse_grid("20:60:10", "alpha2")
         (20.0, 30.0, 40.0, 50.0, 60.0)
         >>> parse_grid("0.5:1.5:0.5", "sigma2", positive=True)

@@ -48,7 +48,7 @@ def mean_expert_distance_px(positions_px: np.ndarray, mask: np.ndarray) -> float
     Returns:
         The mean distance in pixels; NaN when no scene has two positions.
 
-    Example:
+    Examples:
         >>> p = np.array([[[0.0, 0.0], [3.0, 4.0], [0.0, 0.0]], [[1.0, 1.0], [0.0, 0.0], [0.0, 0.0]]])
         >>> mean_expert_distance_px(p, np.array([[True, True, False], [True, False, False]]))
         5.0
@@ -71,7 +71,7 @@ def _best_index(primary: np.ndarray, secondary: np.ndarray) -> int:
 def f1_score(corr: np.ndarray, precision: np.ndarray) -> np.ndarray:
     """Harmonic mean of correspondence and precision, element-wise (0 where both are 0).
 
-    Example:
+    Examples:
         >>> f1_score(np.array([0.5, 0.0]), np.array([1.0, 0.0])).round(3).tolist()
         [0.667, 0.0]
     """

@@ -23,7 +23,7 @@ def transform_positions(positions_px: np.ndarray, shape: tuple[int, int], flip_x
                         transpose: bool) -> np.ndarray:
     """Pixel positions ``(x, y)`` under the raster transform (flips, then transpose).
 
-    Example:
+    Examples:
         >>> transform_positions(np.array([[1.0, 2.0]]), (8, 8), True, False, True).tolist()
         [[2.0, 6.0]]
     """

@@ -50,7 +50,7 @@ def render_targets(positions_px: np.ndarray, shape: tuple[int, int], config: Tar
         ``(h, w)`` float32 map in the paper's units (an isolated expert on a
         pixel centre peaks at ``alpha1 + alpha2``).
 
-    Example:
+    Examples:
         >>> r = render_targets(np.array([[3.0, 2.0]]), (5, 8), TargetConfig(alpha2=0.0))
         >>> float(r[2, 3]), float(r.max())
         (255.0, 255.0)
@@ -85,7 +85,7 @@ def render_peak_heatmap(positions_px: np.ndarray, shape: tuple[int, int], sigma:
     Returns:
         ``(h, w)`` float32 map in [0, 1].
 
-    Example:
+    Examples:
         >>> m = render_peak_heatmap(np.array([[2.4, 1.0]]), (4, 5), 1.0)
         >>> float(m[1, 2]), round(float(m[1, 3]), 3)
         (1.0, 0.607)

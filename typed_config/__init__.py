@@ -9,7 +9,7 @@ allowed range with :func:`param`; construction validates types and ranges, and
 loading from a mapping rejects unknown keys. Errors are :class:`ConfigError`
 with a message naming the field and the allowed range.
 
-Example:
+Examples:
     >>> from dataclasses import dataclass
     >>> @dataclass(frozen=True)
     ... class Radio(Config):

@@ -1,6 +1,6 @@
 """Validating the actions handed to :class:`~uav_swarm.env.parallel.raw_env`: agents, shapes, dtypes, values.
 
-Example:
+Examples:
     >>> agents, values = parse_actions({"uav_1": [0.5, -1.0]}, {"uav_0": 0, "uav_1": 1})
     >>> agents, values.tolist()
     ([1], [[0.5, -1.0]])

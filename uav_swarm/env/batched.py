@@ -5,7 +5,7 @@ observations, rewards, infos and state) but all copies advance in one set of arr
 :class:`~uav_swarm.world.crowd_batch.BatchedCrowd`, the UAVs as ``(B, n, 2)`` arrays, density maps in
 one ``bincount`` and coverage over ``(n, N)`` distances of every pedestrian to its own copy's UAVs.
 
-Example:
+Examples:
     >>> import numpy as np
     >>> envs = BatchedUAVSwarm(3, n_uavs=2, max_cycles=2)
     >>> obs, info = envs.reset(seed=7)  # copy k is raw_env's reset(seed=7 + k)

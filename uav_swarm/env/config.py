@@ -1,6 +1,6 @@
 """Configuration of the ``uav_swarm_v0`` environment (one dataclass, nested world configs).
 
-Example:
+Examples:
     >>> cfg = EnvConfig.from_dict({"n_uavs": 3, "uav": {"max_speed_m_s": 6.0}})
     >>> cfg.n_uavs, cfg.uav.max_speed_m_s, cfg.density_shape
     (3, 6.0, (64, 64))

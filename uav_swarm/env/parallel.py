@@ -1,6 +1,6 @@
 """The ``uav_swarm_v0`` PettingZoo parallel environment: a thin shell over :mod:`uav_swarm.world`.
 
-Example:
+Examples:
     >>> from uav_swarm.env.parallel import parallel_env
     >>> env = parallel_env(n_uavs=2, max_cycles=3)
     >>> observations, infos = env.reset(seed=0)

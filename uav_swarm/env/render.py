@@ -5,7 +5,7 @@ Layers, bottom to top: coverage discs (translucent), obstacles (black segments),
 pedestrians (2x2 px dots: green when covered, grey otherwise) and UAVs (red diamonds).
 Matplotlib is imported only when a window is opened.
 
-Example:
+Examples:
     >>> import numpy as np
     >>> frame = draw_frame(
     ...     100.0, 50.0, obstacles_m=np.array([[10.0, 10.0, 40.0, 10.0]]),

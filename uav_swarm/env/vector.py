@@ -13,7 +13,7 @@ Auto-reset follows Gymnasium's modes:
 Infos are a dict of arrays over the copies (no ``_key`` masks: every key is set for every copy); see
 :meth:`BatchedUAVSwarm.step`.
 
-Example:
+Examples:
     >>> import numpy as np
     >>> envs = UAVSwarmVectorEnv(4, n_uavs=2, max_cycles=2)
     >>> obs, info = envs.reset(seed=0)

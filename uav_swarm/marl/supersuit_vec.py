@@ -11,7 +11,7 @@ until all are truncated together) work on the parallel env unchanged, tested in
 - ``frame_skip_v0`` draws the number of skipped frames from ``env.unwrapped.np_random``, an
   attribute ``uav_swarm_v0`` does not have (it draws everything from one generator seeded by ``reset``).
 
-Example:
+Examples:
     >>> from uav_swarm.marl import supersuit_vec_env
     >>> venv = supersuit_vec_env(3, n_uavs=2, max_cycles=50)
     >>> observations, infos = venv.reset(seed=0)

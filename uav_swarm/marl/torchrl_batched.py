@@ -20,7 +20,7 @@ A reset with a ``"_reset"`` mask (what TorchRL's collectors send for the copies 
 ended) draws new worlds for those copies only. ``set_seed(s)`` seeds the next reset: copy ``k``
 uses seed ``s + k``, as :class:`BatchedUAVSwarm` documents.
 
-Example:
+Examples:
     >>> env = UAVSwarmTorchRLEnv(num_envs=4, n_uavs=3, max_cycles=5)
     >>> rollout = env.rollout(5)
     >>> rollout["next", "agents", "reward"].shape

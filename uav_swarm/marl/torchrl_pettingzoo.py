@@ -1,6 +1,6 @@
 """``uav_swarm_v0`` as a TorchRL environment, through TorchRL's ``PettingZooWrapper`` (parallel API).
 
-Example:
+Examples:
     >>> from uav_swarm.marl import torchrl_env
     >>> env = torchrl_env(n_uavs=3, max_cycles=50, seed=0)
     >>> env.group_map

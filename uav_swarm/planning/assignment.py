@@ -15,7 +15,7 @@ module decides which UAV flies to which candidate:
    current position*. Targets are always pairwise distinct: a spare UAV sitting on
    another UAV's target is given the nearest free position on a ring around it.
 
-Example:
+Examples:
     >>> import numpy as np
     >>> uavs = np.array([[0.0, 0.0], [100.0, 0.0]])
     >>> assign_targets(uavs, np.array([[90.0, 5.0], [10.0, 5.0]])).targets_m

@@ -33,7 +33,7 @@ process's torch threads and ``precision = "auto"`` (the default) runs the networ
 the processor computes it natively (:mod:`learning.precision`), which halves its time, and in
 float32 elsewhere.
 
-Example:
+Examples:
     >>> planner = make_planner("expert", n_uavs=2)
     >>> crowd = np.concatenate([np.full((40, 2), 50.0), np.full((40, 2), 150.0)])
     >>> result = planner.plan(crowd, np.array([[140.0, 140.0], [60.0, 60.0]]))

@@ -6,7 +6,7 @@ altitude above each vehicle's home), ``[planning]``, ``[telemetry]`` and ``[flig
 (:class:`bridge.flight.FlightConfig`: launch timeouts, link timeout, end action). Every key is
 optional except the bridge config, which names the vehicles.
 
-Example:
+Examples:
     >>> cfg = FlyConfig.from_dict({"bridge_config": "configs/bridge/ardupilot_sitl_10.toml", "speedup": 2})
     >>> cfg.mode, cfg.flight.end_action, cfg.speedup
     ('guided', 'rtl', 2.0)

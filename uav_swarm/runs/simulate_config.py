@@ -6,7 +6,7 @@ expert; the same table as a task settings file), ``[uav]`` (flight limits), ``[p
 (:class:`uav_swarm.planning.planner.PlannerConfig`) and ``[telemetry]``
 (:class:`bridge.telemetry_config.TelemetryConfig`). Every key is optional.
 
-Example:
+Examples:
     >>> cfg = SimulateConfig.from_dict({"duration_s": 10, "task": {"scenario": {"n_groups_max": 8}}})
     >>> cfg.n_steps, cfg.task.scenario.n_groups_max, cfg.env_config().action_mode
     (100, 8, 'waypoint')

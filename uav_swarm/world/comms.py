@@ -13,7 +13,7 @@ UAV (the nearest one; ties go to the lowest UAV index) and is covered when that
 signal is at least ``signal_at_range``. A UAV's capacity is shared equally among its
 covered users.
 
-Example:
+Examples:
     >>> import numpy as np
     >>> users = np.array([[0.0, 0.0], [29.0, 0.0], [31.0, 0.0]])
     >>> cov = evaluate_coverage(users, np.zeros((1, 2)), RadioConfig())

@@ -116,7 +116,7 @@ class CrowdSim:
         max_speeds_m_s: ``(N,)`` speed caps; ``|velocity|`` never exceeds them.
         waypoints_reached: ``(N,)`` int number of waypoints each pedestrian has reached.
 
-    Example:
+    Examples:
         >>> from uav_swarm.world.scenario import random_scenario
         >>> rng = np.random.default_rng(0)
         >>> sim = CrowdSim(random_scenario(rng), CrowdConfig(), rng)

@@ -15,7 +15,7 @@ which pedestrian-pair forces are summed differs, a difference of a few ulps):
   (:meth:`BatchedCrowd._neighbour_pairs`), which never pairs two copies; the exact distance decides, so
   the pairs are the ones a k-d tree finds for each copy alone.
 
-Example:
+Examples:
     >>> from uav_swarm.world.crowd import CrowdConfig
     >>> from uav_swarm.world.scenario import ScenarioConfig, random_scenario
     >>> small = ScenarioConfig(n_groups_min=1, n_groups_max=1, group_size_min=5, group_size_max=5)

@@ -28,7 +28,7 @@ def point_segment_distances(points_m: np.ndarray, segments_m: np.ndarray) -> np.
     Returns:
         ``(N, M)`` float64 distances.
 
-    Example:
+    Examples:
         >>> point_segment_distances(np.array([[1.0, 2.0]]), np.array([[0.0, 0.0, 4.0, 0.0]]))
         array([[2.]])
     """
@@ -58,7 +58,7 @@ def segments_cross(first_m: np.ndarray, second_m: np.ndarray) -> np.ndarray:
     Returns:
         Boolean array of the broadcast shape (without the last axis).
 
-    Example:
+    Examples:
         >>> segments_cross(np.array([0.0, 0.0, 2.0, 2.0]), np.array([0.0, 2.0, 2.0, 0.0]))
         array(True)
     """

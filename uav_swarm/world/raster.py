@@ -7,7 +7,7 @@ covers ``y`` in ``[i * h_px, (i + 1) * h_px)`` and column ``j`` covers ``x`` in
 integer values are pixel centres: pixel ``(j, i)`` is centred on
 ``((j + 0.5) * w_px, (i + 0.5) * h_px)`` metres.
 
-Example:
+Examples:
     >>> import numpy as np
     >>> density_map(np.array([[1.0, 1.0], [1.5, 0.2], [9.9, 9.9]]), 10.0, 10.0, (2, 2)).tolist()
     [[2.0, 0.0], [0.0, 1.0]]

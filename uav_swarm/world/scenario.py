@@ -301,7 +301,7 @@ def random_scenario(rng: np.random.Generator, config: ScenarioConfig | None = No
     Raises:
         ScenarioError: The requested elements do not fit in the area.
 
-    Example:
+    Examples:
         >>> s = random_scenario(np.random.default_rng(0), ScenarioConfig(n_groups_min=2, n_groups_max=2))
         >>> len(s.groups), s.obstacles.shape
         (2, (8, 4))

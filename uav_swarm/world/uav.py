@@ -10,7 +10,7 @@ stops on its target instead of oscillating around it.
 Separation is not enforced physically; :func:`separation_penalty` measures how much
 pairs of UAVs intrude into each other's ``min_separation_m`` so a reward can penalise it.
 
-Example:
+Examples:
     >>> import numpy as np
     >>> fleet = UAVFleet(np.array([[0.0, 0.0]]), UAVConfig(), width_m=100.0, height_m=100.0)
     >>> for _ in range(300):

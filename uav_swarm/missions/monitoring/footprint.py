@@ -22,7 +22,7 @@ or whose rounded outline is no longer simple or lost a part (an input vertex far
 pixel diagonal from it: detail finer than a pixel), is refused.
 :meth:`FittedFootprint.to_metres` maps raster positions back to the input's metres.
 
-Example:
+Examples:
     >>> footprint = Footprint(np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 20.0], [0.0, 20.0]]))
     >>> fitted = fit_to_raster(footprint)
     >>> fitted.polygon.n_vertices, round(fitted.metres_per_px, 3)

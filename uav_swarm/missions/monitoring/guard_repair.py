@@ -27,7 +27,7 @@ An instance whose witnesses some pixel centre cannot see at all (possible for th
 see :func:`uav_swarm.missions.monitoring.guards.solve_guards`) raises
 :class:`uav_swarm.missions.monitoring.setcover.InfeasibleCoverError`, as the expert does.
 
-Example:
+Examples:
     >>> from uav_swarm.missions.monitoring.polygons import Polygon, locate_points
     >>> from uav_swarm.missions.monitoring.guards import interior_pixels
     >>> square = Polygon(np.array([[10, 10], [30, 10], [30, 30], [10, 30]]), size_px=40)

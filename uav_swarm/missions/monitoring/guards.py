@@ -18,7 +18,7 @@ total, then whose guards lie closest to the polygon's centroid (cost per guard
 stays below 1000, so it only breaks ties of the visibility term). Polygons in a 64 px raster
 give distances below 91 px.
 
-Example:
+Examples:
     >>> from uav_swarm.missions.monitoring.polygons import Polygon
     >>> square = Polygon(np.array([[10, 10], [30, 10], [30, 30], [10, 30]]), size_px=40)
     >>> len(solve_guards(art_gallery_problem(square))), len(solve_guards(fortress_problem(square)))

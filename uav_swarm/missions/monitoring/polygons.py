@@ -22,7 +22,7 @@ have at most 10, 26 % at least 16); the median building covers about 1040 px^2 (
 55 x 55 px box; 5-95 %: 500-1560) with 4 reflex vertices. Its exact Art Gallery optimum is
 1, 2, 3 or 4 guards for 32, 46, 21 and 0.5 % of them (``benchmarks/README.md``).
 
-Example:
+Examples:
     >>> rng = np.random.default_rng(0)
     >>> polygon = random_polygon(rng, PolygonConfig(min_vertices=8, max_vertices=8))
     >>> polygon.n_vertices, is_simple(polygon.vertices_px), polygon.signed_area_px2 > 0

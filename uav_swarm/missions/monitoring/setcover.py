@@ -21,7 +21,7 @@ Before solving, the instance is reduced, repeating until nothing changes:
   dropped column for its dominator keeps a cover, never adds a column and never raises
   the cost, so both stages keep their optimal values.
 
-Example:
+Examples:
     >>> cover = np.array([[1, 1, 0], [0, 1, 1], [1, 0, 1]], dtype=bool)
     >>> min_set_cover(cover, cost=np.array([0, 1, 2])).tolist()
     [0, 1]

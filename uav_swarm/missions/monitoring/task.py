@@ -26,7 +26,7 @@ witnesses (interior pixel centres, or boundary points) seen by some guard and ``
 
 ``mission_dimension_px`` is the raster side (64): the metrics' match radius is 10 % of it.
 
-Example:
+Examples:
     >>> task = ArtGalleryTask(MonitoringConfig(polygon=PolygonConfig(max_vertices=8)))
     >>> scene = task.sample(np.random.default_rng(0))
     >>> task.observe(scene).shape, task.qos(scene, task.expert(scene))["qos"]

@@ -37,7 +37,7 @@ boundary, are revisited. When guards and witnesses are the same points (Art Gall
 the upper triangle is computed. A 64 px building takes about 40 ms (see
 ``benchmarks/README.md``).
 
-Example:
+Examples:
     >>> from uav_swarm.missions.monitoring.polygons import Polygon
     >>> square = Polygon(np.array([[0, 0], [4, 0], [4, 4], [0, 4]]), size_px=8)
     >>> visibility_matrix(square, np.array([[0.0, 0.0]]), np.array([[4.0, 4.0], [2.0, 4.0]]), "interior")

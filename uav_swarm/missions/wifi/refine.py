@@ -34,7 +34,7 @@ positions: ``configs/tasks/wifi-s2.toml``); the centring makes the final positio
 Greedy fills try ``branching`` separated first candidates, as the expert does.
 Everything is deterministic, and the result always obeys the strategy's rules.
 
-Example:
+Examples:
     >>> from uav_swarm.missions.wifi.rules import CoverageRules
     >>> rules = CoverageRules(radius_m=30.0, min_users=31, max_users=None, max_uavs=10, exclusive=True)
     >>> users = np.random.default_rng(0).normal(100.0, 5.0, size=(60, 2))

@@ -19,7 +19,7 @@ overloaded or unjustified UAVs) it repairs first. Moves that "jump" a UAV across
 scored as cheaply as small shifts, which is what makes room for a missing UAV or packs UAVs to
 their 40 users.
 
-Example:
+Examples:
     >>> from uav_swarm.missions.wifi.expert import CandidatePairs, PlacementSearch
     >>> from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid
     >>> rules = CoverageRules(radius_m=30.0, min_users=31, max_users=40, max_uavs=10)

@@ -17,7 +17,7 @@ Peaks are extracted at ``threshold_abs`` before the check: a check that removes 
 peaks can afford a lower threshold than the network's calibrated one, so it keeps more of the
 justified ones. Both settings are chosen on the validation split (README, "rule check").
 
-Example:
+Examples:
     >>> from uav_swarm.missions.wifi.rules import CoverageRules
     >>> rules = CoverageRules(radius_m=30.0, min_users=31, max_users=None, max_uavs=10, exclusive=True)
     >>> users = np.vstack([np.full((40, 2), 50.0), np.full((10, 2), 150.0)])

@@ -26,7 +26,7 @@ QoS (:meth:`WifiTask.qos`, judged on the real crowd with :func:`uav_swarm.world.
 ``"qos"`` is the strategy's QoS (strategy 1: share of users covered; strategy 2: share covered
 with at least ``min_user_rate_mbps``), plus ``"qos_s1"``, ``"qos_s2"`` and ``"mean_throughput_mbps"``.
 
-Example:
+Examples:
     >>> task = WifiTask(WifiConfig(strategy=1))
     >>> scene = task.sample(np.random.default_rng(0))
     >>> task.observe(scene).shape
