@@ -8,7 +8,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGES = ("uav_swarm", "learning", "bridge", "typed_config")
-DEPRECATED = {"batched_env.py", "vector_env.py"}  # re-exports kept for one release (0.2), README "Layout"
+DEPRECATED = {"batched_env.py", "vector_env.py"}  # re-exports kept for 0.2, docs/index.md "Layout"
 
 
 def _modules() -> dict[str, Path]:
