@@ -198,7 +198,8 @@ def generate_dataset(
     out.mkdir(parents=True, exist_ok=True)
     manifest: dict[str, Any] = {
         "format": FORMAT, "task": task.name, "task_config": task.config.to_dict(),
-        "channels": task.channels, "shape": list(task.shape),
+        "channels": task.channels, "vector_channels": list(getattr(task, "vector_channels", ())),
+        "shape": list(task.shape),
         "mission_dimension_px": task.mission_dimension_px,
         "max_positions": MAX_POSITIONS, "seed": seed, "split": split, "n": n, "shard_size": shard_size,
         "shards": [],

@@ -21,7 +21,7 @@ import torch
 from learning.model import UtilityNet
 from learning.peaks import PeakConfig, find_peaks
 from learning.precision import Precision, autocast
-from learning.symmetry import SYMMETRIES
+from learning.symmetry import SYMMETRIES, transform_vector_channels
 
 __all__ = ["SYMMETRIES", "apply_symmetry", "invert_symmetry", "utility_maps", "utility_map",
            "predict_positions"]
@@ -54,7 +54,9 @@ def _forward(model: UtilityNet, x: torch.Tensor, precision: Precision, tta: bool
             return model(x)[:, 0].float()
     if x.shape[-1] != x.shape[-2]:
         raise ValueError(f"test-time augmentation needs square rasters, got {tuple(x.shape[-2:])}")
-    views = torch.cat([apply_symmetry(x, *s) for s in SYMMETRIES])  # (8B, C, h, w)
+    vectors = model.config.vector_channels
+    views = torch.cat([transform_vector_channels(apply_symmetry(x, *s), vectors, *s)
+                       for s in SYMMETRIES])  # (8B, C, h, w)
     with autocast(precision, device):
         maps = model(views.contiguous(memory_format=torch.channels_last))[:, 0].float()  # (8B, h, w)
     b = len(x)

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from learning.symmetry import transform_positions
+from learning.symmetry import transform_positions, transform_vector_channels
 from learning.targets import TargetConfig, render_peak_heatmap, render_targets
 
 __all__ = ["ShardDataset"]
@@ -35,11 +35,13 @@ class ShardDataset(Dataset):
         augment_seed: Seed of the augmentation draws.
         peak_heatmaps: Also return each item's keypoint heatmap
             (:func:`learning.targets.render_peak_heatmap`, width ``targets.sigma1``), for a peak head.
+        vector_channels: Input channels holding vector components (``(x, y)`` pairs flattened), turned
+            with each symmetry (:func:`learning.symmetry.transform_vector_channels`).
     """
 
     def __init__(self, arrays: dict[str, np.ndarray], targets: TargetConfig,
                  indices: Sequence[int] | None = None, augment: bool = False, augment_seed: int = 0,
-                 peak_heatmaps: bool = False) -> None:
+                 peak_heatmaps: bool = False, vector_channels: Sequence[int] = ()) -> None:
         self.inputs = arrays["inputs"]
         self.positions = arrays["positions"]
         self.mask = arrays["mask"]
@@ -48,6 +50,7 @@ class ShardDataset(Dataset):
         self.augment = augment
         self.augment_seed = augment_seed
         self.peak_heatmaps = peak_heatmaps
+        self.vector_channels = tuple(vector_channels)
         self.epoch = 0
 
     def set_epoch(self, epoch: int) -> None:
@@ -75,6 +78,7 @@ class ShardDataset(Dataset):
             x = x[:, :, ::-1] if flip_x else x
             x = x[:, ::-1, :] if flip_y else x
             x = x.transpose(0, 2, 1) if transpose else x
+            x = transform_vector_channels(x, self.vector_channels, bool(flip_x), bool(flip_y), transpose)
             positions = transform_positions(positions, shape, bool(flip_x), bool(flip_y), transpose)
         target = render_targets(positions, shape, self.targets) / np.float32(self.targets.alpha1)  # (h, w)
         tensors = (torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(target[None]))

@@ -39,6 +39,9 @@ class ModelConfig(Config):
     depth: int = param(2, ge=1, le=5, doc="number of 2× poolings (the paper's network has 2)")
     max_width: int = param(128, ge=1, le=1024, doc="cap on the channels of any block")
     coord_channels: bool = param(False, doc="append normalised x, y coordinate channels to the input")
+    vector_channels: tuple[int, ...] = param(
+        (), doc="input channels holding vector components, as (x, y) index pairs flattened (the task's); "
+        "test-time augmentation turns them with the raster")
     peak_head: bool = param(
         False, doc="a second 1x1 head predicting the expert positions as a sharp heatmap, trained with a "
         "focal loss beside the utility's MSE (learning.losses); inference reads the utility map only")

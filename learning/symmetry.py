@@ -7,10 +7,13 @@ then the axes swapped, as :class:`learning.loader.ShardDataset` augments its ras
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-__all__ = ["Symmetry", "SYMMETRIES", "transform_positions", "inverse_transform_positions"]
+__all__ = ["Symmetry", "SYMMETRIES", "transform_positions", "inverse_transform_positions",
+           "transform_vector_channels"]
 
 Symmetry = tuple[bool, bool, bool]
 """``(flip_x, flip_y, transpose)``."""
@@ -43,3 +46,41 @@ def inverse_transform_positions(positions_px: np.ndarray, shape: tuple[int, int]
     """Undo :func:`transform_positions` with the same arguments (transpose first, then the flips)."""
     out = transform_positions(positions_px, shape, False, False, transpose)
     return transform_positions(out, shape, flip_x, flip_y, False)
+
+
+def transform_vector_channels(x: Any, vector_channels: Sequence[int], flip_x: bool, flip_y: bool,
+                              transpose: bool) -> Any:
+    """Channels that hold a vector field's components, turned with the raster transform.
+
+    A raster transform moves pixels; a channel that holds the x or y component of a vector (a
+    velocity, say) must also turn: a flip along x negates the x component, a flip along y the y
+    component, a transposition swaps the two. Apply this after moving the pixels.
+
+    Args:
+        x: ``(..., C, h, w)`` numpy array or torch tensor (not modified).
+        vector_channels: Pairs of channel indices, flattened: ``(x0, y0, x1, y1, ...)``.
+        flip_x: Mirror the columns.
+        flip_y: Mirror the rows.
+        transpose: Swap the axes.
+
+    Returns:
+        A new array (or tensor) when ``vector_channels`` is not empty, else ``x`` itself.
+
+    Examples:
+        >>> v = np.zeros((3, 1, 1)); v[1], v[2] = 1.0, 2.0
+        >>> transform_vector_channels(v, (1, 2), True, False, True)[:, 0, 0].tolist()
+        [0.0, 2.0, -1.0]
+    """
+    if len(vector_channels) == 0:
+        return x
+    if len(vector_channels) % 2:
+        raise ValueError(f"vector_channels = {tuple(vector_channels)} must hold (x, y) pairs")
+    out = x.clone() if hasattr(x, "clone") else np.array(x, copy=True)
+    for cx, cy in zip(vector_channels[::2], vector_channels[1::2], strict=True):
+        vx = -x[..., cx, :, :] if flip_x else x[..., cx, :, :] * 1
+        vy = -x[..., cy, :, :] if flip_y else x[..., cy, :, :] * 1
+        if transpose:
+            vx, vy = vy, vx
+        out[..., cx, :, :] = vx
+        out[..., cy, :, :] = vy
+    return out

@@ -34,6 +34,10 @@ class Task(Protocol):
         shape: Raster shape ``(h, w)``.
         mission_dimension_px: The mission's size in pixels; the match radius
             ε of the metrics is 10 % of it.
+
+    A task whose observation holds vector components (a velocity field, say) may also have
+    ``vector_channels``: their channel indices as ``(x, y)`` pairs, flattened; augmentation and
+    test-time augmentation turn them with the raster (:func:`learning.symmetry.transform_vector_channels`).
     """
 
     name: str

@@ -216,7 +216,9 @@ def train(
         peak_head = model_config.peak_head if model_config is not None else start.model_config.peak_head
         model_config = start.model_config.replace(peak_head=peak_head)  # a peak head may be added or dropped
         init_state = start.model.state_dict()
-    model_config = (model_config or ModelConfig()).replace(in_channels=manifest["channels"])
+    vector_channels = tuple(manifest.get("vector_channels", ()))
+    model_config = (model_config or ModelConfig()).replace(in_channels=manifest["channels"],
+                                                           vector_channels=vector_channels)
     target_config = target_config or TargetConfig()
     train_config = train_config or TrainConfig()
     peak_config = peak_config or PeakConfig()
@@ -227,7 +229,7 @@ def train(
 
     train_indices, val_indices = split_indices(len(arrays["inputs"]), cfg)
     train_set = ShardDataset(arrays, target_config, train_indices, cfg.augment, cfg.seed,
-                             peak_heatmaps=model_config.peak_head)
+                             peak_heatmaps=model_config.peak_head, vector_channels=vector_channels)
     val_set = ShardDataset(arrays, target_config, val_indices)
     n_val = len(val_indices)
     eps_px = MATCH_FRACTION * manifest["mission_dimension_px"]

@@ -35,7 +35,7 @@ class FixedPlanner(AssigningPlanner):
         super().__init__(n_uavs, config)
         self.candidates_m = np.asarray(candidates_m, dtype=np.float64).reshape(-1, 2)
 
-    def propose(self, pedestrians_m):
+    def propose(self, pedestrians_m, velocities_m_s=None):
         return self.candidates_m, None
 
 

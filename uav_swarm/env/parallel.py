@@ -280,6 +280,11 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         return _read_only(self._crowd.positions_m)
 
     @property
+    def pedestrian_velocities_m_s(self) -> np.ndarray:
+        """(N, 2) pedestrian velocities in m/s (read-only view)."""
+        return _read_only(self._crowd.velocities_m_s)
+
+    @property
     def uav_positions_m(self) -> np.ndarray:
         """(K, 2) UAV positions in metres (read-only view)."""
         return _read_only(self._fleet.positions_m)

@@ -154,12 +154,13 @@ def _controller(name: str, velocity: EnvConfig, world: SimulateConfig, mappo_pol
     from uav_swarm.planning.planner import make_planner
 
     planner = make_planner(name, world.n_uavs, world.task, checkpoint=checkpoint or None,
-                           config=world.planning)
+                           config=world.planning, uav_config=world.uav)
     held: dict = {}
 
     def planned(step: int, observations: dict, env: Any) -> dict:
         if step % world.replan_every == 0:
-            targets = planner.plan(env.pedestrian_positions_m, env.uav_positions_m).targets_m
+            targets = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
+                                   env.pedestrian_velocities_m_s).targets_m
             held.update(zip(env.agents, targets, strict=True))
         return dict(held)
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["Assignment", "assign_targets"]
+__all__ = ["Assignment", "assign_targets", "separate_spares"]
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,7 @@ def _pairwise(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.norm(a[:, None, :] - b[None, :, :], axis=-1)
 
 
-def _separate_spares(targets: np.ndarray, spare: np.ndarray, min_gap_m: float) -> None:
+def separate_spares(targets: np.ndarray, spare: np.ndarray, min_gap_m: float) -> None:
     """Move spare targets that coincide with another target onto a free nearby point (in place)."""
     for i in np.flatnonzero(spare):
         others = np.delete(targets, i, axis=0)
@@ -124,5 +124,5 @@ def assign_targets(
         rows, cols = linear_sum_assignment(_pairwise(uavs[uav_ids], cands[cand_ids]))
         targets[uav_ids[rows]] = cands[cand_ids[cols]]
         index[uav_ids[rows]] = cand_ids[cols]
-    _separate_spares(targets, index < 0, min_gap_m)
+    separate_spares(targets, index < 0, min_gap_m)
     return Assignment(targets_m=targets, candidate_index=index, kept=kept)

@@ -60,6 +60,8 @@ from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement
 from uav_swarm.missions.wifi.rule_check import RuleCheckConfig, WifiRuleCheck
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, coverage_rules, crowd_raster
 from uav_swarm.planning.assignment import assign_targets
+from uav_swarm.planning.motion import MotionConfig, MotionPlanning
+from uav_swarm.world.uav import UAVConfig
 
 if TYPE_CHECKING:
     import torch
@@ -95,6 +97,10 @@ class PlannerConfig(Config):
                              "justifies on the density raster (uav_swarm.missions.wifi.rule_check)")
     rule_checking: RuleCheckConfig = param(RuleCheckConfig(), doc="learned: the rule check's threshold and "
                                            "slack ([planning.rule_checking])")
+    mode: Literal["motion", "snapshot"] = param(
+        "motion", doc="'motion': replans start from what the UAVs serve (uav_swarm.planning.motion); "
+        "'snapshot': every replan solves the instant, then hysteresis and Hungarian on distance")
+    motion: MotionConfig = param(MotionConfig(), doc="planning in motion's settings ([planning.motion])")
 
 
 @dataclass(frozen=True)
@@ -106,8 +112,11 @@ class PlanResult:
         peaks_m: ``(k, 2)`` float64 candidate positions the planner proposed, best first, ``k <= n``.
         utility: ``(h, w)`` float32 utility map (row 0 = South) of the learned planner, None otherwise.
         candidate_index: ``(n,)`` index into ``peaks_m`` of each UAV's target, -1 where it holds (fallback).
-        kept: ``(n,)`` True where the UAV kept its previous target (hysteresis).
+        kept: ``(n,)`` True where the UAV kept its previous target (snapshot: hysteresis) or kept
+            following its users (motion).
         latency_ms: Wall time of the whole replan, milliseconds.
+        option: ``"snapshot"``, or in motion ``"hybrid"`` (kept UAVs follow their users, the others go
+            to new proposals) or ``"fresh"`` (every UAV re-solved).
     """
 
     targets_m: np.ndarray
@@ -116,6 +125,7 @@ class PlanResult:
     candidate_index: np.ndarray
     kept: np.ndarray
     latency_ms: float
+    option: str = "snapshot"
 
 
 @runtime_checkable
@@ -130,8 +140,12 @@ class Planner(Protocol):
     name: str
     n_uavs: int
 
-    def plan(self, pedestrians_m: np.ndarray, uav_positions_m: np.ndarray) -> PlanResult:
-        """Plan for the crowd ``pedestrians_m`` ``(N, 2)`` and the UAVs at ``uav_positions_m`` ``(n, 2)``."""
+    def plan(self, pedestrians_m: np.ndarray, uav_positions_m: np.ndarray,
+             pedestrian_velocities_m_s: np.ndarray | None = None) -> PlanResult:
+        """Plan for the crowd ``pedestrians_m`` ``(N, 2)`` and the UAVs at ``uav_positions_m`` ``(n, 2)``.
+
+        ``pedestrian_velocities_m_s`` ``(N, 2)`` tells how the crowd walks (default: at rest).
+        """
         ...
 
     def reset(self) -> None:
@@ -155,7 +169,10 @@ class AssigningPlanner(ABC):
 
     Args:
         n_uavs: Number of UAVs, 1 to 10.
-        config: Hysteresis and target gap.
+        config: Mode (motion or snapshot), hysteresis and target gap.
+        task_config: The Wi-Fi task whose rules and radio planning in motion judges with; default
+            ``WifiConfig()``.
+        uav_config: The UAVs' speed and acceleration limits; default ``UAVConfig()``.
 
     Raises:
         ConfigError: ``n_uavs`` out of range.
@@ -163,25 +180,37 @@ class AssigningPlanner(ABC):
 
     name = "planner"
 
-    def __init__(self, n_uavs: int, config: PlannerConfig | None = None) -> None:
+    def __init__(self, n_uavs: int, config: PlannerConfig | None = None,
+                 task_config: WifiConfig | None = None, uav_config: UAVConfig | None = None) -> None:
         self.n_uavs = check_n_uavs(n_uavs)
         self.config = config or PlannerConfig()
         self._previous: np.ndarray | None = None
+        task_config = task_config or WifiConfig()
+        scenario = task_config.scenario
+        self.motion = MotionPlanning(
+            self.n_uavs, coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs)),
+            task_config.radio, task_config.strategy, (scenario.width_m, scenario.height_m), uav_config,
+            self.config.motion, self.config.min_gap_m)
 
     @abstractmethod
-    def propose(self, pedestrians_m: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray | None]:
         """At most ``n_uavs`` candidate positions ``(k, 2)`` in metres, best first, and the utility map."""
 
     def reset(self) -> None:
-        """Forget the previous targets: the next plan assigns without hysteresis."""
+        """Forget the previous targets and what each UAV serves: a new sequence starts."""
         self._previous = None
+        self.motion.reset()
 
-    def plan(self, pedestrians_m: np.ndarray, uav_positions_m: np.ndarray) -> PlanResult:
+    def plan(self, pedestrians_m: np.ndarray, uav_positions_m: np.ndarray,
+             pedestrian_velocities_m_s: np.ndarray | None = None) -> PlanResult:
         """Propose candidates for the crowd and assign them to the UAVs (see the module docstring).
 
         Args:
             pedestrians_m: ``(N, 2)`` pedestrian positions, metres (``N`` may be 0).
             uav_positions_m: ``(n_uavs, 2)`` current UAV positions, metres.
+            pedestrian_velocities_m_s: ``(N, 2)`` pedestrian velocities, m/s; default at rest (planning in
+                motion then follows the users without leading them).
 
         Raises:
             ValueError: An array of the wrong shape.
@@ -195,14 +224,27 @@ class AssigningPlanner(ABC):
             peds = peds.reshape(0, 2)
         if peds.ndim != 2 or peds.shape[1] != 2:
             raise ValueError(f"pedestrians_m must have shape (N, 2), got {peds.shape}")
-        candidates, utility = self.propose(peds)
+        if pedestrian_velocities_m_s is None:
+            vels = np.zeros_like(peds)
+        else:
+            vels = np.asarray(pedestrian_velocities_m_s, dtype=np.float64).reshape(-1, 2)
+            if vels.shape != peds.shape or not np.all(np.isfinite(vels)):
+                raise ValueError(f"pedestrian_velocities_m_s must be finite with shape {peds.shape}, "
+                                 f"got {vels.shape}")
+        candidates, utility = self.propose(peds, vels)
         candidates = np.asarray(candidates, dtype=np.float64).reshape(-1, 2)[:self.n_uavs]
-        assignment = assign_targets(uavs, candidates, self._previous, hysteresis_m=self.config.hysteresis_m,
-                                    min_gap_m=self.config.min_gap_m)
-        self._previous = assignment.targets_m.copy()
+        if self.config.mode == "motion":
+            moved = self.motion.plan(peds, vels, uavs, candidates)
+            targets, index, kept, option = moved.targets_m, moved.candidate_index, moved.kept, moved.option
+        else:
+            cfg = self.config
+            assignment = assign_targets(uavs, candidates, self._previous, hysteresis_m=cfg.hysteresis_m,
+                                        min_gap_m=cfg.min_gap_m)
+            targets, index, kept, option = (assignment.targets_m, assignment.candidate_index, assignment.kept,
+                                            "snapshot")
+        self._previous = targets.copy()
         latency_ms = (time.perf_counter() - start) * 1e3
-        return PlanResult(assignment.targets_m, candidates, utility, assignment.candidate_index,
-                          assignment.kept, latency_ms)
+        return PlanResult(targets, candidates, utility, index, kept, latency_ms, option)
 
 
 class ExpertPlanner(AssigningPlanner):
@@ -211,23 +253,24 @@ class ExpertPlanner(AssigningPlanner):
     Args:
         n_uavs: Number of UAVs, 1 to 10 (the expert's ``max_uavs`` is capped to it).
         task_config: The Wi-Fi task (strategy, radio, expert settings); default ``WifiConfig()``.
-        config: Hysteresis and target gap.
+        config: Mode, hysteresis and target gap.
+        uav_config: The UAVs' speed and acceleration limits (planning in motion).
     """
 
     name = "expert-hungarian"
 
-    def __init__(self, n_uavs: int, task_config: WifiConfig | None = None, config: PlannerConfig | None = None
-                 ) -> None:
-        super().__init__(n_uavs, config)
+    def __init__(self, n_uavs: int, task_config: WifiConfig | None = None,
+                 config: PlannerConfig | None = None, uav_config: UAVConfig | None = None) -> None:
         task_config = task_config or WifiConfig()
+        super().__init__(n_uavs, config, task_config, uav_config)
         expert = task_config.expert.replace(max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
         self.task = WifiTask(task_config.replace(expert=expert))
 
-    def propose(self, pedestrians_m: np.ndarray) -> tuple[np.ndarray, None]:
+    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray) -> tuple[np.ndarray, None]:
         """The expert's placement (metres) of the crowd."""
         if len(pedestrians_m) == 0:
             return np.zeros((0, 2)), None
-        return self.task.expert_placement_m(pedestrians_m), None
+        return self.task.expert_placement_m(pedestrians_m, velocities_m_s), None
 
 
 def default_checkpoint(task_name: str = "wifi-s1") -> Path:
@@ -253,6 +296,7 @@ class LearnedPlanner(AssigningPlanner):
         checkpoint: A ``.pt`` file from ``uav-swarm train``; default the shipped
             ``uav_swarm/checkpoints/wifi-s<strategy>.pt``.
         config: Assignment and inference settings.
+        uav_config: The UAVs' speed and acceleration limits (planning in motion).
 
     Raises:
         ConfigError: ``n_uavs`` out of range, or a relocation refinement on strategy 1.
@@ -263,14 +307,15 @@ class LearnedPlanner(AssigningPlanner):
     name = "cnn-peaks-hungarian"
 
     def __init__(self, n_uavs: int, task_config: WifiConfig | None = None,
-                 checkpoint: str | Path | None = None, config: PlannerConfig | None = None) -> None:
-        super().__init__(n_uavs, config)
+                 checkpoint: str | Path | None = None, config: PlannerConfig | None = None,
+                 uav_config: UAVConfig | None = None) -> None:
+        task_config = task_config or WifiConfig()
+        super().__init__(n_uavs, config, task_config, uav_config)
         import torch
 
         from learning.checkpoint import CheckpointError, load_checkpoint
         from learning.precision import resolve_precision
 
-        task_config = task_config or WifiConfig()
         self.task = WifiTask(task_config)
         task_name = self.task.name
         if self.config.refine:
@@ -281,7 +326,7 @@ class LearnedPlanner(AssigningPlanner):
                 raise CheckpointError(_missing_checkpoint_message(path, task_name))
             raise CheckpointError(f"checkpoint not found: {path} (--checkpoint)")
         side = task_config.size_px
-        ckpt = load_checkpoint(path, task_name=task_name, input_shape=(WifiTask.channels, side, side))
+        ckpt = load_checkpoint(path, task_name=task_name, input_shape=(self.task.channels, side, side))
         trained = ckpt.task_config
         for name in _RASTER_FIELDS:
             if name in trained and trained[name] != getattr(task_config, name):
@@ -306,20 +351,20 @@ class LearnedPlanner(AssigningPlanner):
         self.precision = resolve_precision(self.config.precision, next(ckpt.model.parameters()).device)
         dtype = torch.bfloat16 if self.precision == "bfloat16" else torch.float32
         self._model = ckpt.model.eval().to(dtype=dtype, memory_format=torch.channels_last)
-        self._input: torch.Tensor = torch.zeros((1, WifiTask.channels, side, side), dtype=dtype).contiguous(
+        self._input: torch.Tensor = torch.zeros((1, self.task.channels, side, side), dtype=dtype).contiguous(
             memory_format=torch.channels_last)  # (1, C, h, w), reused by every replan
         self._inference_mode = torch.inference_mode
         self._from_numpy = torch.from_numpy
 
     def utility_map(self, raster: np.ndarray) -> np.ndarray:
-        """The ``(h, w)`` float32 utility map of one ``(1, h, w)`` raster (no autograd, input reused)."""
+        """The ``(h, w)`` float32 utility map of one ``(C, h, w)`` raster (no autograd, input reused)."""
         with self._inference_mode():
-            self._input.copy_(self._from_numpy(raster)[None])  # (1, 1, h, w)
+            self._input.copy_(self._from_numpy(raster)[None])  # (1, C, h, w)
             return self._model(self._input)[0, 0].float().numpy()  # (h, w)
 
-    def propose(self, pedestrians_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The ``n_uavs`` highest peaks of the utility map (metres), refined if configured, and the map."""
-        raster = crowd_raster(pedestrians_m, self.task.config)
+        raster = crowd_raster(pedestrians_m, self.task.config, velocities_m_s)
         utility = self.utility_map(raster)
         peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
         if self._check is not None:
@@ -332,7 +377,8 @@ class LearnedPlanner(AssigningPlanner):
 
 
 def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | None = None, *,
-                 checkpoint: str | Path | None = None, config: PlannerConfig | None = None) -> Planner:
+                 checkpoint: str | Path | None = None, config: PlannerConfig | None = None,
+                 uav_config: UAVConfig | None = None) -> Planner:
     """Build a planner by name.
 
     Args:
@@ -341,6 +387,7 @@ def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | No
         task_config: The Wi-Fi task (raster, area, radio, expert); default ``WifiConfig()``.
         checkpoint: The learned planner's checkpoint (default: the shipped one); unused by the expert.
         config: Assignment and inference settings.
+        uav_config: The UAVs' speed and acceleration limits, for planning in motion; default ``UAVConfig()``.
 
     Raises:
         ConfigError: Unknown ``kind`` or ``n_uavs`` out of range (checked before anything is loaded).
@@ -350,5 +397,5 @@ def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | No
         raise ConfigError(f"planner = {kind!r} is not allowed: choose one of {list(PLANNER_KINDS)}")
     check_n_uavs(n_uavs)
     if kind == "learned":
-        return LearnedPlanner(n_uavs, task_config, checkpoint, config)
-    return ExpertPlanner(n_uavs, task_config, config)
+        return LearnedPlanner(n_uavs, task_config, checkpoint, config, uav_config)
+    return ExpertPlanner(n_uavs, task_config, config, uav_config)

@@ -210,7 +210,7 @@ class Flight:
         if n not in self._planners:
             cfg = self.config
             self._planners[n] = make_planner(cfg.planner, n, cfg.task, checkpoint=cfg.checkpoint or None,
-                                             config=cfg.planning)
+                                             config=cfg.planning, uav_config=cfg.uav)
         return self._planners[n]
 
     def _live(self) -> list[tuple[_Vehicle, VehicleState]]:
@@ -230,7 +230,7 @@ class Flight:
         if ids != previous_ids:
             planner.reset()
         positions = np.array([(s.x_m, s.y_m) for _, s in live])
-        result = planner.plan(self.crowd.positions_m, positions)
+        result = planner.plan(self.crowd.positions_m, positions, self.crowd.velocities_m_s)
         targets = [(float(x), float(y), self.alt_m) for x, y in result.targets_m]
         if self.publisher is not None:
             from bridge.telemetry_schema import Plan, PlanTarget

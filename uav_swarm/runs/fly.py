@@ -119,7 +119,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     bridge = load_flight_bridge(config)
     n = config.n_uavs or len(bridge.vehicles)
     planner = make_planner(config.planner, n, config.task, checkpoint=config.checkpoint or None,
-                           config=config.planning)
+                           config=config.planning, uav_config=config.uav)
     publisher = SwarmPublisher(config.telemetry, home=bridge.home) if config.publish_telemetry else None
     if publisher is not None:
         publisher.open()

@@ -114,7 +114,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     result = None
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
         if step % config.replan_every == 0:
-            result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m)
+            result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
+                                  env.pedestrian_velocities_m_s)
             if latencies:
                 moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
                 changes.append(int(np.count_nonzero(moved)))
@@ -255,7 +256,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     bridge = _load_bridge(config)
     kinds = [config.planner] + (["expert"] if config.compare_expert and config.planner != "expert" else [])
     planners = {kind: make_planner(kind, config.n_uavs, config.task, checkpoint=config.checkpoint or None,
-                                   config=config.planning) for kind in kinds}
+                                   config=config.planning, uav_config=config.uav) for kind in kinds}
     frame_every = -(-config.n_steps // (config.gif_max_frames - 1)) if config.gif else 0
     runs: dict[str, SequenceRun] = {}
     publisher = SwarmPublisher(config.telemetry, home=bridge.home) if config.publish_telemetry else None

@@ -41,9 +41,10 @@ def _check_points(name: str, points: np.ndarray) -> np.ndarray:
 
 
 def density_map(
-    positions_m: np.ndarray, width_m: float, height_m: float, shape: tuple[int, int]
+    positions_m: np.ndarray, width_m: float, height_m: float, shape: tuple[int, int],
+    weights: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Count the pedestrians in each pixel.
+    """Count the pedestrians in each pixel (or sum a value of theirs).
 
     Points on the far edges (``x == width_m`` or ``y == height_m``) count in the last
     column or row; points outside the area are not counted.
@@ -53,9 +54,11 @@ def density_map(
         width_m: Area width (x extent) in metres.
         height_m: Area height (y extent) in metres.
         shape: Raster shape ``(h, w)``.
+        weights: Optional ``(N,)`` value of each pedestrian summed instead of counting 1
+            (a velocity component gives the momentum density).
 
     Returns:
-        (h, w) float32 counts of pedestrians per pixel.
+        (h, w) float32 counts (or sums of ``weights``) of pedestrians per pixel.
 
     Raises:
         ValueError: Bad shape, area or positions array.
@@ -63,13 +66,18 @@ def density_map(
     h, w = _check_shape(shape)
     _check_area(width_m, height_m)
     positions_m = _check_points("positions_m", positions_m)
+    if weights is not None:
+        weights = np.asarray(weights, dtype=np.float64).reshape(-1)
+        if len(weights) != len(positions_m) or not np.all(np.isfinite(weights)):
+            raise ValueError(f"weights must be {len(positions_m)} finite values, got shape {weights.shape}")
     x_m, y_m = positions_m[:, 0], positions_m[:, 1]
     inside = (x_m >= 0) & (x_m <= width_m) & (y_m >= 0) & (y_m <= height_m)
     if not inside.all():
         x_m, y_m = x_m[inside], y_m[inside]
+        weights = None if weights is None else weights[inside]
     cols = np.minimum((x_m * (w / width_m)).astype(np.intp), w - 1)
     rows = np.minimum((y_m * (h / height_m)).astype(np.intp), h - 1)
-    counts = np.bincount(rows * w + cols, minlength=h * w)
+    counts = np.bincount(rows * w + cols, weights=weights, minlength=h * w)
     return counts.reshape(h, w).astype(np.float32)
 
 

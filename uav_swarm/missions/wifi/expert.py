@@ -42,7 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from typed_config import Config, param
+from typed_config import Config, ConfigError, param
+from uav_swarm.missions.wifi.group_expert import GroupExpertConfig, place_uavs_by_groups
 from uav_swarm.missions.wifi.rules import (
     Assignment,
     CoverageRules,
@@ -67,6 +68,30 @@ class WifiExpertConfig(Config):
     branching: int = param(
         4, ge=1, le=50, doc="greedy fills try this many separated first candidates and keep the best")
     refine_passes: int = param(3, ge=0, le=100, doc="passes of the continuous centroid refinement")
+    method: str = param(
+        "auto", doc="'search' (greedy + ruin-and-recreate), 'groups' (strategy 2 only, "
+        "uav_swarm.missions.wifi.group_expert) or 'auto' (strategy 1: search; strategy 2: groups)")
+    groups: GroupExpertConfig = param(GroupExpertConfig(), doc="the group expert ([task.expert.groups])")
+
+    def check(self) -> None:
+        """Reject an unknown ``method``."""
+        if self.method not in _METHODS:
+            raise ConfigError(f"WifiExpertConfig.method = {self.method!r}: allowed {', '.join(_METHODS)}")
+
+    def method_for(self, rules: CoverageRules) -> str:
+        """The method that runs under ``rules``: ``"search"`` or ``"groups"``.
+
+        Raises:
+            ConfigError: ``"groups"`` asked for strategy 1 (exclusive rules).
+        """
+        if self.method == "groups" and rules.exclusive:
+            raise ConfigError("WifiExpertConfig.method = 'groups' is strategy 2's; strategy 1 uses 'search'")
+        if self.method == "auto":
+            return "search" if rules.exclusive else "groups"
+        return self.method
+
+
+_METHODS = ("auto", "search", "groups")
 
 
 class CandidatePairs:
@@ -304,6 +329,7 @@ def place_uavs(
     height_m: float,
     config: WifiExpertConfig,
     candidates_m: np.ndarray | None = None,
+    velocities_m_s: np.ndarray | None = None,
 ) -> np.ndarray:
     """The expert's placement for one crowd.
 
@@ -312,8 +338,10 @@ def place_uavs(
         rules: The constraints (radius, per-UAV load bounds, UAV budget).
         width_m: Area width (x extent), metres.
         height_m: Area height (y extent), metres.
-        config: Expert settings (grid step, search effort).
-        candidates_m: Optional ``(M, 2)`` candidate positions replacing the grid.
+        config: Expert settings (method, grid step, search effort).
+        candidates_m: Optional ``(M, 2)`` candidate positions replacing the grid (search only).
+        velocities_m_s: Optional ``(N, 2)`` user velocities; the group expert plans over its horizon
+            with them (a crowd at rest without).
 
     Returns:
         ``(k, 2)`` float64 UAV positions in metres, ``0 <= k <= rules.max_uavs``,
@@ -321,10 +349,13 @@ def place_uavs(
 
     Raises:
         ValueError: ``users_m`` is not a finite ``(N, 2)`` array.
+        ConfigError: the group method asked for strategy 1.
     """
     users_m = np.asarray(users_m, dtype=np.float64)
     if users_m.ndim != 2 or users_m.shape[1] != 2 or not np.all(np.isfinite(users_m)):
         raise ValueError(f"users_m must be a finite (N, 2) array, got shape {users_m.shape}")
+    if config.method_for(rules) == "groups":
+        return place_uavs_by_groups(users_m, rules, config.groups, velocities_m_s)
     if candidates_m is None:
         candidates_m, _ = candidate_grid(width_m, height_m, config.grid_step_m)
     if len(users_m) < rules.min_users or rules.max_uavs == 0:

@@ -73,10 +73,12 @@ def raster_users(observation: np.ndarray, density_scale: float) -> tuple[np.ndar
     """The users a density raster shows: ``(pixels (m, 2) as (x, y), counts (m,))`` of its non-empty pixels.
 
     Args:
-        observation: ``(1, h, w)`` or ``(h, w)`` density divided by ``density_scale``.
+        observation: ``(C, h, w)`` (channel 0 is the density) or ``(h, w)`` density divided by
+            ``density_scale``.
         density_scale: Pedestrians per pixel that read as 1.0.
     """
-    density = np.asarray(observation, dtype=np.float64).reshape(np.shape(observation)[-2:])
+    observation = np.asarray(observation, dtype=np.float64)
+    density = observation[0] if observation.ndim == 3 else observation
     counts = np.rint(density * density_scale).astype(np.int64)
     rows, cols = np.nonzero(counts > 0)
     return np.stack([cols, rows], axis=1).astype(np.float64), counts[rows, cols]

@@ -3,13 +3,17 @@
 A scene is the crowd of a random scenario (:func:`uav_swarm.world.scenario.random_scenario`)
 after a warm-up of the social-force simulation (:class:`uav_swarm.world.crowd.CrowdSim`),
 drawn uniformly in ``[warmup_min_s, warmup_max_s]`` so that groups have formed and walk
-their routes; the expert placement (:func:`uav_swarm.missions.wifi.expert.place_uavs`) is
+their routes (a scene keeps the pedestrians' velocities too); the expert placement
+(:func:`uav_swarm.missions.wifi.expert.place_uavs`: the search expert for strategy 1, the group
+expert of :mod:`uav_swarm.missions.wifi.group_expert` for strategy 2) is
 solved by ``expert(scene)``, so regenerating a scene only for its QoS (as evaluation does)
 costs the warm-up alone.
 
 Observation (``float32``, shape ``(1, size_px, size_px)``): the pedestrian density map
 (:func:`uav_swarm.world.raster.density_map`, row 0 = South) divided by ``density_scale``
-(pedestrians per pixel that read as 1.0). The same function, :func:`crowd_raster`, rasterises
+(pedestrians per pixel that read as 1.0). With ``velocity_channels`` (shape ``(3, size_px, size_px)``)
+two more channels hold the pedestrians' velocity components summed per pixel, scaled the same way.
+The same function, :func:`crowd_raster`, rasterises
 the live crowd for the placement planner.
 
 Positions crossing the Task interface are pixel coordinates ``(x = column, y = row)``
@@ -63,6 +67,9 @@ class WifiConfig(Config):
     strategy: int = param(1, ge=1, le=2, doc="1: maximise covered users; 2: the same with >= 5 Mbps each")
     size_px: int = param(64, ge=8, le=1024, doc="side of the square density raster (pixels)")
     density_scale: float = param(4.0, gt=0.0, le=1000.0, doc="pedestrians per pixel that read as 1.0")
+    velocity_channels: bool = param(
+        False, doc="two more observation channels: the pedestrians' x and y velocity summed per pixel, "
+        "divided by density_scale (the crowd's motion, which the strategy-2 group expert plans for)")
     warmup_min_s: float = param(5.0, ge=0.0, le=3600.0, doc="shortest crowd warm-up before a scene (s)")
     warmup_max_s: float = param(30.0, ge=0.0, le=3600.0, doc="longest crowd warm-up before a scene (s)")
     scenario: ScenarioConfig = param(ScenarioConfig(), doc="random scenarios (table [task.scenario])")
@@ -90,15 +97,19 @@ class WifiScene:
     Attributes:
         users_m: ``(N, 2)`` float64 read-only pedestrian positions, metres.
         time_s: Simulated warm-up time of the crowd (s).
+        velocities_m_s: ``(N, 2)`` float64 read-only pedestrian velocities (zeros for a crowd at rest).
     """
 
     users_m: np.ndarray
     time_s: float
+    velocities_m_s: np.ndarray
 
 
-def _scene(users_m: np.ndarray, time_s: float) -> WifiScene:
+def _scene(users_m: np.ndarray, time_s: float, velocities_m_s: np.ndarray | None = None) -> WifiScene:
+    velocities_m_s = np.zeros_like(users_m) if velocities_m_s is None else velocities_m_s
     users_m.setflags(write=False)
-    return WifiScene(users_m, time_s)
+    velocities_m_s.setflags(write=False)
+    return WifiScene(users_m, time_s, velocities_m_s)
 
 
 def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageRules:
@@ -118,11 +129,25 @@ def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageR
                          exclusive=config.strategy == 1)
 
 
-def crowd_raster(users_m: np.ndarray, config: WifiConfig) -> np.ndarray:
-    """The observation of a crowd: ``(1, size_px, size_px)`` float32 scaled density (module docstring)."""
+def crowd_raster(users_m: np.ndarray, config: WifiConfig, velocities_m_s: np.ndarray | None = None
+                 ) -> np.ndarray:
+    """The observation of a crowd: ``(C, size_px, size_px)`` float32 (module docstring).
+
+    Channel 0 is the scaled density; with ``config.velocity_channels``, channels 1 and 2 are the
+    velocities' x and y components summed per pixel and scaled the same way.
+
+    Raises:
+        ValueError: ``config.velocity_channels`` without ``velocities_m_s``.
+    """
     side = config.size_px
-    density = density_map(users_m, config.scenario.width_m, config.scenario.height_m, (side, side))
-    return (density / np.float32(config.density_scale))[None]
+    area = (config.scenario.width_m, config.scenario.height_m, (side, side))
+    channels = [density_map(users_m, *area)]
+    if config.velocity_channels:
+        if velocities_m_s is None:
+            raise ValueError("this task's raster has velocity channels: pass the pedestrians' velocities_m_s")
+        velocities_m_s = np.asarray(velocities_m_s, dtype=np.float64).reshape(-1, 2)
+        channels += [density_map(users_m, *area, weights=velocities_m_s[:, axis]) for axis in (0, 1)]
+    return np.stack(channels) / np.float32(config.density_scale)
 
 
 class WifiRefiner:
@@ -163,7 +188,6 @@ class WifiTask:
     """
 
     config_class = WifiConfig
-    channels = 1
     refiner_class = WifiRefiner
     rule_check_class = WifiRuleCheck
 
@@ -172,6 +196,8 @@ class WifiTask:
         if not isinstance(config, WifiConfig):
             raise TypeError(f"WifiTask needs a WifiConfig, got {type(config).__name__}")
         self.config = config
+        self.channels = 3 if config.velocity_channels else 1
+        self.vector_channels = (1, 2) if config.velocity_channels else ()
         self.name = f"wifi-s{config.strategy}"
         self.shape = (config.size_px, config.size_px)
         self.mission_dimension_px = float(config.size_px)
@@ -189,9 +215,14 @@ class WifiTask:
         return pixels_to_metres(np.asarray(xy_px, np.float64).reshape(-1, 2), self.width_m, self.height_m,
                                 self.shape)
 
-    def expert_placement_m(self, users_m: np.ndarray) -> np.ndarray:
-        """The expert's ``(k, 2)`` UAV positions (metres) for any crowd ``users_m`` (metres)."""
-        return place_uavs(users_m, self.rules, self.width_m, self.height_m, self.config.expert)
+    def expert_placement_m(self, users_m: np.ndarray, velocities_m_s: np.ndarray | None = None) -> np.ndarray:
+        """The expert's ``(k, 2)`` UAV positions (metres) for any crowd ``users_m`` (metres).
+
+        ``velocities_m_s`` (``(N, 2)``, optional) lets the strategy-2 group expert plan for the crowd
+        of the next second (:mod:`uav_swarm.missions.wifi.group_expert`); the search expert ignores it.
+        """
+        return place_uavs(users_m, self.rules, self.width_m, self.height_m, self.config.expert,
+                          velocities_m_s=velocities_m_s)
 
     def sample(self, rng: np.random.Generator) -> WifiScene:
         """Draw a scenario and warm its crowd up for a random time."""
@@ -202,32 +233,40 @@ class WifiTask:
         steps = int(round(warmup_s / cfg.crowd.dt_s))
         if steps:
             crowd.step(steps)
-        return _scene(np.array(crowd.positions_m, dtype=np.float64), crowd.time_s)
+        return _scene(np.array(crowd.positions_m, dtype=np.float64), crowd.time_s,
+                      np.array(crowd.velocities_m_s, dtype=np.float64))
 
     def transform_scene(self, scene: WifiScene, flip_x: bool, flip_y: bool, transpose: bool) -> WifiScene:
         """The crowd under a symmetry of the square area (as :mod:`learning.symmetry` acts on pixels)."""
         users_m = np.array(scene.users_m, dtype=np.float64)
+        velocities = np.array(scene.velocities_m_s, dtype=np.float64)
         if flip_x:
             users_m[:, 0] = self.width_m - users_m[:, 0]
+            velocities[:, 0] = -velocities[:, 0]
         if flip_y:
             users_m[:, 1] = self.height_m - users_m[:, 1]
+            velocities[:, 1] = -velocities[:, 1]
         if transpose:
             users_m = users_m[:, ::-1].copy()
-        return _scene(users_m, scene.time_s)
+            velocities = velocities[:, ::-1].copy()
+        return _scene(users_m, scene.time_s, velocities)
 
     def jitter_scene(self, scene: WifiScene, rng: np.random.Generator, scale: float) -> WifiScene:
-        """The crowd, each pedestrian moved by a normal draw of ``scale`` metres per axis, kept inside."""
+        """The crowd, each pedestrian moved by a normal draw of ``scale`` metres per axis, kept inside.
+
+        Velocities are kept as they are.
+        """
         users_m = scene.users_m + rng.normal(0.0, scale, scene.users_m.shape)
         upper = np.nextafter(np.array([self.width_m, self.height_m]), 0.0)
-        return _scene(np.clip(users_m, 0.0, upper), scene.time_s)
+        return _scene(np.clip(users_m, 0.0, upper), scene.time_s, np.array(scene.velocities_m_s))
 
     def observe(self, scene: WifiScene) -> np.ndarray:
         """``(1, size, size)`` float32 scaled pedestrian density."""
-        return crowd_raster(scene.users_m, self.config)
+        return crowd_raster(scene.users_m, self.config, scene.velocities_m_s)
 
     def expert(self, scene: WifiScene) -> np.ndarray:
         """The expert's ``(k, 2)`` float64 positions in pixels, ``0 <= k <= 10``, sorted by ``(y, x)``."""
-        return self.to_pixels(self.expert_placement_m(scene.users_m))
+        return self.to_pixels(self.expert_placement_m(scene.users_m, scene.velocities_m_s))
 
     def qos(self, scene: WifiScene, positions_px: np.ndarray) -> dict[str, float]:
         """QoS of UAVs at ``positions_px`` over the scene's crowd (see the module docstring).

@@ -1,0 +1,254 @@
+"""Planning in motion: a replan starts from where the UAVs are and what they serve.
+
+A snapshot planner solves every instant from scratch, so its targets jump from one combination to
+another and the UAVs chase placements they never reach. :class:`MotionPlanning` instead keeps what
+works and changes only what a change pays for:
+
+1. **Follow.** Each UAV remembers the users it served at the last replan. Its followed target is
+   their centroid now, plus the offset it had from them, plus their mean velocity times
+   ``lead_s`` (aimed where they will be when the UAV gets there): a UAV walks with its group.
+2. **Keep or release.** A followed UAV is kept while, on the crowd predicted ``lead_s`` ahead, its
+   users still satisfy the strategy's rule (more than ``min_users``; at most ``max_users`` for
+   strategy 2). Released UAVs, and UAVs without users, are free.
+3. **Options.** *Hybrid*: the kept UAVs follow; the base planner's proposals that no kept UAV
+   already covers (none within the coverage radius) go to the free UAVs. *Fresh*: every UAV goes to
+   a proposal. Proposals are aimed at where their users will be when the UAV arrives. Both are
+   assigned by **time to reach** under the UAVs' speed and acceleration limits (Hungarian on the
+   squared times, so no UAV gets a far target another could reach sooner).
+4. **Judge over the horizon.** Each option is flown forward in a simple model: the UAVs travel
+   along straight lines with a trapezoidal speed profile, targets move with their users, and the
+   crowd with its velocities; the strategy's QoS (the radio model of
+   :func:`uav_swarm.world.comms.evaluate_coverage`) is averaged over ``samples`` instants of the
+   next ``horizon_s`` seconds. The fresh option replaces the hybrid only when it gains more than
+   ``switch_margin`` (a share of the crowd), so the swarm re-solves when a re-solve pays after the
+   time to fly there, and otherwise keeps its service.
+
+Examples:
+    >>> time_to_reach(np.array([0.0, 2.5, 100.0]), 10.0, 5.0).round(2).tolist()
+    [0.0, 1.41, 12.0]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from typed_config import Config, param
+from uav_swarm.missions.wifi.rules import CoverageRules, assign_users
+from uav_swarm.planning.assignment import separate_spares
+from uav_swarm.world.comms import RadioConfig, evaluate_coverage
+from uav_swarm.world.uav import UAVConfig
+
+__all__ = ["MotionConfig", "MotionPlan", "MotionPlanning", "time_to_reach", "travelled_m"]
+
+
+@dataclass(frozen=True)
+class MotionConfig(Config):
+    """Settings of planning in motion (:mod:`uav_swarm.planning.motion`)."""
+
+    horizon_s: float = param(6.0, gt=0.0, le=120.0, doc="an option's QoS is judged over the next this many s")
+    samples: int = param(6, ge=1, le=100, doc="instants of the horizon the QoS is averaged over")
+    lead_s: float = param(1.0, ge=0.0, le=30.0, doc="targets aim where their users will be this far ahead, s")
+    switch_margin: float = param(
+        0.01, ge=0.0, le=1.0, doc="a fresh solve replaces keeping the service only when it gains this "
+        "much QoS (share of the crowd, averaged over the horizon)")
+
+
+@dataclass(frozen=True)
+class MotionPlan:
+    """One replan in motion.
+
+    Attributes:
+        targets_m: ``(n, 2)`` target of each UAV, metres.
+        kept: ``(n,)`` True where the UAV kept following its users.
+        candidate_index: ``(n,)`` index of the proposal each UAV flies to, -1 where it follows or holds.
+        option: ``"hybrid"`` or ``"fresh"``: the option chosen.
+        horizon_qos: The chosen option's QoS averaged over the horizon (the model of the module docstring).
+    """
+
+    targets_m: np.ndarray
+    kept: np.ndarray
+    candidate_index: np.ndarray
+    option: str
+    horizon_qos: float
+
+
+def time_to_reach(distance_m: np.ndarray, max_speed_m_s: float, max_accel_m_s2: float) -> np.ndarray:
+    """Seconds to fly ``distance_m`` from rest to rest (trapezoidal speed profile)."""
+    d = np.asarray(distance_m, dtype=np.float64)
+    ramp_m = max_speed_m_s ** 2 / max_accel_m_s2  # accelerating and braking at full speed
+    cruising = d / max_speed_m_s + max_speed_m_s / max_accel_m_s2
+    return np.where(d <= ramp_m, 2.0 * np.sqrt(d / max_accel_m_s2), cruising)
+
+
+def travelled_m(t_s: float, max_speed_m_s: float, max_accel_m_s2: float) -> float:
+    """Distance flown from rest in ``t_s`` seconds at full acceleration up to the speed cap."""
+    t_ramp = max_speed_m_s / max_accel_m_s2
+    if t_s <= t_ramp:
+        return 0.5 * max_accel_m_s2 * t_s ** 2
+    return 0.5 * max_accel_m_s2 * t_ramp ** 2 + max_speed_m_s * (t_s - t_ramp)
+
+
+class MotionPlanning:
+    """The state of planning in motion over one sequence (see the module docstring).
+
+    Args:
+        n_uavs: Number of UAVs.
+        rules: The strategy's rules (coverage radius, users per UAV).
+        radio: The radio model the QoS is judged with.
+        strategy: 1 (QoS = covered share) or 2 (covered with the minimum rate).
+        area_m: ``(width, height)`` of the area; targets stay inside.
+        uav: The UAVs' speed and acceleration limits.
+        config: Horizon, lead and switching margin.
+        min_gap_m: Smallest distance between a holding UAV's target and another target.
+    """
+
+    def __init__(self, n_uavs: int, rules: CoverageRules, radio: RadioConfig, strategy: int,
+                 area_m: tuple[float, float], uav: UAVConfig | None = None,
+                 config: MotionConfig | None = None, min_gap_m: float = 1.0) -> None:
+        self.n_uavs = n_uavs
+        self.area_m = np.asarray(area_m, dtype=np.float64)
+        self.min_gap_m = min_gap_m
+        self.rules = rules
+        self.radio = radio
+        self.strategy = strategy
+        self.uav = uav or UAVConfig()
+        self.config = config or MotionConfig()
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every UAV's users (a new sequence starts)."""
+        self._users: list[np.ndarray] = [np.zeros(0, np.int64) for _ in range(self.n_uavs)]
+        self._offsets = np.zeros((self.n_uavs, 2))
+        self._n_pedestrians = -1
+
+    # --- the steps of one replan ------------------------------------------------------------
+
+    def _followed(self, peds: np.ndarray, vels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(targets (n, 2), following (n,) bool)`` of every UAV that remembers its users."""
+        targets = np.zeros((self.n_uavs, 2))
+        following = np.zeros(self.n_uavs, dtype=bool)
+        if self._n_pedestrians != len(peds):
+            return targets, following
+        for j, users in enumerate(self._users):
+            if len(users):
+                targets[j] = peds[users].mean(axis=0) + vels[users].mean(axis=0) * self.config.lead_s
+                targets[j] += self._offsets[j]
+                following[j] = True
+        return targets, following
+
+    def _healthy(self, predicted: np.ndarray, targets: np.ndarray, following: np.ndarray) -> np.ndarray:
+        """``(n,)`` True where a following UAV's users satisfy the rule on the predicted crowd."""
+        healthy = np.zeros(self.n_uavs, dtype=bool)
+        index = np.flatnonzero(following)
+        if len(index) == 0:
+            return healthy
+        state = assign_users(predicted, targets[index], self.rules.radius_m)
+        justified = state.exclusive_counts if self.rules.exclusive else state.counts
+        healthy[index] = (justified >= self.rules.min_users) & (state.counts <= self.rules.cap)
+        return healthy
+
+    def _aimed(self, proposals: np.ndarray, peds: np.ndarray, vels: np.ndarray, lead_s: np.ndarray
+               ) -> np.ndarray:
+        """Each proposal moved by the mean velocity of the users it covers times its ``lead_s``."""
+        if len(proposals) == 0 or len(peds) == 0:
+            return proposals
+        state = assign_users(peds, proposals, self.rules.radius_m)
+        aimed = proposals.copy()
+        for k in range(len(proposals)):
+            users = state.association == k
+            if np.any(users):
+                aimed[k] += vels[users].mean(axis=0) * lead_s[k]
+        return aimed
+
+    def _assign(self, uavs: np.ndarray, free: np.ndarray, proposals: np.ndarray) -> np.ndarray:
+        """``(n,)`` proposal index of each free UAV (-1: none), by least total squared time to reach."""
+        index = np.full(self.n_uavs, -1, dtype=np.int64)
+        uav_ids = np.flatnonzero(free)
+        if len(uav_ids) == 0 or len(proposals) == 0:
+            return index
+        distance = np.linalg.norm(uavs[uav_ids, None, :] - proposals[None, :, :], axis=-1)
+        cost = time_to_reach(distance, self.uav.max_speed_m_s, self.uav.max_accel_m_s2) ** 2
+        rows, cols = linear_sum_assignment(cost)
+        index[uav_ids[rows]] = cols
+        return index
+
+    def _option(self, uavs: np.ndarray, peds: np.ndarray, vels: np.ndarray, followed: np.ndarray,
+                kept: np.ndarray, proposals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(targets, candidate index)``: kept UAVs follow, free ones fly to the proposals (aimed)."""
+        index = self._assign(uavs, ~kept, proposals)
+        targets = np.where(kept[:, None], followed, uavs)
+        moving = index >= 0
+        if np.any(moving):
+            distance = np.linalg.norm(proposals[index[moving]] - uavs[moving], axis=1)
+            lead = time_to_reach(distance, self.uav.max_speed_m_s, self.uav.max_accel_m_s2)
+            targets[moving] = self._aimed(proposals[index[moving]], peds, vels, lead)
+        return targets, index
+
+    def horizon_qos(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, targets: np.ndarray) -> float:
+        """The strategy's QoS averaged over the horizon (module docstring, step 4)."""
+        if len(peds) == 0:
+            return 0.0
+        cfg = self.config
+        state = assign_users(peds, targets, self.rules.radius_m)
+        target_vel = np.zeros_like(targets)
+        for j in range(len(targets)):
+            users = state.association == j
+            if np.any(users):
+                target_vel[j] = vels[users].mean(axis=0)
+        total = 0.0
+        for t in np.linspace(cfg.horizon_s / cfg.samples, cfg.horizon_s, cfg.samples):
+            goal = targets + target_vel * t
+            offset = goal - uavs
+            distance = np.linalg.norm(offset, axis=1)
+            reach = travelled_m(float(t), self.uav.max_speed_m_s, self.uav.max_accel_m_s2)
+            scale = np.where(distance > reach, reach / np.maximum(distance, 1e-9), 1.0)
+            coverage = evaluate_coverage(peds + vels * t, uavs + offset * scale[:, None], self.radio)
+            total += coverage.qos_s1 if self.strategy == 1 else coverage.qos_s2
+        return total / cfg.samples
+
+    def _remember(self, peds: np.ndarray, vels: np.ndarray, targets: np.ndarray) -> None:
+        """Each UAV's users at its new target (on the crowd ``lead_s`` ahead) and its offset from them."""
+        predicted = peds + vels * self.config.lead_s
+        state = assign_users(predicted, targets, self.rules.radius_m)
+        for j in range(self.n_uavs):
+            users = np.flatnonzero(state.association == j)
+            self._users[j] = users
+            self._offsets[j] = (targets[j] - predicted[users].mean(axis=0)) if len(users) else 0.0
+        self._n_pedestrians = len(peds)
+
+    def plan(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, proposals: np.ndarray) -> MotionPlan:
+        """One replan (module docstring).
+
+        Args:
+            peds: ``(N, 2)`` pedestrian positions, metres.
+            vels: ``(N, 2)`` pedestrian velocities, m/s.
+            uavs: ``(n, 2)`` UAV positions, metres.
+            proposals: ``(k, 2)`` the base planner's placement of the crowd, metres, best first.
+        """
+        followed, following = self._followed(peds, vels)
+        kept = self._healthy(peds + vels * self.config.lead_s, followed, following)
+        uncovered = np.arange(len(proposals))
+        if np.any(kept) and len(proposals):
+            near = np.linalg.norm(proposals[:, None, :] - followed[kept][None], axis=-1).min(axis=1)
+            uncovered = np.flatnonzero(near > self.rules.radius_m)
+        targets, index = self._option(uavs, peds, vels, followed, kept, proposals[uncovered])
+        index = np.where(index >= 0, uncovered[np.maximum(index, 0)] if len(uncovered) else -1, -1)
+        option, qos = "hybrid", self.horizon_qos(peds, vels, uavs, self._finish(targets, index, kept))
+        if np.any(kept):
+            none = np.zeros(self.n_uavs, dtype=bool)
+            fresh, fresh_index = self._option(uavs, peds, vels, followed, none, proposals)
+            fresh_qos = self.horizon_qos(peds, vels, uavs, self._finish(fresh, fresh_index, none))
+            if fresh_qos > qos + self.config.switch_margin:
+                targets, index, kept, option, qos = fresh, fresh_index, none, "fresh", fresh_qos
+        targets = self._finish(targets, index, kept)
+        self._remember(peds, vels, targets)
+        return MotionPlan(targets, kept.copy(), index, option, qos)
+
+    def _finish(self, targets: np.ndarray, index: np.ndarray, kept: np.ndarray) -> np.ndarray:
+        """Targets inside the area, spares (neither following nor flying to a proposal) kept apart."""
+        out = np.clip(targets, 0.0, self.area_m)
+        separate_spares(out, (index < 0) & ~kept, self.min_gap_m)
+        return out
