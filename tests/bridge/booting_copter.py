@@ -46,7 +46,7 @@ class BootingCopter(FlyingVehicle):
         system_id: Its MAVLink system id.
         fix_after_s: Its GPS 3-D fix, this long after start.
         home_after_s: Its EKF position and home (arming allowed), this long after start.
-        answer_mission_current: Answer ``MAV_CMD_REQUEST_MESSAGE`` for MISSION_CURRENT (False: ignore it).
+        answer_mission_current: Send MISSION_CURRENT when asked (False: never, streamed or requested).
         climbed_mark_m: :attr:`climbed_s` is the time it first rose above this height.
         **options: :class:`FlyingVehicle`'s.
     """
@@ -60,6 +60,7 @@ class BootingCopter(FlyingVehicle):
         self.climbed_s: float | None = None
         self.intervals_s: dict[int, float] = {}
         self.clears_received = 0
+        self.counts_before_home = 0
         self.zero_positions_sent = 0
         self._due_s: dict[int, float] = {}
         self._next_heartbeat_s = 0.0
@@ -102,7 +103,7 @@ class BootingCopter(FlyingVehicle):
             flags = _EKF_READY if self.home_set() else m.EKF_ATTITUDE
             mav.ekf_status_report_send(flags=flags, velocity_variance=0.0, pos_horiz_variance=0.0,
                                        pos_vert_variance=0.0, compass_variance=0.0, terrain_alt_variance=0.0)
-        elif message_id == m.MAVLINK_MSG_ID_MISSION_CURRENT:
+        elif message_id == m.MAVLINK_MSG_ID_MISSION_CURRENT and self.answer_mission_current:
             mav.mission_current_send(seq=self.current_seq, total=len(self.mission))
         elif message_id == m.MAVLINK_MSG_ID_HOME_POSITION and self.home_set():
             lat, lon, home_alt_m = self.home
@@ -123,10 +124,11 @@ class BootingCopter(FlyingVehicle):
         now_s = time.monotonic()
         if now_s >= self._next_heartbeat_s:
             self._next_heartbeat_s = now_s + _HEARTBEAT_S
-            base_mode = m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (m.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
+            armed = m.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0
+            status = m.MAV_STATE_ACTIVE if self.armed else m.MAV_STATE_STANDBY
             self._conn.mav.heartbeat_send(type=m.MAV_TYPE_QUADROTOR, autopilot=self.autopilot,
-                                          base_mode=base_mode, custom_mode=self.custom_mode,
-                                          system_status=m.MAV_STATE_ACTIVE if self.armed else m.MAV_STATE_STANDBY)
+                                          base_mode=m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | armed,
+                                          custom_mode=self.custom_mode, system_status=status)
         if not self.home_set() and now_s >= self._next_prearm_s:
             self._next_prearm_s = now_s + _PREARM_TEXT_S
             self._prearm_text()
@@ -144,8 +146,7 @@ class BootingCopter(FlyingVehicle):
                 self._answer(msg, m.MAV_RESULT_FAILED)
                 return
             self._answer(msg, m.MAV_RESULT_ACCEPTED)  # also with no home yet: nothing is then sent
-            if message_id != m.MAVLINK_MSG_ID_MISSION_CURRENT or self.answer_mission_current:
-                self._send(message_id)
+            self._send(message_id)
             return
         self._answer(msg, self._command(msg))
 
@@ -166,6 +167,10 @@ class BootingCopter(FlyingVehicle):
             self._prearm_text()
             return m.MAV_RESULT_FAILED
         return super()._command(msg)
+
+    def _on_mission_count(self, msg) -> None:
+        self.counts_before_home += not self.home_set()
+        super()._on_mission_count(msg)
 
     def _on_mission_clear_all(self, msg) -> None:
         self.clears_received += 1
