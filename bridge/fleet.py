@@ -39,7 +39,7 @@ from bridge.mavlink import LinkReader, MavlinkLink, use_mavlink2
 from bridge.mission import ARDUPILOT, Mission, MissionItem, build_mission
 from bridge.mission_protocol import MissionClient
 from bridge.mission_upload import upload_concurrently
-from bridge.readiness import request_message, request_streams, wait_ready
+from bridge.readiness import request_message, wait_ready
 from bridge.signing import SigningKey, load_signing_key
 from bridge.vehicle_home import HomeWatcher, ReportedHome, check_home_offset
 from bridge.vehicle_state import VehicleState, VehicleStateTracker
@@ -50,7 +50,6 @@ MissionBuilder = Callable[[int, int, Home], Mission]
 """``build(system_id, autopilot, home)``: a vehicle's mission around ``home``, as its autopilot wants it."""
 
 _AUTO_MODES = frozenset({"AUTO", "MISSION"})  # ArduPilot's and PX4's mission-flying modes
-_DISCOVERY_POSITION_HZ = 2.0  # GLOBAL_POSITION_INT asked of a vehicle on its first heartbeat
 _MISSION_CURRENT_ASKS = 3  # MAV_CMD_REQUEST_MESSAGE tries, one per handshake timeout
 _CLEAR_HINT = (
     "ArduPilot refuses (MAV_MISSION_ERROR) to clear the mission it is flying in AUTO: switch the "
@@ -222,13 +221,16 @@ class Fleet:
     def _discover(self, system_id: int, timeout_s: float) -> int:
         """The vehicle's ``MAV_AUTOPILOT_*`` from its first HEARTBEAT, waiting at most ``timeout_s``.
 
-        On that first heartbeat the vehicle is asked for the messages our decisions depend on
-        (:func:`~bridge.readiness.request_streams`: ArduPilot streams none on a new link until asked).
+        On that first heartbeat the vehicle is asked once for the messages the mission commands'
+        decisions depend on, HOME_POSITION and MISSION_CURRENT (:func:`~bridge.readiness.request_message`:
+        ArduPilot streams neither on a new link until asked).
         """
         if system_id not in self._autopilots:
             link = self.link(system_id)
             self._autopilots[system_id] = link.wait_heartbeat(system_id, timeout_s).autopilot
-            request_streams(link, system_id, _DISCOVERY_POSITION_HZ)
+            m = link.mavlink
+            for message_id in (m.MAVLINK_MSG_ID_HOME_POSITION, m.MAVLINK_MSG_ID_MISSION_CURRENT):
+                request_message(link, system_id, message_id)
         return self._autopilots[system_id]
 
     def autopilot(self, system_id: int) -> int:
@@ -463,7 +465,8 @@ class Fleet:
 
         Per vehicle, in its own thread, each step bounded in time: its HEARTBEAT (for its
         autopilot); its home (HOME_POSITION or first fix, unless ``max_home_offset_m = 0``
-        with ``home_source = "config"``); its mission, ``builders[sid](sid, autopilot, home)``
+        with ``home_source = "config"``; waited for, see :meth:`vehicle_home`); its mission,
+        ``builders[sid](sid, autopilot, home)``
         with ``home`` the configured one or, with ``home_source = "vehicle"``, the vehicle's;
         the mission's home against the vehicle's (:class:`HomeMismatchError` beyond
         ``max_home_offset_m``); the vehicle must not be flying its mission

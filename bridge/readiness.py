@@ -6,9 +6,13 @@ a freshly booted one has no position for several seconds (GLOBAL_POSITION_INT at
 longitude 0) and no home for several more (no HOME_POSITION; its pre-arm checks say
 "PreArm: Need Position Estimate" meanwhile). So:
 
-- :func:`request_streams` asks for GLOBAL_POSITION_INT, GPS_RAW_INT, EKF_STATUS_REPORT,
-  MISSION_CURRENT and HOME_POSITION with ``MAV_CMD_SET_MESSAGE_INTERVAL``, without waiting for the
-  answers (a vehicle that ignores them costs no time; they are asked again while we wait);
+- :func:`request_message` asks for one message once (``MAV_CMD_REQUEST_MESSAGE``): what a mission
+  command needs (HOME_POSITION, MISSION_CURRENT) is asked for that way, which changes no stream rate
+  another ground station on the link may rely on;
+- :func:`request_streams` asks a vehicle we fly for GLOBAL_POSITION_INT, GPS_RAW_INT,
+  EKF_STATUS_REPORT, MISSION_CURRENT and HOME_POSITION with ``MAV_CMD_SET_MESSAGE_INTERVAL``;
+- neither waits for the answers (a vehicle that ignores them costs no time): they are asked again
+  while we wait;
 - :func:`wait_ready` waits, for at most ``timeout_s``, until the vehicle has a position fix (when
   asked) and a home, asks again for what has not come, says every few seconds what it waits for
   and what the vehicle said (STATUSTEXT), and raises :class:`~bridge.errors.HomeUnknownError`
@@ -94,7 +98,8 @@ def wait_ready(link: MavlinkLink, tracker: VehicleStateTracker, homes: HomeWatch
         need_fix: Also wait for a position fix (``VehicleState.has_fix``).
         fix_stands_in: The first fix may stand in for the home after one handshake timeout.
         fresh: Only what the vehicle says from now counts (a restarted vehicle's old home does not).
-        position_rate_hz: GLOBAL_POSITION_INT rate asked for (0: its own).
+        position_rate_hz: Ask for the streams (:func:`request_streams`) with GLOBAL_POSITION_INT at this
+            rate (a vehicle we fly); 0: ask only for single messages (:func:`request_message`).
         cancel: Set it to stop waiting (a flight ending).
 
     Raises:
@@ -126,8 +131,11 @@ def wait_ready(link: MavlinkLink, tracker: VehicleStateTracker, homes: HomeWatch
                                    _quoted(link.status_texts(system_id, start_s)))
         if now_s >= next_request_s:
             next_request_s = now_s + protocol.handshake_timeout_s
-            if state is None or (state.position_time_s or 0.0) < start_wall_s:  # nothing streamed yet
+            streamed = state is not None and (state.position_time_s or 0.0) >= start_wall_s
+            if position_rate_hz > 0 and not streamed:
                 request_streams(link, system_id, position_rate_hz)
+            elif fix_stands_in and home is None:
+                request_message(link, system_id, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT)
             if home is None:
                 request_message(link, system_id, mavlink.MAVLINK_MSG_ID_HOME_POSITION)
         if now_s >= next_report_s:
