@@ -48,7 +48,7 @@ def _fleet(n: int, seed: int, options: dict[int, dict] | None = None) -> tuple[l
         port = free_tcp_port() if transport == "tcp" else free_udp_port()
         vehicle_url, gcs_url = endpoint_pair(transport, port)
         options_i = (options or {}).get(i + 1, {})
-        vehicles.append(BootingCopter(vehicle_url, i + 1, **_boot_times(rng), **options_i))
+        vehicles.append(BootingCopter(vehicle_url, i + 1, **(_boot_times(rng) | options_i)))
         urls.append(gcs_url)
     return vehicles, urls
 
@@ -197,5 +197,22 @@ def test_mission_upload_and_clear_right_after_boot_with_one_restart(tmp_path, ca
         assert again.uploads == 1 and again.counts_before_home == 0
         waits = [r.getMessage() for r in caplog.records if "vehicle 8: waiting for" in r.getMessage()]
         assert waits and any(PREARM_TEXT in text for text in waits)
+    finally:
+        _close(vehicles)
+
+
+def test_a_vehicle_never_ready_is_named_and_the_others_fly(tmp_path, caplog, capsys):
+    vehicles, urls = _fleet(2, seed=1, options={2: {"home_after_s": 1000.0}})
+    toml = _bridge_toml(tmp_path / "bridge.toml", urls)
+    try:
+        argv = ["fly", "--bridge-config", str(toml), "--out", str(tmp_path / "out"), "--wait-ready-s", "6",
+                "--duration-s", "4", "--speedup", "2", "--no-telemetry"]
+        assert main(argv) == 0  # vehicle 1 flew
+        assert "vehicle 1 (uav 0): ended, 1 launch(es)" in capsys.readouterr().out
+        failure = next(r.getMessage() for r in caplog.records if "vehicle 2 not launched" in r.getMessage())
+        assert ("HomeUnknownError: vehicle 2: not ready within 6.0 s: still no position fix and home "
+                "(HOME_POSITION)") in failure  # a GPS fix, but no EKF position yet
+        assert PREARM_TEXT in failure  # what the vehicle said
+        assert mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicles[1].commands and not vehicles[1].armed
     finally:
         _close(vehicles)
