@@ -46,7 +46,9 @@ class ProtocolConfig(Config):
         "or MAV_MISSION_DENIED (still booting, or busy), seconds (0: no retry)",
     )
     home_timeout_s: float = param(
-        10.0, gt=0.0, le=600.0, doc="wait for a vehicle's home (HOME_POSITION or a position fix), seconds"
+        60.0, gt=0.0, le=600.0,
+        doc="wait for a vehicle's home (HOME_POSITION or, not ArduPilot, a position fix) before an upload, "
+        "seconds (a freshly booted ArduPilot sets its home some 20 s after boot)",
     )
 
 

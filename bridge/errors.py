@@ -263,14 +263,22 @@ class HeartbeatTimeoutError(BridgeError, TimeoutError):
 
 
 class HomeUnknownError(BridgeError, TimeoutError):
-    """A vehicle reported neither HOME_POSITION nor a position fix in time, so its home cannot be checked."""
+    """A vehicle was not ready in time: no home (HOME_POSITION), or no position fix when one was needed.
 
-    def __init__(self, system_id: int, waited_s: float) -> None:
+    Attributes:
+        system_id: The vehicle.
+        missing: What did not come (e.g. ``"position fix and home (HOME_POSITION)"``).
+    """
+
+    def __init__(self, system_id: int, waited_s: float, missing: str = "home (HOME_POSITION)",
+                 said: str = "") -> None:
         self.system_id = system_id
+        self.missing = missing
         super().__init__(
-            f"vehicle {system_id}: no HOME_POSITION and no position fix within {waited_s:.1f} s, so its "
-            "home cannot be compared with the configured one; nothing was sent (wait for a GPS fix, or set "
-            "max_home_offset_m = 0 to upload without this check)"
+            f"vehicle {system_id}: not ready within {waited_s:.1f} s: still no {missing}{said}; its home "
+            "cannot be compared with the configured one and nothing was sent (a freshly booted "
+            "autopilot needs its GPS fix and its home first: wait longer, [flight] ready_timeout_s or "
+            "[protocol] home_timeout_s, or set max_home_offset_m = 0 to upload without the home check)"
         )
 
 
@@ -289,12 +297,17 @@ class HomeMismatchError(RefusedError, ValueError):
 
 
 class MissionRunningError(RefusedError):
-    """The vehicle flies its mission (armed, in AUTO, past item 0): clearing or replacing it needs force."""
+    """The vehicle flies its mission (armed, in AUTO, past item 0): clearing or replacing it needs force.
 
-    def __init__(self, system_id: int, operation: str, mode: str, seq: int) -> None:
+    A vehicle armed in AUTO whose mission item could not be learned (``seq`` None) is taken as flying.
+    """
+
+    def __init__(self, system_id: int, operation: str, mode: str, seq: int | None) -> None:
         self.system_id = system_id
+        where = (f"at item {seq}" if seq is not None
+                 else "its mission item unknown: no MISSION_CURRENT after asking, so taken as flying")
         super().__init__(
-            f"vehicle {system_id}: is flying its mission (armed, mode {mode}, at item {seq}); refusing to "
-            f"{operation} it: a new or empty mission changes what it flies now. Switch it out of "
-            f"{mode} first, or force it (--force)"
+            f"vehicle {system_id}: is flying its mission (armed, mode {mode}, {where}); refusing to "
+            f"{operation} it: a new or empty mission changes what it flies now. Nothing was sent. Switch "
+            f"it out of {mode} first, or force it (--force)"
         )

@@ -18,6 +18,7 @@ Example (the planner's path from ENU targets to flying vehicles)::
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -38,6 +39,7 @@ from bridge.mavlink import LinkReader, MavlinkLink, use_mavlink2
 from bridge.mission import ARDUPILOT, Mission, MissionItem, build_mission
 from bridge.mission_protocol import MissionClient
 from bridge.mission_upload import upload_concurrently
+from bridge.readiness import request_message, wait_ready
 from bridge.signing import SigningKey, load_signing_key
 from bridge.vehicle_home import HomeWatcher, ReportedHome, check_home_offset
 from bridge.vehicle_state import VehicleState, VehicleStateTracker
@@ -48,6 +50,7 @@ MissionBuilder = Callable[[int, int, Home], Mission]
 """``build(system_id, autopilot, home)``: a vehicle's mission around ``home``, as its autopilot wants it."""
 
 _AUTO_MODES = frozenset({"AUTO", "MISSION"})  # ArduPilot's and PX4's mission-flying modes
+_MISSION_CURRENT_ASKS = 3  # MAV_CMD_REQUEST_MESSAGE tries, one per handshake timeout
 _CLEAR_HINT = (
     "ArduPilot refuses (MAV_MISSION_ERROR) to clear the mission it is flying in AUTO: switch the "
     "vehicle to another mode (e.g. LOITER or GUIDED) first"
@@ -216,9 +219,18 @@ class Fleet:
         return self._each("discovery", ids, lambda sid: self._discover(sid, timeout_s))
 
     def _discover(self, system_id: int, timeout_s: float) -> int:
-        """The vehicle's ``MAV_AUTOPILOT_*`` from its first HEARTBEAT, waiting at most ``timeout_s``."""
+        """The vehicle's ``MAV_AUTOPILOT_*`` from its first HEARTBEAT, waiting at most ``timeout_s``.
+
+        On that first heartbeat the vehicle is asked once for the messages the mission commands'
+        decisions depend on, HOME_POSITION and MISSION_CURRENT (:func:`~bridge.readiness.request_message`:
+        ArduPilot streams neither on a new link until asked).
+        """
         if system_id not in self._autopilots:
-            self._autopilots[system_id] = self.link(system_id).wait_heartbeat(system_id, timeout_s).autopilot
+            link = self.link(system_id)
+            self._autopilots[system_id] = link.wait_heartbeat(system_id, timeout_s).autopilot
+            m = link.mavlink
+            for message_id in (m.MAVLINK_MSG_ID_HOME_POSITION, m.MAVLINK_MSG_ID_MISSION_CURRENT):
+                request_message(link, system_id, message_id)
         return self._autopilots[system_id]
 
     def autopilot(self, system_id: int) -> int:
@@ -227,22 +239,39 @@ class Fleet:
             self.wait_for_vehicles([system_id])
         return self._autopilots[system_id]
 
+    def _fix_stands_in(self, system_id: int) -> bool:
+        """True unless the vehicle is ArduPilot, which has a fix long before its home (HOME_POSITION)."""
+        state = self.tracker.state(system_id)
+        autopilot = self._autopilots.get(system_id, state.autopilot if state is not None else None)
+        return autopilot != ARDUPILOT
+
     def vehicle_home(self, system_id: int) -> ReportedHome:
-        """The vehicle's own home: its HOME_POSITION (asked for) or its first position fix.
+        """The vehicle's own home: its HOME_POSITION (asked for) or, not ArduPilot, its first position fix.
+
+        Waits at most ``protocol.home_timeout_s``, saying every few seconds what it waits for.
 
         Raises:
-            HomeUnknownError: Neither arrived within ``protocol.home_timeout_s``.
+            HomeUnknownError: Neither arrived in time (naming the vehicle and what it said).
         """
-        return self._homes.wait(self.link(system_id), system_id, self.config.protocol)
+        return wait_ready(self.link(system_id), self.tracker, self._homes, system_id,
+                          timeout_s=self.config.protocol.home_timeout_s, protocol=self.config.protocol,
+                          need_fix=False, fix_stands_in=self._fix_stands_in(system_id))
 
-    def check_home(self, system_id: int) -> ReportedHome:
-        """The vehicle's home, refused beyond ``max_home_offset_m`` from ``[home]`` (0: not checked).
+    def wait_ready(self, system_id: int, timeout_s: float, position_rate_hz: float = 0.0,
+                   cancel: threading.Event | None = None) -> ReportedHome:
+        """Wait until the vehicle can be flown: a position fix and its home, both heard from now on.
+
+        The home is refused beyond ``max_home_offset_m`` from ``[home]`` (0: not checked). Every few
+        seconds the wait says what it waits for and what the vehicle said (STATUSTEXT). Setting
+        ``cancel`` stops the wait (:class:`BridgeError`).
 
         Raises:
+            HomeUnknownError: Not ready within ``timeout_s`` (naming what was missing).
             HomeMismatchError: Naming both positions and the distance.
-            HomeUnknownError: The vehicle reported no home in time.
         """
-        reported = self.vehicle_home(system_id)
+        reported = wait_ready(self.link(system_id), self.tracker, self._homes, system_id, timeout_s=timeout_s,
+                              protocol=self.config.protocol, fix_stands_in=self._fix_stands_in(system_id),
+                              fresh=True, position_rate_hz=position_rate_hz, cancel=cancel)
         if self.config.max_home_offset_m > 0:
             check_home_offset(system_id, self.config.home, reported, self.config.max_home_offset_m)
         return reported
@@ -283,35 +312,45 @@ class Fleet:
     def _flying_mission(self, system_id: int) -> VehicleState | None:
         """The vehicle's state when it flies its mission (armed, AUTO, past item 0), else ``None``.
 
-        Waits for its HEARTBEAT first (a state not heard yet is not "not flying"); armed in AUTO
-        with no MISSION_CURRENT heard yet, waits up to one handshake timeout for it.
+        Waits for its HEARTBEAT first (a state not heard yet is not "not flying"). Armed in AUTO,
+        its mission item is asked for (``MAV_CMD_REQUEST_MESSAGE`` MISSION_CURRENT: ArduPilot does
+        not stream it on a new link) once per handshake timeout, three times; still unknown, the
+        vehicle is taken as flying (fail closed: its state then has ``mission_seq_current`` None).
 
         Raises:
             HeartbeatTimeoutError: The vehicle is silent.
         """
-        self._discover(system_id, self.config.protocol.heartbeat_timeout_s)
-        deadline_s = time.monotonic() + self.config.protocol.handshake_timeout_s
-        while True:
-            state = self.tracker.state(system_id)
-            if state is None or state.armed is None:  # its heartbeat is not folded into the state yet
-                if time.monotonic() >= deadline_s:
-                    return None
-                time.sleep(0.02)
-                continue
-            if not state.armed or state.mode not in _AUTO_MODES:
-                return None
-            if state.mission_seq_current is not None:
-                return state if state.mission_seq_current > 0 else None
+        protocol = self.config.protocol
+        self._discover(system_id, protocol.heartbeat_timeout_s)
+        deadline_s = time.monotonic() + protocol.handshake_timeout_s
+        state = self.tracker.state(system_id)
+        while state is None or state.armed is None:  # its heartbeat is not folded into the state yet
             if time.monotonic() >= deadline_s:
                 return None
             time.sleep(0.02)
+            state = self.tracker.state(system_id)
+        if not state.armed or state.mode not in _AUTO_MODES:
+            return None
+        link = self.link(system_id)
+        for _ in range(_MISSION_CURRENT_ASKS):
+            if state.mission_seq_current is not None:
+                break
+            request_message(link, system_id, link.mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
+            deadline_s = time.monotonic() + protocol.handshake_timeout_s
+            while state.mission_seq_current is None and time.monotonic() < deadline_s:
+                time.sleep(0.02)
+                state = self.tracker.state(system_id) or state
+        if state.mission_seq_current is None:
+            log.warning("vehicle %d: armed in %s and no MISSION_CURRENT after asking %d times: taken as "
+                        "flying its mission", system_id, state.mode, _MISSION_CURRENT_ASKS)
+            return state
+        return state if state.mission_seq_current > 0 else None
 
     def _refuse_if_flying(self, system_id: int, operation: str, force: bool) -> VehicleState | None:
         """Raise :class:`MissionRunningError` when the vehicle flies its mission, unless ``force``."""
         state = self._flying_mission(system_id)
         if state is not None and not force:
-            seq = int(state.mission_seq_current or 0)
-            raise MissionRunningError(system_id, operation, str(state.mode), seq)
+            raise MissionRunningError(system_id, operation, str(state.mode), state.mission_seq_current)
         return state
 
     def _each(self, operation: str, system_ids: Sequence[int], work: Callable[[int], T]) -> dict[int, T]:
@@ -426,7 +465,8 @@ class Fleet:
 
         Per vehicle, in its own thread, each step bounded in time: its HEARTBEAT (for its
         autopilot); its home (HOME_POSITION or first fix, unless ``max_home_offset_m = 0``
-        with ``home_source = "config"``); its mission, ``builders[sid](sid, autopilot, home)``
+        with ``home_source = "config"``; waited for, see :meth:`vehicle_home`); its mission,
+        ``builders[sid](sid, autopilot, home)``
         with ``home`` the configured one or, with ``home_source = "vehicle"``, the vehicle's;
         the mission's home against the vehicle's (:class:`HomeMismatchError` beyond
         ``max_home_offset_m``); the vehicle must not be flying its mission
@@ -445,7 +485,7 @@ class Fleet:
 
         def work(sid: int) -> Delivery:
             autopilot = self._discover(sid, protocol.heartbeat_timeout_s)
-            reported = self._homes.wait(self.link(sid), sid, protocol) if ask_home else None
+            reported = self.vehicle_home(sid) if ask_home else None
             home = reported.home if reported is not None and config.home_source == "vehicle" else config.home
             try:
                 mission = builders[sid](sid, autopilot, home)

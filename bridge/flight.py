@@ -66,7 +66,8 @@ class FlightConfig(Config):
     """Timing of a live flight: how long each step of the launch may take, the link, the end."""
 
     ready_timeout_s: float = param(60.0, gt=0.0, le=3600.0,
-                                   doc="wait for each vehicle's heartbeat and first position fix, seconds")
+                                   doc="wait for each vehicle's heartbeat, then for its position fix and its "
+                                       "home (HOME_POSITION), seconds")
     arm_timeout_s: float = param(60.0, gt=0.0, le=3600.0,
                                  doc="ask again to arm while the autopilot refuses (pre-arm checks), seconds")
     arm_retry_s: float = param(2.0, gt=0.0, le=60.0, doc="pause between two arming requests, seconds")
@@ -89,9 +90,8 @@ class FlightError(BridgeError):
 
 
 def has_position(state: VehicleState | None) -> bool:
-    """True when the vehicle reported a position fix (ArduPilot reports 0, 0 before its first fix)."""
-    return (state is not None and state.lat_deg is not None and state.lon_deg is not None
-            and (state.lat_deg, state.lon_deg) != (0.0, 0.0))
+    """True when the vehicle reports a position fix (:attr:`VehicleState.has_fix`)."""
+    return state is not None and state.has_fix
 
 
 def is_airborne(state: VehicleState | None, alt_m: float, tolerance_m: float) -> bool:
@@ -152,10 +152,12 @@ def _arm(link: MavlinkLink, system_id: int, config: FlightConfig, protocol: Prot
                          protocol=protocol)
             return
         except CommandRejectedError as exc:
+            said = list(dict.fromkeys(link.status_texts(system_id, time.monotonic() - config.arm_retry_s)))
+            said_text = "; it says: " + ", ".join(f'"{text}"' for text in said[-3:]) if said else ""
             if time.monotonic() + config.arm_retry_s >= deadline_s:
                 raise FlightError(system_id, f"arming refused for {config.arm_timeout_s:.0f} s "
-                                             f"(last answer: {exc})") from None
-            log.info("vehicle %d: arming refused (%s), asking again in %.1f s", system_id, exc,
+                                             f"(last answer: {exc}{said_text})") from None
+            log.info("vehicle %d: arming refused (%s%s), asking again in %.1f s", system_id, exc, said_text,
                      config.arm_retry_s)
             _pause(system_id, config.arm_retry_s, cancel)
 

@@ -157,19 +157,23 @@ class SwarmPublisher:
             time.sleep(0.01)
         return True
 
-    def publish_state(self, state: UavState) -> None:
-        """Publish one UAV's state (announcing the UAV on its first state).
+    def publish_state(self, state: UavState, *, announce: bool = True) -> None:
+        """Publish one UAV's state; with ``announce``, the UAV's token is declared on its first state.
+
+        A caller whose token means more than "publishing" (``fly``: flying under the planner) passes
+        ``announce=False`` and calls :meth:`announce` itself.
 
         Raises:
             TelemetryFormatError: A field is invalid (e.g. NaN); nothing is sent.
         """
         data = state.to_json()
-        if self.home is not None and state.position_wgs84 is None:
+        if self.home is not None and state.position_wgs84 is None and state.position_enu_m is not None:
             geo = GeoPoint(*enu_to_geodetic(self.home, *state.position_enu_m))
             data = msgspec.structs.replace(state, position_wgs84=geo).to_json()
         known = self._state_publishers.get(state.uav_id)
         if known is None:
-            self.announce(state.uav_id)
+            if announce:
+                self.announce(state.uav_id)
             key = state.key(self.config.swarm)
             known = self._state_publishers[state.uav_id] = (
                 key, self.session.declare_publisher(key, encoding=ENCODING))

@@ -103,10 +103,16 @@ class GeoPoint(msgspec.Struct, frozen=True, gc=False):
 class UavState(_Payload, frozen=True, kw_only=True, gc=False, tag="state"):
     """The state of one UAV, from the simulator or from a vehicle.
 
+    A vehicle without a position fix (``fix`` False: before its GPS fix, or the EKF without a
+    position) has no position: ``position_enu_m``, ``velocity_enu_m_s`` and ``position_wgs84`` are
+    then None, never a placeholder; with a fix, ``position_enu_m`` and ``velocity_enu_m_s`` are given.
+
     Attributes:
         uav_id: The UAV number (>= 0), also in the key.
-        position_enu_m: East, north, up in metres from the swarm's local origin (the home).
-        velocity_enu_m_s: East, north, up velocity in metres per second.
+        fix: The position is known (False: "no fix", the position fields are None).
+        position_enu_m: East, north, up in metres from the swarm's local origin (the home); None
+            without a fix.
+        velocity_enu_m_s: East, north, up velocity in metres per second; None without a fix.
         position_wgs84: The same position in WGS84 when a home is known, else None.
         target_enu_m: The UAV's current target (east, north, up metres), None when it has none.
         battery_pct: Remaining battery in percent [0, 100], None when unknown.
@@ -116,13 +122,22 @@ class UavState(_Payload, frozen=True, kw_only=True, gc=False, tag="state"):
 
     kind: ClassVar[str] = "state"
     uav_id: NonNegativeInt
-    position_enu_m: Vec3
-    velocity_enu_m_s: Vec3
+    position_enu_m: Vec3 | None
+    velocity_enu_m_s: Vec3 | None
+    fix: bool = True
     position_wgs84: GeoPoint | None = None
     target_enu_m: Vec3 | None = None
     battery_pct: Annotated[float, msgspec.Meta(ge=0.0, le=100.0)] | None = None
     mission_item: NonNegativeInt | None = None
     mission_items_total: NonNegativeInt | None = None
+
+    def __post_init__(self) -> None:
+        known = (self.position_enu_m is not None, self.velocity_enu_m_s is not None)
+        if self.fix and not all(known):
+            raise ValueError("UavState with fix = true needs position_enu_m and velocity_enu_m_s")
+        if not self.fix and (any(known) or self.position_wgs84 is not None):
+            raise ValueError("UavState with fix = false (no position fix) must have null positions and "
+                             "velocity")
 
     def key(self, swarm: str) -> str:
         """``uav_swarm/<swarm>/uav/<id>/state``."""
@@ -279,16 +294,19 @@ def state_from_vehicle(vehicle: VehicleState, seq: int, *, uav_id: int | None = 
         target_enu_m: The UAV's current target, when the caller knows it.
 
     Returns:
-        The state, or None while the vehicle has not reported its position and velocity yet.
+        The state (``fix`` False, no position, when the vehicle has no position fix), or None before
+        its first GLOBAL_POSITION_INT.
     """
+    if vehicle.position_time_s is None:
+        return None
     enu = (vehicle.x_m, vehicle.y_m, vehicle.z_m)
     velocity = (vehicle.vx_m_s, vehicle.vy_m_s, vehicle.vz_m_s)
-    if None in enu or None in velocity:
-        return None
     geodetic = (vehicle.lat_deg, vehicle.lon_deg, vehicle.alt_m)
+    fix = vehicle.has_fix and None not in enu and None not in velocity and None not in geodetic
     return UavState(
-        stamp_s=vehicle.position_time_s or vehicle.updated_time_s or 0.0, seq=seq, source="vehicle",
-        uav_id=vehicle.system_id if uav_id is None else uav_id, position_enu_m=enu, velocity_enu_m_s=velocity,
-        position_wgs84=None if None in geodetic else GeoPoint(*geodetic), target_enu_m=target_enu_m,
+        stamp_s=vehicle.position_time_s, seq=seq, source="vehicle",
+        uav_id=vehicle.system_id if uav_id is None else uav_id, fix=fix,
+        position_enu_m=enu if fix else None, velocity_enu_m_s=velocity if fix else None,
+        position_wgs84=GeoPoint(*geodetic) if fix else None, target_enu_m=target_enu_m,
         battery_pct=vehicle.battery_remaining_pct, mission_item=vehicle.mission_seq_current,
         mission_items_total=vehicle.mission_total)

@@ -1,28 +1,25 @@
 """A vehicle's own home as it reports it, and the check that a mission was built near it.
 
-The home is the vehicle's HOME_POSITION (asked for with ``MAV_CMD_REQUEST_MESSAGE`` when
-it is not streamed) or, when none comes within one handshake timeout, its first
-GLOBAL_POSITION_INT fix (latitude and longitude not both 0: ArduPilot reports 0, 0
-before its GPS fix). A mission built around another home would send the vehicle to
-places it does not expect: beyond ``max_home_offset_m`` the upload is refused.
+The home is the vehicle's HOME_POSITION or, for autopilots that may not report one, its first
+GLOBAL_POSITION_INT fix (latitude and longitude not both 0: ArduPilot reports 0, 0 before its
+fix). :class:`HomeWatcher` keeps both as they arrive; :mod:`bridge.readiness` waits for them.
+A mission built around another home would send the vehicle to places it does not expect:
+beyond ``max_home_offset_m`` the upload is refused (:func:`check_home_offset`).
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from dataclasses import dataclass
 
-from bridge.config import ProtocolConfig
-from bridge.errors import HomeMismatchError, HomeUnknownError
+from bridge.errors import HomeMismatchError
 from bridge.geo import Home, ground_distance_m
-from bridge.mavlink import MavlinkLink
 
 __all__ = ["ReportedHome", "HomeWatcher", "check_home_offset"]
 
 _AUTOPILOT_COMPONENT = 1
-_HOME_POSITION_ID = 242  # MAVLINK_MSG_ID_HOME_POSITION
-_REQUEST_MESSAGE = 512  # MAV_CMD_REQUEST_MESSAGE
 
 
 @dataclass(frozen=True)
@@ -50,72 +47,52 @@ def _home(lat_e7: int, lon_e7: int, alt_mm: int) -> Home | None:
 
 
 class HomeWatcher:
-    """Keeps each vehicle's HOME_POSITION and first position fix; a link listener (thread-safe)."""
+    """Keeps each vehicle's latest HOME_POSITION and its first position fix; a link listener (thread-safe).
+
+    Both are kept with the time (``time.monotonic()``) they were last heard, so that a caller can ask
+    for what a vehicle said since a moment (a restarted vehicle's old home is not its home now).
+    A GLOBAL_POSITION_INT without a fix (0, 0) forgets the fix: the next fix is a first fix again.
+    """
 
     MESSAGE_TYPES = frozenset({"HOME_POSITION", "GLOBAL_POSITION_INT"})
     """The message types :meth:`update` uses (for :meth:`~bridge.mavlink.MavlinkLink.add_listener`)."""
 
     def __init__(self) -> None:
-        self._changed = threading.Condition()
-        self._homes: dict[int, Home] = {}
-        self._fixes: dict[int, Home] = {}
+        self._lock = threading.Lock()
+        self._homes: dict[int, tuple[Home, float]] = {}
+        self._fixes: dict[int, tuple[Home, float]] = {}
 
     def update(self, msg: object) -> None:
-        """Note a HOME_POSITION or a first GLOBAL_POSITION_INT fix (other messages are ignored)."""
+        """Note a HOME_POSITION or a GLOBAL_POSITION_INT (other messages are ignored)."""
         kind = msg.get_type()
-        if kind not in self.MESSAGE_TYPES:
+        if kind not in self.MESSAGE_TYPES or msg.get_srcComponent() != _AUTOPILOT_COMPONENT:
             return
-        if msg.get_srcComponent() != _AUTOPILOT_COMPONENT:
-            return
-        system_id = msg.get_srcSystem()
+        system_id, now_s = msg.get_srcSystem(), time.monotonic()
         if kind == "HOME_POSITION":
             home = _home(msg.latitude, msg.longitude, msg.altitude)
-            if home is None:
-                return
-            with self._changed:
-                self._homes[system_id] = home
-                self._changed.notify_all()
-        elif system_id not in self._fixes:
-            fix = _home(msg.lat, msg.lon, msg.alt)
+            if home is not None:
+                with self._lock:
+                    self._homes[system_id] = (home, now_s)
+            return
+        fix = _home(msg.lat, msg.lon, msg.alt)
+        with self._lock:
             if fix is None:
-                return
-            with self._changed:
-                self._fixes.setdefault(system_id, fix)
-                self._changed.notify_all()
+                self._fixes.pop(system_id, None)
+            else:
+                first = self._fixes.get(system_id, (fix, now_s))[0]
+                self._fixes[system_id] = (first, now_s)
 
-    def wait(self, link: MavlinkLink, system_id: int, protocol: ProtocolConfig) -> ReportedHome:
-        """The vehicle's home, asking for HOME_POSITION once per handshake timeout.
+    def home(self, system_id: int, since_s: float = -math.inf) -> Home | None:
+        """The vehicle's HOME_POSITION heard at or after ``since_s`` (``time.monotonic()``), or None."""
+        with self._lock:
+            home, heard_s = self._homes.get(system_id, (None, -math.inf))
+        return home if heard_s >= since_s else None
 
-        The first position fix stands in for it when no HOME_POSITION came within one
-        handshake timeout; at most ``protocol.home_timeout_s`` is spent.
-
-        Raises:
-            HomeUnknownError: Neither arrived in time.
-        """
-        start_s = time.monotonic()
-        deadline_s = start_s + protocol.home_timeout_s
-        fallback_s = start_s + protocol.handshake_timeout_s
-        next_request_s = start_s
-        while True:
-            now_s = time.monotonic()
-            with self._changed:
-                if system_id in self._homes:
-                    return ReportedHome(self._homes[system_id], "HOME_POSITION")
-                fix = self._fixes.get(system_id)
-            if fix is not None and (now_s >= fallback_s or now_s >= deadline_s):
-                return ReportedHome(fix, "GLOBAL_POSITION_INT")
-            if now_s >= deadline_s:
-                raise HomeUnknownError(system_id, protocol.home_timeout_s)
-            if now_s >= next_request_s:
-                next_request_s = now_s + protocol.handshake_timeout_s
-                link.send(
-                    lambda mav: mav.command_long_send(
-                        system_id, _AUTOPILOT_COMPONENT, _REQUEST_MESSAGE, 0, _HOME_POSITION_ID, *(0,) * 6
-                    )
-                )
-            wake_s = min(next_request_s, deadline_s, fallback_s if fix is not None else deadline_s)
-            with self._changed:
-                self._changed.wait(max(0.0, wake_s - time.monotonic()))
+    def first_fix(self, system_id: int, since_s: float = -math.inf) -> Home | None:
+        """Where the vehicle was at its first fix, when it still reported a fix at or after ``since_s``."""
+        with self._lock:
+            fix, heard_s = self._fixes.get(system_id, (None, -math.inf))
+        return fix if heard_s >= since_s else None
 
 
 def check_home_offset(

@@ -1,9 +1,16 @@
 """Typed per-vehicle state built from the vehicle's MAVLink stream.
 
-HEARTBEAT, GLOBAL_POSITION_INT, SYS_STATUS, BATTERY_STATUS, MISSION_CURRENT and
-MISSION_ITEM_REACHED from each vehicle's autopilot (component 1) update an
-immutable :class:`VehicleState` snapshot, with the position also given back in
-local East-North-Up metres around the configured home.
+HEARTBEAT, GLOBAL_POSITION_INT, GPS_RAW_INT, EKF_STATUS_REPORT, SYS_STATUS, BATTERY_STATUS,
+MISSION_CURRENT and MISSION_ITEM_REACHED from each vehicle's autopilot (component 1) update an
+immutable :class:`VehicleState` snapshot, with the position also given back in local
+East-North-Up metres around the configured home.
+
+**No position without a fix.** ArduPilot sends GLOBAL_POSITION_INT before it has a position:
+latitude 0, longitude 0 (thousands of kilometres from any real home). A position is kept only
+while the vehicle has a fix: not that placeholder, GPS_RAW_INT's ``fix_type`` at least
+``GPS_FIX_TYPE_3D_FIX`` when reported, and the EKF's absolute horizontal position valid when
+EKF_STATUS_REPORT is reported. Otherwise the position and velocity fields are ``None`` and
+:attr:`VehicleState.has_fix` is False.
 """
 
 from __future__ import annotations
@@ -25,6 +32,9 @@ __all__ = ["VehicleState", "VehicleStateTracker"]
 log = logging.getLogger(__name__)
 
 _UINT16_UNKNOWN = 65535
+_EKF_POSITION_OK = 16  # EKF_STATUS_REPORT flag EKF_POS_HORIZ_ABS (ArduPilot dialect)
+_EKF_UNINITIALIZED = 1024  # EKF_STATUS_REPORT flag EKF_UNINITIALIZED
+_POSITION_FIELDS = ("lat_deg", "lon_deg", "alt_m", "x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s")
 
 
 @dataclass(frozen=True)
@@ -38,7 +48,10 @@ class VehicleState:
         armed: Motors armed (``MAV_MODE_FLAG_SAFETY_ARMED``).
         mode: Flight mode name as pymavlink decodes it for this autopilot (e.g. ``"AUTO"``).
         system_status: ``MAV_STATE_*``.
-        lat_deg: WGS84 latitude, degrees.
+        fix_type: GPS_RAW_INT's ``GPS_FIX_TYPE_*`` (None: not reported).
+        ekf_position_ok: The EKF's absolute horizontal position is valid (EKF_STATUS_REPORT; None:
+            not reported).
+        lat_deg: WGS84 latitude, degrees (None without a fix, see the module docstring).
         lon_deg: WGS84 longitude, degrees.
         alt_m: Altitude above mean sea level, metres.
         relative_alt_m: Altitude above the vehicle's own home, metres.
@@ -65,6 +78,8 @@ class VehicleState:
     armed: bool | None = None
     mode: str | None = None
     system_status: int | None = None
+    fix_type: int | None = None
+    ekf_position_ok: bool | None = None
     lat_deg: float | None = None
     lon_deg: float | None = None
     alt_m: float | None = None
@@ -85,9 +100,20 @@ class VehicleState:
     position_time_s: float | None = None
     updated_time_s: float | None = None
 
+    @property
+    def has_fix(self) -> bool:
+        """True when the vehicle reports a usable position (see the module docstring)."""
+        return self.lat_deg is not None and self.lon_deg is not None
+
     def to_dict(self) -> dict[str, object]:
         """Plain dict of the fields (for JSON)."""
         return dataclasses.asdict(self)
+
+
+def _fix_lost(state: VehicleState) -> bool:
+    """True when what the vehicle last said denies a fix: GPS below 3-D, or the EKF's position invalid."""
+    return ((state.fix_type is not None and state.fix_type < mavlink.GPS_FIX_TYPE_3D_FIX)
+            or state.ekf_position_ok is False)
 
 
 def _heartbeat(msg: mavlink.MAVLink_message) -> dict[str, object]:
@@ -101,6 +127,8 @@ def _heartbeat(msg: mavlink.MAVLink_message) -> dict[str, object]:
 
 
 def _position(msg: mavlink.MAVLink_message, home: Home) -> dict[str, object]:
+    if (msg.lat, msg.lon) == (0, 0):  # ArduPilot's "no position yet"
+        return {**dict.fromkeys(_POSITION_FIELDS), "relative_alt_m": msg.relative_alt / 1000.0}
     lat_deg, lon_deg, alt_m = msg.lat / 1e7, msg.lon / 1e7, msg.alt / 1000.0
     x_m, y_m, z_m = geodetic_to_enu(home, lat_deg, lon_deg, alt_m)
     return {
@@ -134,6 +162,11 @@ def _battery_status(msg: mavlink.MAVLink_message) -> dict[str, object]:
     }
 
 
+def _ekf_status(msg: mavlink.MAVLink_message) -> dict[str, object]:
+    flags = msg.flags
+    return {"ekf_position_ok": bool(flags & _EKF_POSITION_OK) and not flags & _EKF_UNINITIALIZED}
+
+
 def _mission_current(msg: mavlink.MAVLink_message) -> dict[str, object]:
     total = getattr(msg, "total", _UINT16_UNKNOWN)
     return {"mission_seq_current": msg.seq, "mission_total": None if total == _UINT16_UNKNOWN else total}
@@ -151,6 +184,8 @@ class VehicleStateTracker:
         {
             "HEARTBEAT",
             "GLOBAL_POSITION_INT",
+            "GPS_RAW_INT",
+            "EKF_STATUS_REPORT",
             "SYS_STATUS",
             "BATTERY_STATUS",
             "MISSION_CURRENT",
@@ -183,6 +218,10 @@ class VehicleStateTracker:
             changes = {**_heartbeat(msg), "heartbeat_time_s": now_s}
         elif kind == "GLOBAL_POSITION_INT":
             changes = {**_position(msg, self._home), "position_time_s": now_s}
+        elif kind == "GPS_RAW_INT":
+            changes = {"fix_type": msg.fix_type}
+        elif kind == "EKF_STATUS_REPORT":
+            changes = _ekf_status(msg)
         elif kind == "SYS_STATUS":
             changes = _sys_status(msg)
         elif kind == "BATTERY_STATUS":
@@ -197,6 +236,8 @@ class VehicleStateTracker:
         with self._lock:
             old = self._states.get(system_id, VehicleState(system_id=system_id))
             state = dataclasses.replace(old, **changes, updated_time_s=now_s)
+            if state.has_fix and _fix_lost(state):
+                state = dataclasses.replace(state, **dict.fromkeys(_POSITION_FIELDS))
             self._states[system_id] = state
             listeners = list(self._listeners)
         for callback in listeners:

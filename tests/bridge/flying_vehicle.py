@@ -39,11 +39,12 @@ class FlyingVehicle(SimVehicle):
         prearm_s: Arming is refused this long after start.
         position_period_s: Period of its telemetry until asked otherwise.
         stream_until_asked: Send no GLOBAL_POSITION_INT before ``MAV_CMD_SET_MESSAGE_INTERVAL`` asks.
+        personality: :class:`SimVehicle`'s mission server personality (``"ardupilot"``: as AP_Mission).
     """
 
     def __init__(self, url: str, system_id: int, *, home: Home | None = None, speed_m_s: float = 12.0,
                  climb_m_s: float = 8.0, prearm_s: float = 0.0, position_period_s: float = 0.2,
-                 stream_until_asked: bool = True) -> None:
+                 stream_until_asked: bool = True, personality: str = "generic") -> None:
         self.url = url
         self.geo_home = home = home or Home()
         self.speed_m_s, self.climb_m_s = speed_m_s, climb_m_s
@@ -58,7 +59,7 @@ class FlyingVehicle(SimVehicle):
         self._last_step_s = time.monotonic()
         super().__init__(url, system_id, autopilot=m.MAV_AUTOPILOT_ARDUPILOTMEGA, armed=False,
                          lat_deg=home.lat_deg, lon_deg=home.lon_deg, alt_m=home.alt_m,
-                         telemetry_period_s=position_period_s)
+                         telemetry_period_s=position_period_s, personality=personality)
         self.custom_mode, self.armed = STABILIZE, False  # on the ground, disarmed
 
     # -- kinematics ----------------------------------------------------------------------------

@@ -260,3 +260,28 @@ def test_state_from_vehicle_carries_position_velocity_battery_and_mission():
 
 def test_state_from_vehicle_waits_for_a_position():
     assert state_from_vehicle(VehicleState(system_id=1, battery_remaining_pct=90.0), seq=0) is None
+
+
+def test_a_state_without_a_fix_carries_no_position():
+    no_fix = UavState(stamp_s=1.0, seq=0, source="vehicle", uav_id=2, fix=False, position_enu_m=None,
+                      velocity_enu_m_s=None)
+    data = no_fix.to_json()
+    obj = json.loads(data)
+    assert obj["fix"] is False
+    assert obj["position_enu_m"] is obj["velocity_enu_m_s"] is obj["position_wgs84"] is None
+    assert parse_payload(state_key("s", 2), data) == no_fix
+    placeholder = data.replace(b'"position_enu_m":null', b'"position_enu_m":[0.0,0.0,0.0]')
+    with pytest.raises(TelemetryFormatError, match="fix = false"):
+        parse_payload(state_key("s", 2), placeholder)
+    with pytest.raises(ValueError, match="fix = true needs position_enu_m"):
+        UavState(stamp_s=1.0, seq=0, source="vehicle", uav_id=2, position_enu_m=None, velocity_enu_m_s=None)
+
+
+def test_a_vehicle_without_a_fix_is_published_as_no_fix():
+    seen = VehicleState(system_id=3, position_time_s=5.0, relative_alt_m=0.0, fix_type=1)  # its 0, 0 dropped
+    state = state_from_vehicle(seen, 4, uav_id=2)
+    assert state is not None and state.fix is False and state.position_enu_m is None
+    assert state_from_vehicle(VehicleState(system_id=3), 0) is None  # no GLOBAL_POSITION_INT yet
+    fixed = VehicleState(system_id=3, position_time_s=5.0, lat_deg=47.0, lon_deg=8.0, alt_m=500.0, x_m=1.0,
+                         y_m=2.0, z_m=3.0, vx_m_s=0.0, vy_m_s=0.0, vz_m_s=0.0)
+    assert state_from_vehicle(fixed, 0).fix is True

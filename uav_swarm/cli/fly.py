@@ -1,6 +1,7 @@
 """``uav-swarm fly``: the planner flies real or SITL autopilots over the simulated crowd, live.
 
-Every vehicle of the bridge config is waited for (heartbeat, position fix), switched to its guided
+Every vehicle of the bridge config is waited for (heartbeat, then its position fix and its home, each
+vehicle on its own, for at most --wait-ready-s, saying what it waits for), switched to its guided
 mode, armed and taken off to ``[uav] alt_m`` above its home; then the planner replans every
 ``--replan-every-s`` from the vehicles' measured positions and sends each one its target while it
 flies (``--mode guided``: MAV_CMD_DO_REPOSITION; ``--mode mission``: a new mission flown in AUTO).
@@ -10,6 +11,7 @@ Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json.
 
 Examples:
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
+  uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
 
 Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (outputs
@@ -43,6 +45,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--checkpoint", help="learned planner checkpoint (default: uav_swarm/checkpoints/wifi-s1.pt)")
     add("--mode", choices=("guided", "mission"), help="how targets reach the vehicles (default: guided)")
     add("--end", choices=("rtl", "land"), help="what every vehicle is told at the end (default: rtl)")
+    add("--wait-ready-s", type=float,
+        help="wait at most this long for each vehicle's heartbeat, then for its position fix and home "
+             "([flight] ready_timeout_s, default: 60)")
     add("--duration-s", type=float, help="crowd seconds flown (default: 300)")
     add("--speedup", type=float, help="crowd seconds per wall-clock second (default: 1)")
     add("--replan-every-s", type=float, help="crowd seconds between replans (default: 1)")
@@ -57,8 +62,10 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
               "mode": args.mode, "duration_s": args.duration_s, "speedup": args.speedup,
               "replan_every_s": args.replan_every_s, "n_uavs": args.n_uavs, "seed": args.seed}
     overrides: dict[str, Any] = {key: value for key, value in values.items() if value is not None}
-    if args.end is not None:
-        overrides["flight"] = {"end_action": args.end}
+    pairs = (("end_action", args.end), ("ready_timeout_s", args.wait_ready_s))
+    flight = {key: value for key, value in pairs if value is not None}
+    if flight:
+        overrides["flight"] = flight
     if args.no_telemetry:
         overrides["publish_telemetry"] = False
     return overrides

@@ -148,6 +148,11 @@ def _draw(snapshot: Any, alive: set[int], swarm: str, stream: TextIO) -> None:
         if state is None:
             lines.append(f"{uav_id:>4} {'yes':>5}")
             continue
+        if state.position_enu_m is None or state.velocity_enu_m_s is None:
+            alive_text = "yes" if uav_id in alive else "no"
+            lines.append(f"{uav_id:>4} {alive_text:>5} {state.source:>7} {state.seq:>7} "
+                         f"{now - state.stamp_s:>6.1f} {'no position fix':>34}")
+            continue
         east, north, up = state.position_enu_m
         speed = sum(v * v for v in state.velocity_enu_m_s) ** 0.5
         target = "-" if state.target_enu_m is None else ", ".join(f"{v:.1f}" for v in state.target_enu_m)

@@ -3,7 +3,8 @@
 :class:`Flight` runs the crowd world in real time (or ``speedup`` times faster) and, every
 ``replan_every_s`` of crowd time, plans from the vehicles' **measured** positions and sends each
 live vehicle its new target while it flies (``MAV_CMD_DO_REPOSITION``, or a new mission flown in
-AUTO). Vehicles are launched as soon as they are heard (:mod:`bridge.flight`); a vehicle silent for
+AUTO). Vehicles are launched as soon as they are ready (a position fix and their home, each waited
+for on its own, :meth:`bridge.fleet.Fleet.wait_ready`; then :mod:`bridge.flight`); a vehicle silent for
 ``flight.link_timeout_s`` is lost and replanned around, and launched again when heard; a live vehicle
 seen disarmed is left out. At the end every launch still running is cancelled and every vehicle
 heard is sent RTL or LAND. States are published as each position arrives, plans and QoS as they
@@ -140,7 +141,9 @@ class Flight:
         state = self._state(vehicle)
         autopilot = state.autopilot if state is not None and state.autopilot is not None else 0
         try:
-            self.fleet.check_home(vehicle.system_id)  # before anything that moves it
+            flight = self.config.flight  # a fix and its home first, checked before anything that moves it
+            self.fleet.wait_ready(vehicle.system_id, flight.ready_timeout_s, flight.stream_rate_hz,
+                                  cancel=self._stop)
             launch(self.fleet.link(vehicle.system_id), self.fleet.tracker, vehicle.system_id, autopilot,
                    self.alt_m, self.config.flight, self.bridge.protocol, cancel=self._stop)
         except BridgeError as exc:
@@ -376,7 +379,7 @@ class Flight:
         if payload is not None:
             vehicle.seq += 1
             try:
-                self.publisher.publish_state(payload)
+                self.publisher.publish_state(payload, announce=False)  # the token means "live"
             except Exception as exc:  # a closing session must not break the reader thread
                 logger.debug("vehicle %d: state not published: %s", state.system_id, exc)
 

@@ -6,10 +6,10 @@
 live vehicle its new target while it flies: ``MAV_CMD_DO_REPOSITION`` in guided mode, or a new
 mission flown in AUTO (``mode = "mission"``).
 
-The sequence is the real one (:mod:`bridge.flight`): every vehicle's heartbeat and first position
-fix, the guided mode, arming, take-off to ``uav.alt_m`` above its home; then the loop; at the end
-(``duration_s`` reached, or :meth:`Flight.stop` from Ctrl-C or SIGTERM) every vehicle is sent
-RTL or LAND (``flight.end_action``) and the outputs are written.
+The sequence is the real one (:mod:`bridge.flight`): every vehicle's heartbeat, its position fix
+and its home (each vehicle on its own), the guided mode, arming, take-off to ``uav.alt_m`` above
+its home; then the loop; at the end (``duration_s`` reached, or :meth:`Flight.stop` from Ctrl-C or
+SIGTERM) every vehicle is sent RTL or LAND (``flight.end_action``) and the outputs are written.
 
 Faults in flight: a vehicle silent for ``flight.link_timeout_s`` is marked lost (its liveliness
 token withdrawn, a warning naming it) and the planner replans with the others; when its
