@@ -25,13 +25,17 @@ from uav_swarm.planning.planner import (
     make_planner,
 )
 
+SNAPSHOT = PlannerConfig(mode="snapshot")
+"""The snapshot assignment (hysteresis, Hungarian on distance) these tests check; planning in motion is
+tested in tests/planning/test_motion.py."""
+
 
 class FixedPlanner(AssigningPlanner):
     """Proposes the same candidates whatever the crowd (to test the assignment step alone)."""
 
     name = "fixed"
 
-    def __init__(self, n_uavs: int, candidates_m: np.ndarray, config: PlannerConfig | None = None) -> None:
+    def __init__(self, n_uavs: int, candidates_m: np.ndarray, config: PlannerConfig = SNAPSHOT) -> None:
         super().__init__(n_uavs, config)
         self.candidates_m = np.asarray(candidates_m, dtype=np.float64).reshape(-1, 2)
 
@@ -68,7 +72,8 @@ def test_assignment_minimises_total_travel_like_brute_force(n, k):
 
 def test_targets_are_pairwise_distinct_even_when_a_spare_sits_on_a_target():
     uavs = np.array([[50.0, 50.0], [50.0, 50.0], [120.0, 80.0]])
-    result = FixedPlanner(3, [[50.0, 50.0]], PlannerConfig(min_gap_m=2.0)).plan(np.zeros((0, 2)), uavs)
+    planner = FixedPlanner(3, [[50.0, 50.0]], PlannerConfig(mode="snapshot", min_gap_m=2.0))
+    result = planner.plan(np.zeros((0, 2)), uavs)
     gaps = np.linalg.norm(result.targets_m[:, None] - result.targets_m[None], axis=-1)[np.triu_indices(3, 1)]
     assert gaps.min() >= 2.0 - 1e-9
 
@@ -78,7 +83,7 @@ def test_fallback_without_any_peak_every_uav_holds():
     result = FixedPlanner(3, np.zeros((0, 2))).plan(np.zeros((0, 2)), uavs)
     np.testing.assert_array_equal(result.targets_m, uavs)
     assert result.candidate_index.tolist() == [-1, -1, -1] and result.peaks_m.shape == (0, 2)
-    expert = ExpertPlanner(3).plan(np.zeros((0, 2)), uavs)  # no crowd: the expert places nobody
+    expert = ExpertPlanner(3, config=SNAPSHOT).plan(np.zeros((0, 2)), uavs)  # no crowd: nobody placed
     np.testing.assert_array_equal(expert.targets_m, uavs)
 
 
@@ -92,7 +97,7 @@ def test_fallback_with_one_peak_the_nearest_uav_flies_the_others_hold():
 def test_expert_planner_covers_separate_groups_with_least_travel():
     centres = np.array([[40.0, 40.0], [160.0, 50.0], [100.0, 160.0]])
     uavs = np.array([[100.0, 150.0], [45.0, 30.0], [150.0, 60.0], [5.0, 195.0]])
-    result = ExpertPlanner(4).plan(clusters(centres), uavs)
+    result = ExpertPlanner(4, config=SNAPSHOT).plan(clusters(centres), uavs)
     assert len(result.peaks_m) == 3  # three groups of 40 > min_group_size: three UAVs, one spare
     nearest = np.linalg.norm(result.targets_m[:3, None] - centres[None], axis=-1)
     np.testing.assert_array_equal(nearest.argmin(axis=1), [2, 0, 1])  # each flies to its closest group
@@ -103,7 +108,7 @@ def test_expert_planner_covers_separate_groups_with_least_travel():
 def test_hysteresis_keeps_targets_under_small_crowd_motion():
     centres = np.array([[40.0, 40.0], [160.0, 50.0], [100.0, 160.0]])
     uavs = np.array([[50.0, 50.0], [150.0, 50.0], [100.0, 150.0]])
-    planner = ExpertPlanner(3, config=PlannerConfig(hysteresis_m=5.0))
+    planner = ExpertPlanner(3, config=PlannerConfig(mode="snapshot", hysteresis_m=5.0))
     first = planner.plan(clusters(centres), uavs)
     second = planner.plan(clusters(centres + [1.5, -1.0], seed=1), uavs)
     assert second.kept.all()

@@ -14,6 +14,7 @@ namespace by default and ``evaluate`` from the ``test`` namespace, and
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from typing import Any
 
@@ -143,9 +144,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     else:  # the task exactly as trained
         factory = TaskFactory(args.task, load_checkpoint(args.checkpoint, task_name=args.task).task_config)
     refiner = None
-    if args.refine:  # the [refine] table of --config, else the defaults
+    if args.refine:  # the [refine] table of --config; what it leaves out, the strategy's own settings
         table = load_settings(args.task, args.config).refine if args.config is not None else {}
         refiner = build_refiner(factory(), table)
+        source = f"[refine] of {args.config}" if table else "the task's own defaults"
+        print(f"refinement settings ({source}): {json.dumps(refiner.config.to_dict(), sort_keys=True)}")
     check = None
     if args.rule_check:  # the [rule_check] table of --config, else the defaults
         table = load_settings(args.task, args.config).rule_check if args.config is not None else {}

@@ -131,7 +131,8 @@ def build_refiner(task: Task, refine_table: Mapping[str, Any] | None = None) -> 
     refiner_class = getattr(type(task), "refiner_class", None)
     if refiner_class is None:
         raise TypeError(f"{type(task).__name__} has no refinement (not a registered mission)")
-    config = refiner_class.config_class.from_dict(dict(refine_table or {}), where="[refine]")
+    defaults = refiner_class.default_settings(task) if hasattr(refiner_class, "default_settings") else {}
+    config = refiner_class.config_class.from_dict({**defaults, **dict(refine_table or {})}, where="[refine]")
     return refiner_class(task, config)
 
 

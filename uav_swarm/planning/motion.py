@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+from scipy.spatial import cKDTree
 
 from typed_config import Config, param
 from uav_swarm.missions.wifi.rules import CoverageRules, assign_users
@@ -51,6 +52,11 @@ class MotionConfig(Config):
     horizon_s: float = param(6.0, gt=0.0, le=120.0, doc="an option's QoS is judged over the next this many s")
     samples: int = param(6, ge=1, le=100, doc="instants of the horizon the QoS is averaged over")
     lead_s: float = param(1.0, ge=0.0, le=30.0, doc="targets aim where their users will be this far ahead, s")
+    range_margin_m: float = param(
+        1.0, ge=0.0, le=20.0, doc="strategy 2: a UAV's load counts the users within radius + this (they "
+        "walk in), so a kept or added UAV is not at the cap's edge, m")
+    park_margin_m: float = param(
+        5.0, ge=0.0, le=100.0, doc="strategy 2: a spare UAV parks at least radius + this from every user, m")
     switch_margin: float = param(
         0.01, ge=0.0, le=1.0, doc="a fresh solve replaces keeping the service only when it gains this "
         "much QoS (share of the crowd, averaged over the horizon)")
@@ -147,21 +153,32 @@ class MotionPlanning:
             return healthy
         state = assign_users(predicted, targets[index], self.rules.radius_m)
         justified = state.exclusive_counts if self.rules.exclusive else state.counts
-        healthy[index] = (justified >= self.rules.min_users) & (state.counts <= self.rules.cap)
+        healthy[index] = (justified >= self.rules.min_users) & (self._loads(predicted, targets[index])
+                                                                 <= self.rules.cap)
         return healthy
 
-    def _aimed(self, proposals: np.ndarray, peds: np.ndarray, vels: np.ndarray, lead_s: np.ndarray
-               ) -> np.ndarray:
-        """Each proposal moved by the mean velocity of the users it covers times its ``lead_s``."""
+    def _loads(self, predicted: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """``(k,)`` users each target would serve with its reach widened by ``range_margin_m``."""
+        if self.rules.max_users is None:
+            return np.zeros(len(targets), np.int64)
+        return assign_users(predicted, targets, self.rules.radius_m + self.config.range_margin_m).counts
+
+    def _aimed(self, proposals: np.ndarray, peds: np.ndarray, vels: np.ndarray) -> np.ndarray:
+        """Each proposal moved with the users it serves for ``lead_s``.
+
+        The same lead for all, so a placement that keeps the rule now keeps it on the crowd the
+        UAVs will meet.
+        """
         if len(proposals) == 0 or len(peds) == 0:
             return proposals
         state = assign_users(peds, proposals, self.rules.radius_m)
-        aimed = proposals.copy()
-        for k in range(len(proposals)):
-            users = state.association == k
-            if np.any(users):
-                aimed[k] += vels[users].mean(axis=0) * lead_s[k]
-        return aimed
+        served = state.association >= 0
+        shift = np.zeros_like(proposals)
+        counts = np.bincount(state.association[served], minlength=len(proposals))
+        for axis in (0, 1):
+            shift[:, axis] = np.bincount(state.association[served], weights=vels[served, axis],
+                                         minlength=len(proposals)) / np.maximum(counts, 1)
+        return proposals + shift * self.config.lead_s
 
     def _assign(self, uavs: np.ndarray, free: np.ndarray, proposals: np.ndarray) -> np.ndarray:
         """``(n,)`` proposal index of each free UAV (-1: none), by least total squared time to reach."""
@@ -175,6 +192,39 @@ class MotionPlanning:
         index[uav_ids[rows]] = cols
         return index
 
+    def _valid(self, predicted: np.ndarray, targets: np.ndarray) -> bool:
+        """Whether every UAV at ``targets`` satisfies the rule on the predicted crowd."""
+        state = assign_users(predicted, targets, self.rules.radius_m)
+        justified = state.exclusive_counts if self.rules.exclusive else state.counts
+        return bool(np.all(justified >= self.rules.min_users)
+                    and np.all(self._loads(predicted, targets) <= self.rules.cap))
+
+    def _fill(self, predicted: np.ndarray, kept_m: np.ndarray, proposals: np.ndarray, free: int
+              ) -> np.ndarray:
+        """Indices of the proposals added to the kept UAVs, best first, while the rule holds for all.
+
+        A proposal within the coverage radius of a kept UAV duplicates it and is skipped; a proposal
+        that breaks the rule alone is tried again with its nearest neighbour among the proposals
+        (a group split between two UAVs needs both).
+        """
+        chosen: list[int] = []
+        near_kept = np.linalg.norm(proposals[:, None, :] - kept_m[None], axis=-1).min(axis=1)
+        open_ = [i for i in range(len(proposals)) if near_kept[i] > self.rules.radius_m]
+        for i in open_:
+            if len(chosen) >= free or i in chosen:
+                continue
+            base = np.vstack([kept_m, proposals[chosen]]) if chosen else kept_m
+            if self._valid(predicted, np.vstack([base, proposals[i]])):
+                chosen.append(i)
+                continue
+            others = [j for j in open_ if j != i and j not in chosen]
+            if len(chosen) + 2 > free or not others:
+                continue
+            j = others[int(np.argmin(np.linalg.norm(proposals[others] - proposals[i], axis=1)))]
+            if self._valid(predicted, np.vstack([base, proposals[[i, j]]])):
+                chosen += [i, j]
+        return np.array(chosen, dtype=np.int64)
+
     def _option(self, uavs: np.ndarray, peds: np.ndarray, vels: np.ndarray, followed: np.ndarray,
                 kept: np.ndarray, proposals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(targets, candidate index)``: kept UAVs follow, free ones fly to the proposals (aimed)."""
@@ -182,9 +232,7 @@ class MotionPlanning:
         targets = np.where(kept[:, None], followed, uavs)
         moving = index >= 0
         if np.any(moving):
-            distance = np.linalg.norm(proposals[index[moving]] - uavs[moving], axis=1)
-            lead = time_to_reach(distance, self.uav.max_speed_m_s, self.uav.max_accel_m_s2)
-            targets[moving] = self._aimed(proposals[index[moving]], peds, vels, lead)
+            targets[moving] = self._aimed(proposals, peds, vels)[index[moving]]
         return targets, index
 
     def horizon_qos(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, targets: np.ndarray) -> float:
@@ -229,26 +277,54 @@ class MotionPlanning:
             proposals: ``(k, 2)`` the base planner's placement of the crowd, metres, best first.
         """
         followed, following = self._followed(peds, vels)
-        kept = self._healthy(peds + vels * self.config.lead_s, followed, following)
+        predicted = peds + vels * self.config.lead_s
+        kept = self._healthy(predicted, followed, following)
         uncovered = np.arange(len(proposals))
         if np.any(kept) and len(proposals):
-            near = np.linalg.norm(proposals[:, None, :] - followed[kept][None], axis=-1).min(axis=1)
-            uncovered = np.flatnonzero(near > self.rules.radius_m)
+            uncovered = self._fill(predicted, followed[kept], proposals,
+                                   self.n_uavs - int(kept.sum()))
         targets, index = self._option(uavs, peds, vels, followed, kept, proposals[uncovered])
-        index = np.where(index >= 0, uncovered[np.maximum(index, 0)] if len(uncovered) else -1, -1)
-        option, qos = "hybrid", self.horizon_qos(peds, vels, uavs, self._finish(targets, index, kept))
+        if len(uncovered):
+            index = np.where(index >= 0, uncovered[np.maximum(index, 0)], -1)
+        option = "hybrid"
+        qos = self.horizon_qos(peds, vels, uavs, self._finish(targets, index, kept, predicted))
         if np.any(kept):
             none = np.zeros(self.n_uavs, dtype=bool)
             fresh, fresh_index = self._option(uavs, peds, vels, followed, none, proposals)
-            fresh_qos = self.horizon_qos(peds, vels, uavs, self._finish(fresh, fresh_index, none))
+            fresh_qos = self.horizon_qos(peds, vels, uavs, self._finish(fresh, fresh_index, none, predicted))
             if fresh_qos > qos + self.config.switch_margin:
                 targets, index, kept, option, qos = fresh, fresh_index, none, "fresh", fresh_qos
-        targets = self._finish(targets, index, kept)
+        targets = self._finish(targets, index, kept, predicted)
         self._remember(peds, vels, targets)
         return MotionPlan(targets, kept.copy(), index, option, qos)
 
-    def _finish(self, targets: np.ndarray, index: np.ndarray, kept: np.ndarray) -> np.ndarray:
-        """Targets inside the area, spares (neither following nor flying to a proposal) kept apart."""
+    def _finish(self, targets: np.ndarray, index: np.ndarray, kept: np.ndarray, predicted: np.ndarray
+                ) -> np.ndarray:
+        """Targets inside the area; spares (neither following nor flying to a proposal) kept apart.
+
+        Under a user cap (strategy 2) a spare parks where no user is within reach, so it never
+        takes users from a planned UAV nor serves more than the cap; without a cap it holds.
+        """
         out = np.clip(targets, 0.0, self.area_m)
-        separate_spares(out, (index < 0) & ~kept, self.min_gap_m)
+        spare = (index < 0) & ~kept
+        if self.rules.max_users is not None and np.any(spare) and len(predicted):
+            tree = cKDTree(predicted)
+            for j in np.flatnonzero(spare):
+                out[j] = self._parking(tree, out[j], np.delete(out, j, axis=0))
+        separate_spares(out, spare, self.min_gap_m)
         return out
+
+    def _parking(self, tree: cKDTree, start: np.ndarray, others: np.ndarray) -> np.ndarray:
+        """The nearest point to ``start`` (rings of 5 m) with no user within reach, inside the area."""
+        reach = self.rules.radius_m + self.config.park_margin_m
+        for radius in np.arange(0.0, float(np.hypot(*self.area_m)), 5.0):
+            count = max(1, int(np.ceil(2.0 * np.pi * radius / 5.0)))
+            angles = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
+            ring = start + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+            ring = np.clip(ring, 0.0, self.area_m)
+            free = tree.query_ball_point(ring, reach, return_length=True) == 0
+            if len(others):
+                free &= np.linalg.norm(ring[:, None] - others[None], axis=-1).min(axis=1) >= self.min_gap_m
+            if np.any(free):
+                return ring[int(np.argmax(free))]
+        return start

@@ -56,7 +56,7 @@ import numpy as np
 from learning.peaks import find_peaks
 from typed_config import Config, ConfigError, param
 from uav_swarm.env.config import MAX_UAVS
-from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement
+from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.rule_check import RuleCheckConfig, WifiRuleCheck
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, coverage_rules, crowd_raster
 from uav_swarm.planning.assignment import assign_targets
@@ -91,8 +91,9 @@ class PlannerConfig(Config):
         "auto", doc="learned: network precision ('auto': bfloat16 where the CPU or GPU computes it natively, "
         "about 2x faster; float32 elsewhere)")
     refine: bool = param(False, doc="learned: refine the peaks on the live crowd under the strategy's rules")
-    refinement: WifiRefineConfig = param(WifiRefineConfig(), doc="learned: the refinement's effort "
-                                         "([planning.refinement])")
+    refinement: WifiRefineConfig | None = param(
+        None, doc="learned: the refinement's effort ([planning.refinement]); none given: the strategy's own "
+        "(uav_swarm.missions.wifi.refine.strategy_refinement)")
     rule_check: bool = param(False, doc="learned: keep only the peaks the strategy's deployment rule "
                              "justifies on the density raster (uav_swarm.missions.wifi.rule_check)")
     rule_checking: RuleCheckConfig = param(RuleCheckConfig(), doc="learned: the rule check's threshold and "
@@ -193,7 +194,7 @@ class AssigningPlanner(ABC):
             self.config.motion, self.config.min_gap_m)
 
     @abstractmethod
-    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray
+    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray | None]:
         """At most ``n_uavs`` candidate positions ``(k, 2)`` in metres, best first, and the utility map."""
 
@@ -266,7 +267,8 @@ class ExpertPlanner(AssigningPlanner):
         expert = task_config.expert.replace(max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
         self.task = WifiTask(task_config.replace(expert=expert))
 
-    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray) -> tuple[np.ndarray, None]:
+    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
+                ) -> tuple[np.ndarray, None]:
         """The expert's placement (metres) of the crowd."""
         if len(pedestrians_m) == 0:
             return np.zeros((0, 2)), None
@@ -318,8 +320,10 @@ class LearnedPlanner(AssigningPlanner):
 
         self.task = WifiTask(task_config)
         task_name = self.task.name
+        self.refinement = self.config.refinement or strategy_refinement(task_config.strategy)
+        """The refinement's settings: ``[planning.refinement]``, else the strategy's own."""
         if self.config.refine:
-            self.config.refinement.check_rules(self.task.rules, "[planning.refinement]")
+            self.refinement.check_rules(self.task.rules, "[planning.refinement]")
         path = default_checkpoint(task_name) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
             if checkpoint in (None, ""):
@@ -362,7 +366,8 @@ class LearnedPlanner(AssigningPlanner):
             self._input.copy_(self._from_numpy(raster)[None])  # (1, C, h, w)
             return self._model(self._input)[0, 0].float().numpy()  # (h, w)
 
-    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
         """The ``n_uavs`` highest peaks of the utility map (metres), refined if configured, and the map."""
         raster = crowd_raster(pedestrians_m, self.task.config, velocities_m_s)
         utility = self.utility_map(raster)
@@ -372,7 +377,7 @@ class LearnedPlanner(AssigningPlanner):
         peaks_m = self.task.to_metres(peaks_px)
         if self.config.refine:
             peaks_m = refine_placement(pedestrians_m, peaks_m, self._rules, self.task.width_m,
-                                       self.task.height_m, self.config.refinement)
+                                       self.task.height_m, self.refinement)
         return peaks_m, utility
 
 

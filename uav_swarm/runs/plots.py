@@ -16,6 +16,7 @@ import numpy as np
 
 from learning.files import write_bytes_atomic
 from uav_swarm.runs.animation import write_scene_gif
+from uav_swarm.runs.service import StaticReference
 
 __all__ = ["QosSeries", "write_qos_figure", "write_scene_gif", "write_timeseries"]
 
@@ -32,8 +33,12 @@ class QosSeries(Protocol):
 _STYLE = {"learned": {"color": "tab:blue"}, "expert": {"color": "tab:orange"}}
 
 
-def write_qos_figure(runs: Mapping[str, QosSeries], path: Path) -> Path:
+def write_qos_figure(runs: Mapping[str, QosSeries], path: Path, reference: StaticReference | None = None,
+                     strategy: int = 1) -> Path:
     """QoS S1 and S2 over time (top) and mean user throughput over time (bottom), every planner.
+
+    With a ``reference`` the static reference (the expert's placement of each instant's crowd,
+    judged as if reached) is drawn beside the flown curves, as the ``strategy``'s QoS.
 
     Returns:
         ``path``.
@@ -50,6 +55,9 @@ def write_qos_figure(runs: Mapping[str, QosSeries], path: Path) -> Path:
         ax_qos.plot(run.times_s, run.qos_s2, linestyle="--", label=f"{kind}: S2 (covered with >= min rate)",
                     **style)
         ax_rate.plot(run.times_s, run.throughput_mbps, label=f"{kind} ({run.planner_name})", **style)
+    if reference is not None and reference.qos.size:
+        ax_qos.plot(reference.times_s, reference.qos, linestyle="none", marker="D", color="black",
+                    label=f"static reference: S{strategy} of the expert's placement, as if reached")
     ax_qos.set(ylabel="QoS", ylim=(0.0, 1.02), title="Dynamic sequence: QoS over time")
     ax_qos.legend(loc="center right", fontsize="small", ncol=2, framealpha=0.8)  # S1 above, S2 below
     ax_qos.grid(alpha=0.3)

@@ -41,6 +41,9 @@ class SequenceRun:
         throughput_mbps: ``(T,)`` mean user throughput (uncovered users count 0).
         latency_ms: ``(R,)`` wall time of each replan.
         target_changes: ``(R - 1,)`` UAVs whose target moved (by more than ``min_gap_m``) at each replan.
+        target_jumps: ``(R - 1,)`` UAVs whose target moved by more than
+            :data:`uav_swarm.runs.service.JUMP_M` at each replan.
+        distance_m: Total path length of the UAVs over the run, metres.
         final_targets_m: ``(n, 2)`` the last plan.
         final_pedestrians_m: ``(N, 2)`` the crowd at the end.
         n_pedestrians: Crowd size.
@@ -61,6 +64,8 @@ class SequenceRun:
     n_pedestrians: int
     obstacles_m: np.ndarray
     frames: list[Frame] = field(default_factory=list)
+    target_jumps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    distance_m: float = 0.0
 
 
 @dataclass

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,6 +37,7 @@ from tqdm.auto import tqdm
 from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.runs.records import Frame, SequenceRun
+from uav_swarm.runs.service import StaticReference, metres_per_uav_minute, static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
 
 if TYPE_CHECKING:
@@ -111,6 +113,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     changes: list[int] = []
     frames: list[Frame] = []
     targets = np.asarray(env.uav_positions_m).copy()
+    plans: list[np.ndarray] = []
+    distance_m = 0.0
     result = None
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
         if step % config.replan_every == 0:
@@ -120,10 +124,13 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
                 moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
                 changes.append(int(np.count_nonzero(moved)))
             targets = result.targets_m
+            plans.append(targets.copy())
             latencies.append(result.latency_ms)
             if publisher is not None:
                 _publish_plan(publisher, planner, targets, alt_m, result.latency_ms, len(latencies) - 1)
+        before = np.array(env.uav_positions_m)
         env.step(dict(zip(agents, targets, strict=True)))
+        distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
         cov = env.coverage
         qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
         if publisher is not None and step % config.telemetry_every == 0:
@@ -139,13 +146,49 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         qos_s2=qos_s2, throughput_mbps=rate, latency_ms=np.asarray(latencies),
         target_changes=np.asarray(changes, dtype=np.int64), final_targets_m=np.array(targets),
         final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
-        obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames)
+        obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
+        target_jumps=target_jumps(np.array(plans)), distance_m=distance_m)
 
 
-def summarise_run(run: SequenceRun) -> dict[str, float | int | str]:
-    """Mean/min QoS S1 and S2, mean throughput, median/p95 latency and churn of one run."""
+def sequence_crowds(config: SimulateConfig, every_s: float
+                    ) -> Iterator[tuple[float, np.ndarray, np.ndarray]]:
+    """``(time_s, positions, velocities)`` of the sequence's crowd every ``every_s`` seconds from 0.
+
+    The crowd walks the same whatever the UAVs do: here they hold their start positions.
+    """
+    env = parallel_env(config=config.env_config())
+    env.reset(seed=config.seed)
+    hold = dict(zip(env.possible_agents, np.array(env.uav_positions_m), strict=True))
+    every = max(1, int(round(every_s / env.dt_s)))
+    for step in range(config.n_steps):
+        if step % every == 0:
+            yield (step * env.dt_s, np.array(env.pedestrian_positions_m),
+                   np.array(env.pedestrian_velocities_m_s))
+        env.step(hold)
+
+
+def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
+                  reference: StaticReference | None = None) -> dict[str, float | int | str | None]:
+    """Mean/min QoS S1 and S2, mean throughput, median/p95 latency, churn and service figures of one run.
+
+    With the run's ``config`` and the sequence's static ``reference``: the strategy's flown QoS over the
+    static reference, target jumps per replan and metres flown per UAV-minute
+    (:mod:`uav_swarm.runs.service`).
+    """
     changes = float(run.target_changes.mean()) if run.target_changes.size else 0.0
-    return {
+    figures: dict[str, float | None] = {}
+    if config is not None:
+        flown = run.qos_s1 if config.task.strategy == 1 else run.qos_s2
+        figures = {
+            "flown_qos": float(flown.mean()),
+            "static_reference_qos": None if reference is None else reference.mean,
+            "flown_over_static": (float(flown.mean()) / reference.mean
+                                  if reference is not None and reference.mean > 0 else None),
+            "target_jumps_per_replan": float(run.target_jumps.mean()) if run.target_jumps.size else 0.0,
+            "metres_per_uav_minute": metres_per_uav_minute(
+                run.distance_m, config.n_uavs, float(run.times_s[-1]) if run.times_s.size else 0.0),
+        }
+    return {**figures,
         "planner": run.planner_name,
         "mean_qos_s1": float(run.qos_s1.mean()), "min_qos_s1": float(run.qos_s1.min()),
         "mean_qos_s2": float(run.qos_s2.mean()), "min_qos_s2": float(run.qos_s2.min()),
@@ -274,11 +317,18 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     finally:
         if publisher is not None:
             publisher.close()
+    reference = (static_reference(sequence_crowds(config, config.static_every_s), config.task, config.n_uavs,
+                                  config.static_every_s) if config.static_reference else None)
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    summary: dict[str, Any] = {"planners": {kind: summarise_run(run) for kind, run in runs.items()},
+    summary: dict[str, Any] = {"planners": {kind: summarise_run(run, config, reference)
+                                            for kind, run in runs.items()},
                                "flown": config.planner, "duration_s": config.n_steps * config.dt_s,
                                "n_uavs": config.n_uavs, "seed": config.seed, "config": config.to_dict()}
+    if reference is not None:
+        summary["static_reference"] = {"mean_qos": reference.mean, "every_s": reference.every_s,
+                                       "experts": list(reference.experts), "strategy": config.task.strategy,
+                                       "times_s": reference.times_s.tolist(), "qos": reference.qos.tolist()}
     if "learned" in runs and "expert" in runs:
         summary["ratios_learned_over_expert"] = _ratios(summary["planners"]["learned"],
                                                         summary["planners"]["expert"])
@@ -286,7 +336,12 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     if learned is not None:
         summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
         summary["network_precision"] = learned.precision  # type: ignore[attr-defined]
-    files = [write_qos_figure(runs, out_dir / "qos.png"), write_timeseries(runs, out_dir / "timeseries.csv")]
+        if config.planning.refine:
+            summary["refinement"] = {  # which settings ran: [planning.refinement], else the strategy's own
+                "source": "[planning.refinement]" if config.planning.refinement else "strategy defaults",
+                "settings": learned.refinement.to_dict()}  # type: ignore[attr-defined]
+    files = [write_qos_figure(runs, out_dir / "qos.png", reference, config.task.strategy),
+             write_timeseries(runs, out_dir / "timeseries.csv")]
     flown = runs[config.planner]
     if config.gif and flown.frames:
         files.append(write_scene_gif(flown, config, out_dir / "scene.gif"))

@@ -43,6 +43,10 @@ class SimulateConfig(Config):
     planner: Literal["learned", "expert"] = param("learned", doc="the planner flown (and published)")
     checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
     compare_expert: bool = param(True, doc="run the same sequence with the expert planner too")
+    static_reference: bool = param(
+        True, doc="judge the expert's placement of the crowd every static_every_s as if reached, and report "
+        "flown / static (uav_swarm.runs.service)")
+    static_every_s: float = param(10.0, gt=0.0, le=3600.0, doc="seconds between static reference instants")
     gif: bool = param(True, doc="write scene.gif of the flown planner's run")
     gif_max_frames: int = param(100, ge=2, le=1000, doc="most frames in scene.gif (every N-th step)")
     gif_width_px: int = param(1000, ge=900, le=2400,

@@ -43,13 +43,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
-from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement
+from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.rules import CoverageRules
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
@@ -155,7 +156,8 @@ class WifiRefiner:
 
     Args:
         task: The Wi-Fi task (strategy 1 or 2).
-        config: The refinement's effort; default ``WifiRefineConfig()``.
+        config: The refinement's effort; default the strategy's
+            (:func:`uav_swarm.missions.wifi.refine.strategy_refinement`).
 
     Raises:
         ConfigError: ``config.relocation`` on strategy 1.
@@ -165,8 +167,13 @@ class WifiRefiner:
 
     def __init__(self, task: WifiTask, config: WifiRefineConfig | None = None) -> None:
         self.task = task
-        self.config = config or WifiRefineConfig()
+        self.config = config or strategy_refinement(task.config.strategy)
         self.config.check_rules(task.rules, "[refine]")
+
+    @staticmethod
+    def default_settings(task: WifiTask) -> dict[str, Any]:
+        """The ``[refine]`` values a table leaves out: the strategy's own settings."""
+        return strategy_refinement(task.config.strategy).to_dict()
 
     def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
         """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""

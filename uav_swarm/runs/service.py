@@ -1,0 +1,94 @@
+"""What a flying swarm delivers, against what a snapshot promises: the service figures of a run.
+
+- **Static reference**: every ``every_s`` seconds, the expert's placement of that instant's crowd,
+  judged with the radio model as if the UAVs were already there (so it depends on the crowd alone).
+  For strategy 2 it is the better of the two experts (the group expert and the search expert of
+  :mod:`uav_swarm.missions.wifi.expert`), for strategy 1 the search expert.
+- **Flown / static**: the mean QoS the UAVs delivered over the run divided by the mean static reference.
+- **Target jumps**: UAVs whose target moved more than ``JUMP_M`` between two replans (a walking group
+  moves about 1.3 m in a second, so following it is not a jump).
+- **Metres flown per UAV-minute**: the UAVs' path length, per UAV and minute of flight.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from uav_swarm.missions.wifi.task import WifiConfig, WifiTask
+from uav_swarm.world.comms import evaluate_coverage
+
+__all__ = ["JUMP_M", "StaticReference", "static_reference", "reference_qos", "target_jumps",
+           "metres_per_uav_minute"]
+
+JUMP_M = 5.0
+"""A target that moves more than this between two replans has jumped (metres)."""
+
+
+@dataclass(frozen=True)
+class StaticReference:
+    """The expert's placements of the crowd at regular instants, judged as if reached.
+
+    Attributes:
+        times_s: ``(R,)`` the instants.
+        qos: ``(R,)`` the strategy's QoS of the best expert placement at each instant.
+        experts: The experts compared (``"search"``, ``"groups"``).
+        every_s: Seconds between two instants.
+    """
+
+    times_s: np.ndarray
+    qos: np.ndarray
+    experts: tuple[str, ...]
+    every_s: float
+
+    @property
+    def mean(self) -> float:
+        """Mean QoS over the instants (0 when there is none)."""
+        return float(self.qos.mean()) if self.qos.size else 0.0
+
+
+def _experts(task_config: WifiConfig, n_uavs: int) -> dict[str, WifiTask]:
+    """The strategy's experts for ``n_uavs`` UAVs (strategy 2: the group and the search expert)."""
+    methods = ("groups", "search") if task_config.strategy == 2 else ("search",)
+    tasks = {}
+    for method in methods:
+        expert = task_config.expert.replace(method=method, max_uavs=min(task_config.expert.max_uavs, n_uavs))
+        tasks[method] = WifiTask(task_config.replace(expert=expert))
+    return tasks
+
+
+def reference_qos(users_m: np.ndarray, velocities_m_s: np.ndarray, task_config: WifiConfig, n_uavs: int
+                  ) -> float:
+    """The strategy's QoS of the best expert placement of one crowd, judged as if reached."""
+    best = 0.0
+    for task in _experts(task_config, n_uavs).values():
+        placement = task.expert_placement_m(users_m, velocities_m_s)
+        coverage = evaluate_coverage(users_m, placement, task_config.radio)
+        best = max(best, float(coverage.qos_s1 if task_config.strategy == 1 else coverage.qos_s2))
+    return best
+
+
+def static_reference(crowds: Iterable[tuple[float, np.ndarray, np.ndarray]], task_config: WifiConfig,
+                     n_uavs: int, every_s: float) -> StaticReference:
+    """The static reference of ``(time_s, users_m, velocities_m_s)`` crowds (module docstring)."""
+    times, qos = [], []
+    for time_s, users_m, velocities_m_s in crowds:
+        times.append(time_s)
+        qos.append(reference_qos(users_m, velocities_m_s, task_config, n_uavs))
+    return StaticReference(np.array(times), np.array(qos), tuple(_experts(task_config, n_uavs)), every_s)
+
+
+def target_jumps(targets_m: np.ndarray) -> np.ndarray:
+    """``(R - 1,)`` UAVs whose target moved over :data:`JUMP_M` at each replan of ``(R, n, 2)`` targets."""
+    targets_m = np.asarray(targets_m, dtype=np.float64)
+    if len(targets_m) < 2:
+        return np.zeros(0, dtype=np.int64)
+    moved = np.linalg.norm(np.diff(targets_m, axis=0), axis=-1)
+    return np.count_nonzero(moved > JUMP_M, axis=1)
+
+
+def metres_per_uav_minute(distance_m: float, n_uavs: int, duration_s: float) -> float:
+    """Path length per UAV and minute of flight."""
+    return float(distance_m / max(n_uavs, 1) / max(duration_s / 60.0, 1e-9))
