@@ -124,6 +124,9 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
         qos = [m for m in received if isinstance(m, Qos)]
         assert qos and all(0.0 <= q.qos_s2 <= q.qos_s1 <= 1.0 for q in qos)
         assert summary["mean_qos_s1"] > 0.0  # measured positions over the crowd
+        service = summary["service"]  # the figures simulate reports, for the flight
+        assert 0.0 < service["static_reference_qos"] <= 1.0 and service["flown_over_static"] is not None
+        assert service["metres_per_uav_minute"] > 0.0 and service["target_jumps_per_replan"] >= 0.0
         out = tmp_path / "out"
         assert {"qos.png", "timeseries.csv", "track.csv", "summary.json"} <= {p.name for p in out.iterdir()}
         track = (out / "track.csv").read_text().splitlines()

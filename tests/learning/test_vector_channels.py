@@ -1,4 +1,4 @@
-"""Channels that hold vector components turn with the raster: augmentation, TTA and the velocity raster agree."""
+"""Vector channels turn with the raster: augmentation, TTA and the velocity raster agree."""
 
 from __future__ import annotations
 
@@ -36,8 +36,10 @@ def test_the_velocity_raster_sums_each_pixels_velocities():
 @pytest.mark.parametrize("symmetry", SYMMETRIES[1:], ids=str)
 def test_a_turned_raster_is_the_raster_of_the_turned_crowd(symmetry):
     scene = VELOCITY.sample(np.random.default_rng(5))
-    turned = transform_vector_channels(raster_transform(VELOCITY.observe(scene), symmetry), (1, 2), *symmetry)
-    np.testing.assert_allclose(turned, VELOCITY.observe(VELOCITY.transform_scene(scene, *symmetry)), atol=1e-5)
+    moved = raster_transform(VELOCITY.observe(scene), symmetry)
+    turned = transform_vector_channels(moved, (1, 2), *symmetry)
+    expected = VELOCITY.observe(VELOCITY.transform_scene(scene, *symmetry))
+    np.testing.assert_allclose(turned, expected, atol=1e-5)
 
 
 def test_numpy_and_torch_turn_alike_and_inputs_stay_untouched():
@@ -55,7 +57,8 @@ def test_numpy_and_torch_turn_alike_and_inputs_stay_untouched():
 
 def test_test_time_augmentation_turns_the_vector_channels():
     torch.manual_seed(0)
-    model = UtilityNet(ModelConfig(arch="unet", width=4, depth=2, in_channels=3, vector_channels=(1, 2))).eval()
+    config = ModelConfig(arch="unet", width=4, depth=2, in_channels=3, vector_channels=(1, 2))
+    model = UtilityNet(config).eval()
     scene = VELOCITY.sample(np.random.default_rng(6))
     x = VELOCITY.observe(scene)[None]
     maps = utility_maps(model, x, tta=True)

@@ -27,6 +27,7 @@ from bridge.flight import ARDUPILOT, AUTO_MODE, end_flight, launch, set_mode
 from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.records import QosTrace
+from uav_swarm.runs.service import STATIC_EVERY_S
 from uav_swarm.world.comms import evaluate_coverage
 from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.scenario import random_scenario
@@ -88,6 +89,10 @@ class Flight:
         self._pool = ThreadPoolExecutor(max_workers=2 * len(self.vehicles), thread_name_prefix="flight")
         self._planners: dict[int, Planner] = {} if planner is None else {planner.n_uavs: planner}
         self.events: list[dict[str, Any]] = []
+        self.plans: list[dict[int, tuple[float, float]]] = []
+        """Each replan's targets by UAV id (for the target jumps of the summary)."""
+        self.crowd_samples: list[tuple[float, np.ndarray, np.ndarray]] = []
+        """``(time_s, positions, velocities)`` of the crowd every ``STATIC_EVERY_S`` (static reference)."""
         self._clock_s = 0.0
         rng = np.random.default_rng(config.seed)
         self.scenario = random_scenario(rng, config.task.scenario)
@@ -235,6 +240,7 @@ class Flight:
         positions = np.array([(s.x_m, s.y_m) for _, s in live])
         result = planner.plan(self.crowd.positions_m, positions, self.crowd.velocities_m_s)
         targets = [(float(x), float(y), self.alt_m) for x, y in result.targets_m]
+        self.plans.append({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
         if self.publisher is not None:
             from bridge.telemetry_schema import Plan, PlanTarget
 
@@ -313,6 +319,7 @@ class Flight:
         dt_s = cfg.task.crowd.dt_s
         steps_per_replan = max(1, round(cfg.replan_every_s / dt_s))
         steps_per_record = max(1, round(cfg.record_every_s / dt_s))
+        steps_per_sample = max(1, round(STATIC_EVERY_S / dt_s))
         n_steps = max(1, round(cfg.duration_s / dt_s))
         times: list[float] = []
         rows: list[tuple[float, float, float]] = []
@@ -327,6 +334,9 @@ class Flight:
                 self._check_links()
                 if step % steps_per_replan == 0:
                     ids = self._replan(step // steps_per_replan, ids)
+                if step % steps_per_sample == 0:
+                    self.crowd_samples.append((step * dt_s, np.array(self.crowd.positions_m),
+                                               np.array(self.crowd.velocities_m_s)))
                 self.crowd.step(1)
                 step += 1
                 self._clock_s = step * dt_s

@@ -39,6 +39,7 @@ from uav_swarm.planning.planner import make_planner
 from uav_swarm.runs.flight_loop import Flight
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.records import QosTrace
+from uav_swarm.runs.service import flight_figures
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
@@ -152,6 +153,9 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         summary |= {"duration_s": float(trace.times_s[-1]), "planner": trace.planner_name,
                     "mean_qos_s1": float(trace.qos_s1.mean()), "mean_qos_s2": float(trace.qos_s2.mean()),
                     "mean_throughput_mbps": float(trace.throughput_mbps.mean())}
+        flown = trace.qos_s1 if config.task.strategy == 1 else trace.qos_s2
+        summary["service"] = flight_figures(flown, flight.plans, track, flight.crowd_samples, config.task, n,
+                                            float(trace.times_s[-1]))
     files.append(_write_track(track, out_dir / "track.csv"))
     if error is not None:
         summary["error"] = f"{type(error).__name__}: {error}"

@@ -20,11 +20,14 @@ import numpy as np
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask
 from uav_swarm.world.comms import evaluate_coverage
 
-__all__ = ["JUMP_M", "StaticReference", "static_reference", "reference_qos", "target_jumps",
-           "metres_per_uav_minute"]
+__all__ = ["JUMP_M", "STATIC_EVERY_S", "StaticReference", "static_reference", "reference_qos", "target_jumps",
+           "metres_per_uav_minute", "flight_figures"]
 
 JUMP_M = 5.0
 """A target that moves more than this between two replans has jumped (metres)."""
+
+STATIC_EVERY_S = 10.0
+"""Seconds between two instants of the static reference of a flight."""
 
 
 @dataclass(frozen=True)
@@ -92,3 +95,33 @@ def target_jumps(targets_m: np.ndarray) -> np.ndarray:
 def metres_per_uav_minute(distance_m: float, n_uavs: int, duration_s: float) -> float:
     """Path length per UAV and minute of flight."""
     return float(distance_m / max(n_uavs, 1) / max(duration_s / 60.0, 1e-9))
+
+
+def flight_figures(flown_qos: np.ndarray, plans: list[dict[int, tuple[float, float]]],
+                   track: list[dict], crowd_samples: list[tuple[float, np.ndarray, np.ndarray]],
+                   task_config: WifiConfig, n_uavs: int, duration_s: float) -> dict[str, float | None]:
+    """The service figures of a live flight (``uav-swarm fly``), as ``simulate`` reports them.
+
+    Args:
+        flown_qos: ``(T,)`` the strategy's QoS recorded over the flight.
+        plans: Each replan's targets by UAV id.
+        track: The recorded vehicle positions (``uav_id``, ``time_s``, ``x_m``, ``y_m`` rows).
+        crowd_samples: The crowd every :data:`STATIC_EVERY_S`, for the static reference.
+        task_config: The Wi-Fi task (strategy, radio, experts).
+        n_uavs: Vehicles flown.
+        duration_s: Flight time.
+    """
+    reference = static_reference(crowd_samples, task_config, n_uavs, STATIC_EVERY_S)
+    jumps = [sum(1 for uav, xy in after.items() if uav in before
+                 and np.hypot(xy[0] - before[uav][0], xy[1] - before[uav][1]) > JUMP_M)
+             for before, after in zip(plans[:-1], plans[1:], strict=True)]
+    distance = 0.0
+    for uav in {row["uav_id"] for row in track}:
+        path = np.array([(row["x_m"], row["y_m"]) for row in sorted(track, key=lambda r: r["time_s"])
+                         if row["uav_id"] == uav])
+        distance += float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+    flown = float(np.mean(flown_qos)) if len(flown_qos) else 0.0
+    return {"flown_qos": flown, "static_reference_qos": reference.mean,
+            "flown_over_static": flown / reference.mean if reference.mean > 0 else None,
+            "target_jumps_per_replan": float(np.mean(jumps)) if jumps else 0.0,
+            "metres_per_uav_minute": metres_per_uav_minute(distance, n_uavs, duration_s)}
