@@ -16,7 +16,17 @@ Two planners share one interface (:class:`Planner`) and one assignment step:
 - :class:`ExpertPlanner` (``"expert"``, the reference): the Wi-Fi expert optimiser
   (:meth:`uav_swarm.missions.wifi.task.WifiTask.expert_placement_m`) for at most ``n`` UAVs.
 
-Assignment (:func:`uav_swarm.planning.assignment.assign_targets`), the same for both:
+Both planners propose a placement of the crowd; how the UAVs get there depends on
+``PlannerConfig.mode``:
+
+- ``"motion"`` (the default): planning in motion (:mod:`uav_swarm.planning.motion`): UAVs keep
+  following the users they serve while the rule holds, free UAVs take the proposals that no kept UAV
+  covers, assigned by time to reach, and a fresh assignment of every UAV replaces that only when it
+  serves more over the next seconds (the crowd predicted from the pedestrians' velocities, the UAVs'
+  speed and acceleration limits). Under a user cap, spare UAVs park away from every user.
+- ``"snapshot"``: every replan assigns the proposal of the instant, as below.
+
+Snapshot assignment (:func:`uav_swarm.planning.assignment.assign_targets`), the same for both:
 
 1. **Hysteresis (no churn).** A UAV whose previous target is within ``hysteresis_m`` of a new
    candidate keeps its previous target, so small crowd motion does not reshuffle the swarm.
