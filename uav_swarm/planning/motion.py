@@ -50,7 +50,7 @@ class MotionConfig(Config):
     """Settings of planning in motion (:mod:`uav_swarm.planning.motion`)."""
 
     horizon_s: float = param(6.0, gt=0.0, le=120.0, doc="an option's QoS is judged over the next this many s")
-    samples: int = param(6, ge=1, le=100, doc="instants of the horizon the QoS is averaged over")
+    samples: int = param(4, ge=1, le=100, doc="instants of the horizon the QoS is averaged over")
     lead_s: float = param(1.0, ge=0.0, le=30.0, doc="targets aim where their users will be this far ahead, s")
     range_margin_m: float = param(
         1.0, ge=0.0, le=20.0, doc="strategy 2: a UAV's load counts the users within radius + this (they "
@@ -169,16 +169,19 @@ class MotionPlanning:
         The same lead for all, so a placement that keeps the rule now keeps it on the crowd the
         UAVs will meet.
         """
-        if len(proposals) == 0 or len(peds) == 0:
-            return proposals
-        state = assign_users(peds, proposals, self.rules.radius_m)
-        served = state.association >= 0
-        shift = np.zeros_like(proposals)
-        counts = np.bincount(state.association[served], minlength=len(proposals))
+        return proposals + self._users_velocity(proposals, peds, vels) * self.config.lead_s
+
+    def _users_velocity(self, targets: np.ndarray, peds: np.ndarray, vels: np.ndarray) -> np.ndarray:
+        """``(k, 2)`` mean velocity of the users each target serves (zero for a target serving none)."""
+        velocity = np.zeros_like(targets)
+        if len(targets) == 0 or len(peds) == 0:
+            return velocity
+        owner = assign_users(peds, targets, self.rules.radius_m).association
+        served = owner >= 0
+        counts = np.maximum(np.bincount(owner[served], minlength=len(targets)), 1)
         for axis in (0, 1):
-            shift[:, axis] = np.bincount(state.association[served], weights=vels[served, axis],
-                                         minlength=len(proposals)) / np.maximum(counts, 1)
-        return proposals + shift * self.config.lead_s
+            velocity[:, axis] = np.bincount(owner[served], weights=vels[served, axis], minlength=len(targets))
+        return velocity / counts[:, None]
 
     def _assign(self, uavs: np.ndarray, free: np.ndarray, proposals: np.ndarray) -> np.ndarray:
         """``(n,)`` proposal index of each free UAV (-1: none), by least total squared time to reach."""
@@ -240,12 +243,7 @@ class MotionPlanning:
         if len(peds) == 0:
             return 0.0
         cfg = self.config
-        state = assign_users(peds, targets, self.rules.radius_m)
-        target_vel = np.zeros_like(targets)
-        for j in range(len(targets)):
-            users = state.association == j
-            if np.any(users):
-                target_vel[j] = vels[users].mean(axis=0)
+        target_vel = self._users_velocity(targets, peds, vels)
         total = 0.0
         for t in np.linspace(cfg.horizon_s / cfg.samples, cfg.horizon_s, cfg.samples):
             goal = targets + target_vel * t
