@@ -127,12 +127,15 @@ def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float) -> tupl
 
 
 def load_network(task: Any, checkpoint: str | None) -> tuple[Any, Any, Any]:
-    """The network, its precision and its peak settings, warmed up on one raster."""
+    """The network (on one thread, as the planner runs it), its precision and peak settings, warmed up."""
+    import torch
+
     from learning.checkpoint import load_checkpoint
     from learning.inference import utility_maps
     from learning.precision import resolve_precision
     from uav_swarm.planning.planner import default_checkpoint
 
+    torch.set_num_threads(1)  # one building at a time: more threads only wait on each other
     path = checkpoint or default_checkpoint(task.name)
     ckpt = load_checkpoint(path, task_name=task.name, input_shape=(task.channels, *task.shape))
     precision = resolve_precision("auto", next(ckpt.model.parameters()).device)
