@@ -137,14 +137,19 @@ class Witnesses:
         walls: ``(W, 2)`` int64: the walls each point lies on (a vertex: the wall starting there and the
             wall ending there), ``-1`` for none.
         near: ``(W, E)`` bool: the walls, other than its own, nearer the point than twice the margin
-            (rule 3 spares them); None until :meth:`with_near` is called.
+            (rule 3 spares them); None until :meth:`prepared` is called.
         clearance_m: The margin ``near`` was computed for.
+        codes: ``(W, E)`` uint8 where each point lies about each wall (``visibility``'s quick test), for
+            the margin and region of :meth:`prepared`; None until then.
+        region: The region ``codes`` was computed for.
     """
 
     points_m: np.ndarray
     walls: np.ndarray
     near: np.ndarray | None = None
     clearance_m: float | None = None
+    codes: np.ndarray | None = None
+    region: Region | None = None
 
     def __len__(self) -> int:
         return len(self.points_m)
@@ -152,17 +157,21 @@ class Witnesses:
     def subset(self, index: np.ndarray) -> Witnesses:
         """The witnesses at ``index``."""
         near = None if self.near is None else self.near[index]
-        return Witnesses(self.points_m[index], self.walls[index], near, self.clearance_m)
+        codes = None if self.codes is None else self.codes[index]
+        return Witnesses(self.points_m[index], self.walls[index], near, self.clearance_m, codes, self.region)
 
-    def with_near(self, outline: Outline, clearance_m: float) -> Witnesses:
-        """These witnesses with ``near`` computed for the margin ``clearance_m`` (kept if already so)."""
-        if self.clearance_m == clearance_m and self.near is not None:
+    def prepared(self, outline: Outline, clearance_m: float, region: Region) -> Witnesses:
+        """These witnesses with ``near`` and ``codes`` computed for a margin and region (kept if so)."""
+        if self.clearance_m == clearance_m and self.region == region and self.near is not None:
             return self
-        near = point_segment_distances(self.points_m, outline.walls_m) < 2 * clearance_m
+        near = np.zeros((len(self), outline.n_vertices), dtype=bool)
+        close = outline.wall_distances(self.points_m) < 2 * clearance_m  # GEOS first: most points are far
+        near[close] = point_segment_distances(self.points_m[close], outline.walls_m) < 2 * clearance_m
         for column in self.walls.T:
             rows = np.flatnonzero(column >= 0)
             near[rows, column[rows]] = False
-        return Witnesses(self.points_m, self.walls, near, clearance_m)
+        codes = _codes(outline, region, self.points_m, max(clearance_m, TOUCH_M))
+        return Witnesses(self.points_m, self.walls, near, clearance_m, codes, region)
 
 
 def _wall_points(outline: Outline, spacing_m: float, vertices_only: bool) -> Witnesses:
@@ -290,7 +299,7 @@ def visibility(outline: Outline, guards_m: np.ndarray, targets: Witnesses, min_c
     seen = np.zeros((len(guards), len(targets)), dtype=bool)
     if seen.size == 0:
         return seen
-    targets = targets.with_near(outline, min_clearance_m)
+    targets = targets.prepared(outline, min_clearance_m, region)
     rows_per_block = max(1, _BLOCK_PAIRS // len(targets))
     for first in range(0, len(guards), rows_per_block):
         block = guards[first:first + rows_per_block]
@@ -311,18 +320,12 @@ def _visible_block(outline: Outline, guards: np.ndarray, targets: Witnesses, cle
         seen[:, on_wall] = _leaves_into(outline, region, walls, dx.ravel(), dy.ravel()).reshape(dx.shape)
     bound = max(clearance, TOUCH_M)
     far_limit = bound - TOUCH_M if clearance > TOUCH_M else TOUCH_M
-    guard_side = _beyond(outline, region, guards, bound)  # (G, E)
-    point_side = _beyond(outline, region, points, bound)  # (W, E)
-    low = np.minimum(outline.walls_m[:, :2], outline.walls_m[:, 2:]) - bound  # (E, 2) walls' boxes, grown
-    high = np.maximum(outline.walls_m[:, :2], outline.walls_m[:, 2:]) + bound
+    guard_codes = _codes(outline, region, guards, bound)  # (G, E)
+    point_codes = targets.codes if targets.codes is not None else _codes(outline, region, points, bound)
     for e, (ax, ay, bx, by) in enumerate(outline.walls_m):
-        # a segment whose two ends lie beyond the bound on the region's side of the wall's line is safe,
-        # and so is one whose two ends lie on the same side out of the wall's grown box
-        safe = guard_side[:, e, None] & point_side[None, :, e]
-        for axis in (0, 1):
-            safe |= (guards[:, axis, None] < low[e, axis]) & (points[None, :, axis] < low[e, axis])
-            safe |= (guards[:, axis, None] > high[e, axis]) & (points[None, :, axis] > high[e, axis])
-        unsure = seen & ~safe
+        # safe: both ends beyond the bound on the region's side of the wall's line, or on one side out of
+        # the wall's box grown by the bound (they share a bit of their codes)
+        unsure = seen & ((guard_codes[:, e, None] & point_codes[None, :, e]) == 0)
         unsure[:, (own[:, 0] == e) | (own[:, 1] == e)] = False  # rules 1 and 3 spare w's own walls
         g, w = np.nonzero(unsure)
         if len(g) == 0:
@@ -331,6 +334,18 @@ def _visible_block(outline: Outline, guards: np.ndarray, targets: Witnesses, cle
         bad = _segment_distance(guards[g, 0], guards[g, 1], points[w, 0], points[w, 1], ax, ay, bx, by) < limit
         seen[g[bad], w[bad]] = False
     return seen
+
+
+def _codes(outline: Outline, region: Region, points: np.ndarray, bound: float) -> np.ndarray:
+    """``(N, E)`` uint8 per point and wall: bits 0-3 the point lies left of, right of, below or above the
+    wall's box grown by ``bound``; bit 4 it lies ``bound`` beyond the wall's line, on the region's side."""
+    walls = outline.walls_m
+    low = np.minimum(walls[:, :2], walls[:, 2:]) - bound
+    high = np.maximum(walls[:, :2], walls[:, 2:]) + bound
+    x, y = points[:, 0, None], points[:, 1, None]
+    codes = ((x < low[:, 0]).astype(np.uint8) | ((x > high[:, 0]).astype(np.uint8) << 1)
+             | ((y < low[:, 1]).astype(np.uint8) << 2) | ((y > high[:, 1]).astype(np.uint8) << 3))
+    return codes | (_beyond(outline, region, points, bound).astype(np.uint8) << 4)
 
 
 def _beyond(outline: Outline, region: Region, points: np.ndarray, bound: float) -> np.ndarray:

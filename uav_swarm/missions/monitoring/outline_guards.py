@@ -110,7 +110,7 @@ def judge(outline: Outline, region: Region, guards_m: np.ndarray, config: SightC
     A guard outside the mission's region, or nearer a wall than ``standoff_m``, sees nothing.
     """
     guards = np.asarray(guards_m, dtype=np.float64).reshape(-1, 2)
-    targets = witnesses(outline, region, config.witness_spacing_m).with_near(outline, config.min_clearance_m)
+    targets = witnesses(outline, region, config.witness_spacing_m).prepared(outline, config.min_clearance_m, region)
     allowed = (outline.inside(guards) == (region == "interior")) & (
         outline.wall_distances(guards) >= config.standoff_m)
     seen = np.zeros((len(guards), len(targets)), dtype=bool)
@@ -232,7 +232,7 @@ def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray,
     proposals = proposals.reshape(0, 2) if proposals.size == 0 else proposals
     if proposals.ndim != 2 or proposals.shape[1] != 2 or not np.all(np.isfinite(proposals)):
         raise ValueError(f"proposals_m must be a finite (k, 2) array, got shape {proposals.shape}")
-    targets = witnesses(outline, region, config.witness_spacing_m).with_near(outline, config.min_clearance_m)
+    targets = witnesses(outline, region, config.witness_spacing_m).prepared(outline, config.min_clearance_m, region)
     clearance = config.min_clearance_m
     lattice = candidates(outline, region, config.lattice_m, config.standoff_m, config.reach_m)
     if len(lattice) == 0:
@@ -281,7 +281,7 @@ def reference_guards(outline: Outline, region: Region, config: SightConfig) -> P
     Raises:
         InfeasibleCoverError: Witnesses no lattice point sees (named in metres).
     """
-    targets = witnesses(outline, region, config.witness_spacing_m).with_near(outline, config.min_clearance_m)
+    targets = witnesses(outline, region, config.witness_spacing_m).prepared(outline, config.min_clearance_m, region)
     lattice = candidates(outline, region, config.reference_spacing_m, config.standoff_m, config.reach_m)
     chosen, seen_by = _cover_blind(outline, region, lattice, targets, config, np.zeros(len(lattice)))
     return Placement(chosen, targets, seen_by)
