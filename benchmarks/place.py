@@ -48,7 +48,8 @@ def generated() -> list[Footprint]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--tasks", nargs="+", default=["agp", "fp"], choices=["agp", "fp"])
     args = parser.parse_args()
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -69,7 +70,8 @@ def main() -> None:
             reference = place_building(task, footprint, "expert", None, sight, 10.0)
             check = judge(footprint.outline(), task.region, refined.placement.guards_m, sight)  # re-judged
             n_ref, n_exp = len(refined.placement.guards_m), len(reference.placement.guards_m)
-            print(f"| {task_name} | {footprint.name} | {footprint.outline().n_vertices} | {n_ref} / {n_exp} | "
+            vertices = footprint.outline().n_vertices
+            print(f"| {task_name} | {footprint.name} | {vertices} | {n_ref} / {n_exp} | "
                   f"{100 * check.seen_fraction:.1f} / {100 * reference.placement.seen_fraction:.1f} | "
                   f"{1e3 * refined.seconds:.0f} | {1e3 * reference.seconds:.0f} | "
                   f"{reference.seconds / refined.seconds:.1f}x |", flush=True)

@@ -1,7 +1,8 @@
 """``uav-swarm place``: guards for a user's own buildings (Art Gallery inside, Fortress around).
 
     uav-swarm place --task fp --building shop.geojson --out out/shop
-    uav-swarm place --task agp --building site.geojson --out out/site --method expert --bridge-config bridge.toml
+    uav-swarm place --task agp --building site.geojson --out out/site --method expert \
+        --bridge-config bridge.toml
 
 The buildings (:mod:`uav_swarm.missions.monitoring.footprint`: GeoJSON in WGS84, a Polygon with or without
 courtyards, a MultiPolygon or a FeatureCollection of a whole site, or vertices in metres) are placed one
@@ -68,7 +69,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--witness-spacing-m", type=float, default=0.5, help="witness spacing (default: %(default)s)")
     add("--min-clearance-m", type=float, default=0.5,
         help="sight lines keep this far from walls, 0 allowed (default: %(default)s)")
-    add("--standoff-m", type=float, default=1.0, help="guards keep this far from walls (default: %(default)s)")
+    add("--standoff-m", type=float, default=1.0,
+        help="guards keep this far from walls (default: %(default)s)")
     add("--bridge-config", type=Path, help="bridge TOML: home, mission shape, fence and vehicle ids")
     add("--alt-m", type=float,
         help="flight altitude above home for the missions (default: [mission] cruise_alt_m)")
@@ -143,7 +145,8 @@ def load_network(task: Any, checkpoint: str | None) -> tuple[Any, Any, Any]:
     return ckpt.model, precision, ckpt.peak_config
 
 
-def place_building(task: Any, footprint: Any, method: str, network: Any, sight: Any, max_pixel_m: float) -> Any:
+def place_building(task: Any, footprint: Any, method: str, network: Any, sight: Any, max_pixel_m: float
+                   ) -> Any:
     """One building's placement by ``method``, judged on its real outline."""
     from uav_swarm.cli.place_output import PlacedBuilding
     from uav_swarm.missions.monitoring.outline_guards import judge, reference_guards, repair_on_outline
@@ -207,7 +210,8 @@ def run(args: argparse.Namespace) -> int:
                             standoff_m=args.standoff_m)
         site = read_site(args.building)
         network = None if args.method == "expert" else load_network(task, args.checkpoint)
-        buildings = [place_building(task, footprint, args.method, network, sight, args.max_pixel_m) for footprint in site]
+        buildings = [place_building(task, footprint, args.method, network, sight, args.max_pixel_m)
+                     for footprint in site]
         guards_m = np.concatenate([b.placement.guards_m for b in buildings])
         missions = _missions(args, site[0], guards_m) if args.bridge_config else {}
     except (FootprintError, OutlineError, InfeasibleCoverError, CheckpointError, ConfigError) as exc:

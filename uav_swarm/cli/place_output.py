@@ -46,15 +46,19 @@ def site_geojson(buildings: list[PlacedBuilding], method: str) -> dict[str, Any]
                          "geometry": {"type": "Polygon", "coordinates": [
                              _ring(fp, fp.vertices_m), *(_ring(fp, hole) for hole in fp.holes_m)]}})
         for tile, fitted in enumerate(b.rasters):
+            ring = _ring(fp, fitted.to_metres(fitted.polygon.vertices_px))
             features.append({"type": "Feature", "properties": {
                 "role": "raster outline (what the network saw)", "name": fp.name, "tile": tile + 1,
-                "metres_per_px": round(fitted.metres_per_px, 4)}, "geometry": {"type": "Polygon", "coordinates": [
-                    _ring(fp, fitted.to_metres(fitted.polygon.vertices_px))]}})
-        shares = b.placement.seen_by.mean(axis=1) if len(b.placement.witnesses) else np.ones(len(b.placement.guards_m))
-        for i, (point, share) in enumerate(zip(fp.to_input(b.placement.guards_m), shares, strict=True)):
+                "metres_per_px": round(fitted.metres_per_px, 4)},
+                "geometry": {"type": "Polygon", "coordinates": [ring]}})
+        placement = b.placement
+        witnessed = len(placement.witnesses) > 0
+        shares = placement.seen_by.mean(axis=1) if witnessed else np.ones(len(placement.seen_by))
+        for i, (point, share) in enumerate(zip(fp.to_input(placement.guards_m), shares, strict=True)):
             features.append({"type": "Feature", "properties": {
                 "role": "guard", "name": fp.name, "guard": i + 1, "method": method,
-                "sees_share": round(float(share), 4)}, "geometry": {"type": "Point", "coordinates": point.tolist()}})
+                "sees_share": round(float(share), 4)},
+                "geometry": {"type": "Point", "coordinates": point.tolist()}})
     coordinates = "WGS84 longitude, latitude" if origin is not None else "metres of the input"
     return {"type": "FeatureCollection", "coordinates": coordinates, "features": features}
 

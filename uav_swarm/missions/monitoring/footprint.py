@@ -5,7 +5,8 @@ Two inputs (:func:`read_site`):
 - **GeoJSON** (``.geojson``, or ``.json`` holding a GeoJSON object), in WGS84 longitude/latitude as GIS
   tools export it: a ``Polygon`` (holes, i.e. courtyards, allowed), a ``MultiPolygon`` (one building per
   part), a ``Feature`` with either, or a ``FeatureCollection`` of such features (a whole site). The site
-  is projected to East-North metres around the mean of its outer vertices (:func:`bridge.geo.geodetic_to_enu`).
+  is projected to East-North metres around the mean of its outer vertices
+  (:func:`bridge.geo.geodetic_to_enu`).
 - **Vertices in metres** (one building without holes): a ``.json`` list of ``[x, y]`` pairs, or a
   ``.csv`` / ``.txt`` file with one ``x, y`` (or ``x y``) pair per line (``#`` starts a comment).
 
@@ -196,10 +197,11 @@ def _building(rings: list[np.ndarray], origin: Home | None, name: str, where: st
         raise FootprintError(f"{where}: {count} vertices; allowed at most {max_vertices}")
     scale = float(np.ptp(points, axis=0).max())
     if scale == 0.0 or np.linalg.matrix_rank(points - points.mean(axis=0), tol=1e-9 * scale) < 2:
-        raise FootprintError(f"{where}: the outline encloses no area (degenerate: its vertices are collinear)")
+        raise FootprintError(f"{where}: the outline encloses no area (degenerate: its vertices are "
+                             "collinear)")
     if not is_simple(points):
-        raise FootprintError(f"{where}: the outline is not a simple polygon (it crosses or touches itself, or "
-                             "repeats a vertex)")
+        raise FootprintError(f"{where}: the outline is not a simple polygon (it crosses or touches itself, "
+                             "or repeats a vertex)")
     footprint = Footprint(points, origin, name, tuple(rings[1:]))
     try:
         footprint.outline()

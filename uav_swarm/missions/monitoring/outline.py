@@ -1,5 +1,7 @@
-"""A user's building in metres: its walls, the points a placement must see, where guards may stand, and
-who sees what, with exact geometry and a visibility margin.
+"""A user's building in metres: walls, witnesses, guard positions and visibility with a margin.
+
+Its walls, the points a placement must see, where guards may stand, and who sees what, with exact
+geometry.
 
 The raster (:mod:`uav_swarm.missions.monitoring.footprint`) is what the network sees; this module is the
 truth a placement is judged on. An :class:`Outline` is a polygon in East-North metres, holes
@@ -331,14 +333,18 @@ def _visible_block(outline: Outline, guards: np.ndarray, targets: Witnesses, cle
         if len(g) == 0:
             continue
         limit = np.where(near[w, e], TOUCH_M, far_limit)
-        bad = _segment_distance(guards[g, 0], guards[g, 1], points[w, 0], points[w, 1], ax, ay, bx, by) < limit
+        distance = _segment_distance(guards[g, 0], guards[g, 1], points[w, 0], points[w, 1], ax, ay, bx, by)
+        bad = distance < limit
         seen[g[bad], w[bad]] = False
     return seen
 
 
 def _codes(outline: Outline, region: Region, points: np.ndarray, bound: float) -> np.ndarray:
-    """``(N, E)`` uint8 per point and wall: bits 0-3 the point lies left of, right of, below or above the
-    wall's box grown by ``bound``; bit 4 it lies ``bound`` beyond the wall's line, on the region's side."""
+    """``(N, E)`` uint8 codes of where each point lies about each wall.
+
+    Bits 0-3: left of, right of, below or above the wall's box grown by ``bound``; bit 4: ``bound``
+    beyond the wall's line, on the region's side.
+    """
     walls = outline.walls_m
     low = np.minimum(walls[:, :2], walls[:, 2:]) - bound
     high = np.maximum(walls[:, :2], walls[:, 2:]) + bound

@@ -37,7 +37,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from typed_config import Config, ConfigError, param
-from uav_swarm.missions.monitoring.outline import Outline, Region, Witnesses, candidates, visibility, witnesses
+from uav_swarm.missions.monitoring.outline import (
+    Outline,
+    Region,
+    Witnesses,
+    candidates,
+    visibility,
+    witnesses,
+)
 from uav_swarm.missions.monitoring.setcover import InfeasibleCoverError, prune_cover, small_cover
 
 __all__ = ["SightConfig", "Placement", "judge", "repair_on_outline", "reference_guards"]
@@ -61,7 +68,7 @@ class SightConfig(Config):
         0.5, ge=0.0, le=10.0, doc="a sight line keeps this far from every wall but the witness's own, m")
     standoff_m: float = param(1.0, ge=0.0, le=50.0, doc="guards keep this far from every wall, m")
     reach_m: float = param(15.0, gt=0.0, le=1000.0,
-                           doc="Fortress guards stand at most this far outside the building's bounding box, m")
+                           doc="Fortress guards stand at most this far outside the building's box, m")
     move_radius_m: float = param(10.0, ge=0.0, le=1000.0, doc="a proposal may move this far, m")
     move_spacing_m: float = param(2.0, gt=0.0, le=50.0, doc="lattice the proposals move on, m")
     lattice_m: float = param(2.0, gt=0.0, le=50.0, doc="lattice that covers what the moved proposals miss, m")
@@ -104,13 +111,19 @@ class Placement:
         return float(np.mean(np.any(self.seen_by, axis=0))) if len(self.witnesses) else 1.0
 
 
+def _witnesses(outline: Outline, region: Region, config: SightConfig) -> Witnesses:
+    """The witnesses of ``config``'s spacing, prepared for its margin."""
+    points = witnesses(outline, region, config.witness_spacing_m)
+    return points.prepared(outline, config.min_clearance_m, region)
+
+
 def judge(outline: Outline, region: Region, guards_m: np.ndarray, config: SightConfig) -> Placement:
     """What guards at ``guards_m`` see of the real outline (witnesses at ``config.witness_spacing_m``).
 
     A guard outside the mission's region, or nearer a wall than ``standoff_m``, sees nothing.
     """
     guards = np.asarray(guards_m, dtype=np.float64).reshape(-1, 2)
-    targets = witnesses(outline, region, config.witness_spacing_m).prepared(outline, config.min_clearance_m, region)
+    targets = _witnesses(outline, region, config)
     allowed = (outline.inside(guards) == (region == "interior")) & (
         outline.wall_distances(guards) >= config.standoff_m)
     seen = np.zeros((len(guards), len(targets)), dtype=bool)
@@ -148,7 +161,8 @@ def _lazy_cover(outline: Outline, region: Region, pool: np.ndarray, targets: Wit
             return picks, seen_by
         added = _spread(np.flatnonzero(unseen), _ADDED_WITNESSES)
         subset = np.concatenate([subset, added])
-        sees = np.concatenate([sees, visibility(outline, pool, targets.subset(added), clearance, region)], axis=1)
+        more = visibility(outline, pool, targets.subset(added), clearance, region)
+        sees = np.concatenate([sees, more], axis=1)
 
 
 def _infeasible(outline: Outline, targets: Witnesses, blind: np.ndarray, config: SightConfig,
@@ -232,7 +246,7 @@ def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray,
     proposals = proposals.reshape(0, 2) if proposals.size == 0 else proposals
     if proposals.ndim != 2 or proposals.shape[1] != 2 or not np.all(np.isfinite(proposals)):
         raise ValueError(f"proposals_m must be a finite (k, 2) array, got shape {proposals.shape}")
-    targets = witnesses(outline, region, config.witness_spacing_m).prepared(outline, config.min_clearance_m, region)
+    targets = _witnesses(outline, region, config)
     clearance = config.min_clearance_m
     lattice = candidates(outline, region, config.lattice_m, config.standoff_m, config.reach_m)
     if len(lattice) == 0:
@@ -281,7 +295,7 @@ def reference_guards(outline: Outline, region: Region, config: SightConfig) -> P
     Raises:
         InfeasibleCoverError: Witnesses no lattice point sees (named in metres).
     """
-    targets = witnesses(outline, region, config.witness_spacing_m).prepared(outline, config.min_clearance_m, region)
+    targets = _witnesses(outline, region, config)
     lattice = candidates(outline, region, config.reference_spacing_m, config.standoff_m, config.reach_m)
     chosen, seen_by = _cover_blind(outline, region, lattice, targets, config, np.zeros(len(lattice)))
     return Placement(chosen, targets, seen_by)
