@@ -30,7 +30,7 @@ clockwise, so the building's interior is on the left of every wall.
 
 Distances are computed in float64 on metres, and "touching" means closer than :data:`TOUCH_M`.
 
-Example:
+Examples:
     >>> outline = Outline.from_rings(np.array([[0.0, 0.0], [20.0, 0.0], [20.0, 10.0], [0.0, 10.0]]))
     >>> points = witnesses(outline, "interior", spacing_m=1.0)
     >>> bool(visibility(outline, np.array([[10.0, 5.0]]), points, 0.5).all())

@@ -22,7 +22,7 @@ exceeds the whole instance's); only the visibility of the chosen guards is ever 
 witness. Covers are exact (:func:`uav_swarm.missions.monitoring.setcover.small_cover`: the greedy cover
 when a packing proves it minimal, else HiGHS).
 
-Example:
+Examples:
     >>> from uav_swarm.missions.monitoring.outline import Outline
     >>> ell = Outline.from_rings(np.array([[0, 0], [30, 0], [30, 10], [10, 10], [10, 30], [0, 30.0]]))
     >>> len(reference_guards(ell, "interior", SightConfig(witness_spacing_m=1.0)).guards_m)
