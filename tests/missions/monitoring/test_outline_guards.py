@@ -72,3 +72,11 @@ def test_a_margin_wider_than_the_standoff_is_refused_by_name():
         SightConfig(standoff_m=0.5, min_clearance_m=1.0)
     with pytest.raises(ConfigError, match="witness_spacing_m"):
         SightConfig(witness_spacing_m=0.0)
+
+
+def test_a_building_too_narrow_for_any_guard_is_refused_at_once():
+    corridor = Outline.from_rings(np.array([[0, 0], [30, 0], [30, 1.5], [0, 1.5]]), name="corridor")
+    with pytest.raises(InfeasibleCoverError, match="corridor: .* no guard position inside the building"):
+        reference_guards(corridor, "interior", SIGHT)  # 1.5 m wide: nowhere 1 m from both walls
+    with pytest.raises(InfeasibleCoverError, match="corridor: .* no guard position inside the building"):
+        repair_on_outline(corridor, "interior", np.array([[15.0, 0.75]]), SIGHT)

@@ -145,6 +145,8 @@ def _lazy_cover(outline: Outline, region: Region, pool: np.ndarray, targets: Wit
     Returns:
         The chosen pool indices and their ``(k, W)`` visibility of every witness.
     """
+    if len(pool) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, len(targets)), dtype=bool)
     subset = _spread(np.arange(len(targets)), _FIRST_WITNESSES)
     sees = visibility(outline, pool, targets.subset(subset), clearance, region)
     rows: dict[int, np.ndarray] = {}  # pool point -> what it sees of every witness, computed once
