@@ -1,31 +1,40 @@
-"""``uav-swarm place``: guards for a user's own building (Art Gallery inside it, Fortress around it).
+"""``uav-swarm place``: guards for a user's own buildings (Art Gallery inside, Fortress around).
 
     uav-swarm place --task fp --building shop.geojson --out out/shop
-    uav-swarm place --task agp --building hall.csv --out out/hall --method expert --bridge-config bridge.toml
+    uav-swarm place --task agp --building site.geojson --out out/site --method expert \
+        --bridge-config bridge.toml
 
-The building (:mod:`uav_swarm.missions.monitoring.footprint`: a GeoJSON Polygon in WGS84, or vertices in
-metres) is fitted to the monitoring raster and placed with one of three methods:
+The buildings (:mod:`uav_swarm.missions.monitoring.footprint`: GeoJSON in WGS84, a Polygon with or without
+courtyards, a MultiPolygon or a FeatureCollection of a whole site, or vertices in metres) are placed one
+by one, each on its own outline in metres (:mod:`uav_swarm.missions.monitoring.outline`): witnesses every
+``--witness-spacing-m`` (interior grid and vertices for AGP, walls for FP), sight lines keeping
+``--min-clearance-m`` from the walls, guards ``--standoff-m`` from them. Three methods:
 
-- ``learned``: the shipped network's peaks (milliseconds, no guarantee);
-- ``refined`` (default): the peaks repaired until every witness is seen
-  (:mod:`uav_swarm.missions.monitoring.guard_repair`);
-- ``expert``: the exact set cover (fewest guards; slower).
+- ``learned``: the shipped network's peaks on the raster, as they are (milliseconds, no guarantee);
+- ``refined`` (default): the peaks repaired on the real outline until every witness is seen
+  (:func:`uav_swarm.missions.monitoring.outline_guards.repair_on_outline`);
+- ``expert``: the exact reference on the real outline (the fewest guards of a 1 m lattice; slower).
 
-Outputs in ``--out`` (written only when everything succeeded): ``guards.geojson`` (the guards as
-points, and the building as fitted, in the input's coordinates: longitude/latitude for GeoJSON
-input, metres otherwise), ``placement.json`` (method, scale, guards, coverage, time),
-``placement.png`` (the building, the guards and what each sees) and, with ``--bridge-config``, one
-QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are placed in the bridge's
-local frame around its home; metres are taken as East-North metres from that home).
+The raster is only the network's input. A building wider than the raster at ``--max-pixel-m`` is shown
+to the network in tiles (at most 8 x 8, i.e. up to 8 x 55 x ``--max-pixel-m`` metres); a part whose
+rounded raster outline is not simple gets no proposals, and the repair covers it.
 
-A building the placement cannot take (holes, several parts, self-intersecting, degenerate, too many
-vertices, too large for the raster at ``--max-pixel-m``, or a Fortress outline some boundary point
-of which no outside pixel sees) exits with code 2, a message naming the problem and nothing written.
+Outputs in ``--out`` (written only when every building succeeded): ``guards.geojson`` (the buildings as
+given, the raster outlines the network saw, the guards; longitude/latitude for GeoJSON input, metres
+otherwise), ``placement.json`` (per building: guards in metres, witnesses, coverage on the real outline,
+time), ``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with
+``--bridge-config``, one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
+placed in the bridge's local frame around its home; metres are taken as East-North metres from that home).
+
+Input the placement cannot take (a self-intersecting or degenerate outline, a courtyard outside its
+building, too many vertices, a building wider than the tiles allow, witnesses no guard position sees
+with the margin, named in metres) exits with code 2, a message naming the problem and nothing written.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 import time
 from pathlib import Path
@@ -33,58 +42,129 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "load_network", "propose", "place_building"]
 
 METHODS = ("learned", "refined", "expert")
+
+MAX_TILES_PER_SIDE = 8
+"""Most raster tiles a side a building is shown to the network in."""
+
+logger = logging.getLogger(__name__)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``place`` subcommand."""
     parser = subparsers.add_parser(
-        "place", help="place guards for your own building (GeoJSON or metres), write them back and missions",
+        "place", help="place guards for your own buildings (GeoJSON or metres), write them back and missions",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
     add("--task", required=True, choices=("agp", "fp"), help="agp: guards inside; fp: guards outside")
     add("--building", required=True, type=Path,
-        help=".geojson (WGS84 Polygon) or .json/.csv/.txt vertices (m)")
+        help=".geojson (WGS84 Polygon, MultiPolygon or FeatureCollection) or .json/.csv/.txt vertices (m)")
     add("--out", required=True, type=Path, help="output folder")
     add("--method", choices=METHODS, default="refined", help="placement method (default: %(default)s)")
     add("--checkpoint", help="network for learned/refined (default: uav_swarm/checkpoints/<task>.pt)")
     add("--max-pixel-m", type=float, default=10.0,
-        help="refuse buildings needing more metres per raster pixel (default: %(default)s)")
+        help="coarsest raster the network sees; wider buildings are shown in tiles (default: %(default)s)")
+    add("--witness-spacing-m", type=float, default=0.5, help="witness spacing (default: %(default)s)")
+    add("--min-clearance-m", type=float, default=0.5,
+        help="sight lines keep this far from walls, 0 allowed (default: %(default)s)")
+    add("--standoff-m", type=float, default=1.0,
+        help="guards keep this far from walls (default: %(default)s)")
     add("--bridge-config", type=Path, help="bridge TOML: home, mission shape, fence and vehicle ids")
     add("--alt-m", type=float,
         help="flight altitude above home for the missions (default: [mission] cruise_alt_m)")
     parser.set_defaults(func=run)
 
 
-def _place(task: Any, scene: Any, method: str, checkpoint: str | None) -> tuple[np.ndarray, float]:
-    """Guard positions (pixels) by ``method`` and the seconds it took (network included)."""
-    from uav_swarm.missions.registry import build_refiner
+def _tiles(footprint: Any, size_px: int, margin_px: int, max_pixel_m: float) -> list[Any]:
+    """The pieces of the outer ring the network sees, each fitting the raster at ``max_pixel_m``."""
+    import shapely
 
-    refiner = build_refiner(task)
-    start = time.perf_counter()
-    if method == "expert":
-        return refiner.solve(scene), time.perf_counter() - start
-    from learning.checkpoint import load_checkpoint
+    from uav_swarm.missions.monitoring.footprint import Footprint, FootprintError
+
+    side_m = (size_px - 1 - 2 * margin_px) * max_pixel_m
+    low, extent = footprint.vertices_m.min(axis=0), np.ptp(footprint.vertices_m, axis=0)
+    counts = np.maximum(1, np.ceil(extent / side_m - 1e-9)).astype(np.int64)
+    if counts.max() > MAX_TILES_PER_SIDE:
+        raise FootprintError(
+            f"{footprint.name}: {extent.max():.0f} m wide: at --max-pixel-m {max_pixel_m} it needs "
+            f"{counts.max()} tiles a side, allowed at most {MAX_TILES_PER_SIDE} (up to "
+            f"{MAX_TILES_PER_SIDE * side_m:.0f} m; raise --max-pixel-m)")
+    if counts.max() == 1:
+        return [Footprint(footprint.vertices_m, name=footprint.name)]
+    outer, step = shapely.Polygon(footprint.vertices_m), extent / counts
+    pieces = []
+    for i in range(counts[0]):
+        for j in range(counts[1]):
+            x0, y0 = low + step * (i, j)
+            clipped = outer.intersection(shapely.box(x0, y0, x0 + step[0], y0 + step[1]))
+            for part in getattr(clipped, "geoms", [clipped]):
+                if isinstance(part, shapely.Polygon) and part.area > 0:
+                    pieces.append(Footprint(np.asarray(part.exterior.coords)[:-1], name=footprint.name))
+    return pieces
+
+
+def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float) -> tuple[np.ndarray, tuple]:
+    """The network's peaks (metres) over the building's raster or tiles, and the rasters it saw."""
     from learning.inference import utility_maps
     from learning.peaks import find_peaks
+    from uav_swarm.missions.monitoring.footprint import FootprintError, fit_to_raster
+    from uav_swarm.missions.monitoring.task import MonitoringScene
+
+    model, precision, peak_config = network
+    size, margin = task.config.polygon.size_px, task.config.polygon.margin_px
+    rasters = []
+    for piece in _tiles(footprint, size, margin, max_pixel_m):
+        try:
+            rasters.append(fit_to_raster(piece, size, margin, max_pixel_m))
+        except FootprintError as exc:  # the repair covers this part without proposals
+            logger.info("%s: the network sees no raster of a part: %s", footprint.name, exc)
+    if not rasters:
+        return np.zeros((0, 2)), ()
+    observed = np.stack([task.observe(MonitoringScene(r.polygon, np.zeros((0, 2)))) for r in rasters])
+    utility = utility_maps(model, observed, precision)
+    proposals = [r.to_metres(find_peaks(u, peak_config)) for r, u in zip(rasters, utility, strict=True)]
+    return np.concatenate(proposals), tuple(rasters)
+
+
+def load_network(task: Any, checkpoint: str | None) -> tuple[Any, Any, Any]:
+    """The network (on one thread, as the planner runs it), its precision and peak settings, warmed up."""
+    import torch
+
+    from learning.checkpoint import load_checkpoint
+    from learning.inference import utility_maps
     from learning.precision import resolve_precision
     from uav_swarm.planning.planner import default_checkpoint
 
+    torch.set_num_threads(1)  # one building at a time: more threads only wait on each other
     path = checkpoint or default_checkpoint(task.name)
     ckpt = load_checkpoint(path, task_name=task.name, input_shape=(task.channels, *task.shape))
     precision = resolve_precision("auto", next(ckpt.model.parameters()).device)
-    utility_maps(ckpt.model, task.observe(scene)[None], precision)  # warm-up: time the steady state
+    utility_maps(ckpt.model, np.zeros((1, task.channels, *task.shape), dtype=np.float32), precision)
+    return ckpt.model, precision, ckpt.peak_config
+
+
+def place_building(task: Any, footprint: Any, method: str, network: Any, sight: Any, max_pixel_m: float
+                   ) -> Any:
+    """One building's placement by ``method``, judged on its real outline."""
+    from uav_swarm.cli.place_output import PlacedBuilding
+    from uav_swarm.missions.monitoring.outline_guards import judge, reference_guards, repair_on_outline
+
+    outline = footprint.outline()
     start = time.perf_counter()
-    utility = utility_maps(ckpt.model, task.observe(scene)[None], precision)[0]
-    positions = find_peaks(utility, ckpt.peak_config)
-    if method == "refined":
-        positions = refiner.refine(scene, positions)
-    return positions, time.perf_counter() - start
+    if method == "expert":
+        placement, rasters = reference_guards(outline, task.region, sight), ()
+    else:
+        proposals, rasters = propose(task, footprint, network, max_pixel_m)
+        if method == "refined":
+            placement = repair_on_outline(outline, task.region, proposals, sight)
+        else:
+            placement = judge(outline, task.region, proposals, sight)
+    return PlacedBuilding(footprint, rasters, placement, time.perf_counter() - start)
 
 
-def _missions(args: argparse.Namespace, fitted: Any, guards_m: np.ndarray) -> dict[int, Any]:
+def _missions(args: argparse.Namespace, footprint: Any, guards_m: np.ndarray) -> dict[int, Any]:
     """One mission per guard, by vehicle id (checked against the fence before anything is written)."""
     from bridge.config import BridgeConfig
     from bridge.geo import geodetic_to_enu
@@ -97,115 +177,84 @@ def _missions(args: argparse.Namespace, fitted: Any, guards_m: np.ndarray) -> di
                           "guards: list at least one vehicle per guard")
     ids = [v.system_id for v in bridge.vehicles[:len(guards_m)]] or list(range(1, len(guards_m) + 1))
     alt_m = bridge.mission.cruise_alt_m if args.alt_m is None else args.alt_m
-    if fitted.footprint.origin is None:
+    if footprint.origin is None:
         local = guards_m
     else:
-        lonlat = fitted.footprint.to_input(guards_m)
+        lonlat = footprint.to_input(guards_m)
         local = np.array([geodetic_to_enu(bridge.home, lat, lon, bridge.home.alt_m)[:2]
                           for lon, lat in lonlat])
     return {sid: build_mission([(float(x), float(y), alt_m)], bridge.home, bridge.mission, bridge.geofence)
             for sid, (x, y) in zip(ids, local, strict=True)}
 
 
-def _geojson(fitted: Any, guards_m: np.ndarray, seen_share: np.ndarray, method: str) -> dict[str, Any]:
-    footprint = fitted.footprint
-    coordinates = "WGS84 longitude, latitude" if footprint.origin is not None else "metres of the input"
-    outline = footprint.to_input(fitted.to_metres(fitted.polygon.vertices_px))
-    features = [{"type": "Feature", "properties": {"role": "building as placed", "name": footprint.name},
-                 "geometry": {"type": "Polygon", "coordinates": [[*outline.tolist(), outline[0].tolist()]]}}]
-    for i, (point, share) in enumerate(zip(footprint.to_input(guards_m), seen_share, strict=True)):
-        features.append({"type": "Feature", "properties": {"role": "guard", "guard": i + 1, "method": method,
-                                                           "sees_share": round(float(share), 4)},
-                         "geometry": {"type": "Point", "coordinates": point.tolist()}})
-    return {"type": "FeatureCollection", "coordinates": coordinates, "features": features}
-
-
-def _plot(path: Path, witnesses: np.ndarray, fitted: Any, guards_px: np.ndarray, seen_by: np.ndarray,
-          title: str) -> None:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from learning.files import atomic_path
-
-    polygon = fitted.polygon
-    fig = Figure(figsize=(6.0, 6.0), dpi=100)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    ring = np.vstack([polygon.vertices_px, polygon.vertices_px[:1]])
-    ax.fill(ring[:, 0], ring[:, 1], color="0.9", zorder=0)
-    ax.plot(ring[:, 0], ring[:, 1], color="black", linewidth=1.5, zorder=3)
-    colours = [f"C{i % 10}" for i in range(len(guards_px))]
-    for g in range(len(guards_px)):  # what each guard sees (a witness seen by several: the first guard)
-        first = seen_by[g] & ~np.any(seen_by[:g], axis=0)
-        ax.scatter(witnesses[first, 0], witnesses[first, 1], s=6, color=colours[g], alpha=0.5, zorder=1)
-    unseen = ~np.any(seen_by, axis=0)
-    ax.scatter(witnesses[unseen, 0], witnesses[unseen, 1], s=10, color="red", marker="x", zorder=2,
-               label=f"unseen ({int(unseen.sum())})")
-    ax.scatter(guards_px[:, 0], guards_px[:, 1], s=120, c=colours, marker="*", edgecolors="black", zorder=4,
-               label=f"guards ({len(guards_px)})")
-    ax.set_aspect("equal")
-    ax.set_title(title, fontsize=9)
-    ax.set_xlabel(f"x (pixels of {fitted.metres_per_px:.2f} m)")
-    ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
-
-
 def run(args: argparse.Namespace) -> int:
-    """Place the building's guards and write the outputs; unplaceable input exits with code 2."""
+    """Place every building's guards and write the outputs; unplaceable input exits with code 2."""
     from bridge.errors import BridgeError
     from bridge.mission_files import save_mission
     from learning.checkpoint import CheckpointError
     from learning.files import write_json_atomic
     from typed_config import ConfigError
-    from uav_swarm.missions.monitoring.footprint import FootprintError, fit_to_raster, read_footprint
+    from uav_swarm.cli.place_output import plot_site, site_geojson
+    from uav_swarm.missions.monitoring.footprint import FootprintError, read_site
+    from uav_swarm.missions.monitoring.outline import OutlineError
+    from uav_swarm.missions.monitoring.outline_guards import SightConfig
     from uav_swarm.missions.monitoring.setcover import InfeasibleCoverError
-    from uav_swarm.missions.monitoring.task import MonitoringScene
     from uav_swarm.missions.registry import build_task
 
     task = build_task(args.task)
+    start = time.perf_counter()
     try:
         if not args.max_pixel_m > 0:
             raise FootprintError(f"--max-pixel-m = {args.max_pixel_m}: allowed > 0")
-        footprint = read_footprint(args.building)
-        fitted = fit_to_raster(footprint, task.config.polygon.size_px, task.config.polygon.margin_px,
-                               args.max_pixel_m)
-        scene = MonitoringScene(fitted.polygon, np.zeros((0, 2)))
-        positions_px, seconds = _place(task, scene, args.method, args.checkpoint)
-        guards_px = np.unique(np.clip(np.rint(positions_px), 0, fitted.polygon.size_px - 1), axis=0)
-        guards_m = fitted.to_metres(guards_px)
-        missions = _missions(args, fitted, guards_m) if args.bridge_config else {}
-    except (FootprintError, InfeasibleCoverError, CheckpointError, ConfigError) as exc:
+        sight = SightConfig(witness_spacing_m=args.witness_spacing_m, min_clearance_m=args.min_clearance_m,
+                            standoff_m=args.standoff_m)
+        site = read_site(args.building)
+        network = None if args.method == "expert" else load_network(task, args.checkpoint)
+        buildings = [place_building(task, footprint, args.method, network, sight, args.max_pixel_m)
+                     for footprint in site]
+        guards_m = np.concatenate([b.placement.guards_m for b in buildings])
+        missions = _missions(args, site[0], guards_m) if args.bridge_config else {}
+    except (FootprintError, OutlineError, InfeasibleCoverError, CheckpointError, ConfigError) as exc:
         print(f"uav-swarm place: {exc}", file=sys.stderr)
         return 2
     except BridgeError as exc:  # the geofence refuses a guard: nothing is written
         print(f"uav-swarm place: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 2
-    seen_by = task.seen_by(fitted.polygon, guards_px)  # (guards, witnesses)
-    seen = np.any(seen_by, axis=0)
-    quality = {"qos": float(np.all(seen)), "seen_fraction": float(np.mean(seen)) if seen.size else 1.0}
     args.out.mkdir(parents=True, exist_ok=True)
-    geojson = _geojson(fitted, guards_m, seen_by.mean(axis=1), args.method)
-    write_json_atomic(args.out / "guards.geojson", geojson)
+    write_json_atomic(args.out / "guards.geojson", site_geojson(buildings, args.method))
     files = ["guards.geojson", "placement.json", "placement.png"]
     for sid, mission in missions.items():
         (args.out / "missions").mkdir(exist_ok=True)
         save_mission(args.out / "missions" / f"vehicle_{sid}.plan", mission)
         files.append(f"missions/vehicle_{sid}.plan")
+    records = []
+    for b in buildings:
+        placement = b.placement
+        seen = np.any(placement.seen_by, axis=0)
+        records.append({
+            "building": b.footprint.name, "vertices": b.footprint.outline().n_vertices,
+            "courtyards": len(b.footprint.holes_m), "n_guards": len(placement.guards_m),
+            "guards_m": placement.guards_m.tolist(), "n_proposals": placement.n_proposals,
+            "n_added": placement.n_added, "n_pruned": placement.n_pruned,
+            "n_witnesses": len(placement.witnesses), "n_unseen": int((~seen).sum()),
+            "fully_covered": bool(np.all(seen)), "seen_fraction": placement.seen_fraction,
+            "raster_metres_per_px": [r.metres_per_px for r in b.rasters], "time_ms": b.seconds * 1e3})
     summary = {
-        "task": task.name, "method": args.method, "building": footprint.name,
-        "input_vertices": len(footprint.vertices_m), "placed_vertices": fitted.polygon.n_vertices,
-        "metres_per_px": fitted.metres_per_px,
-        "n_guards": len(guards_px), "guards_m": guards_m.tolist(),
-        "fully_covered": bool(quality["qos"] == 1.0), "seen_fraction": quality["seen_fraction"],
-        "time_ms": seconds * 1e3, "files": files,
-    }
+        "task": task.name, "method": args.method, "judged_on": "the input outline in metres", "sight": {
+            "witness_spacing_m": sight.witness_spacing_m, "min_clearance_m": sight.min_clearance_m,
+            "standoff_m": sight.standoff_m},
+        "n_guards": len(guards_m), "fully_covered": all(r["fully_covered"] for r in records),
+        "buildings": records, "time_ms": (time.perf_counter() - start) * 1e3, "files": files}
     write_json_atomic(args.out / "placement.json", summary)
-    title = (f"{footprint.name}: {task.name} {args.method}, {len(guards_px)} guards, "
-             f"{100 * quality['seen_fraction']:.1f} % seen")
-    _plot(args.out / "placement.png", task.witnesses(fitted.polygon), fitted, guards_px, seen_by, title)
-    print(f"{footprint.name}: {len(guards_px)} {args.method} guards ({task.name}), "
-          f"{100 * quality['seen_fraction']:.1f} % of the witnesses seen, {seconds * 1e3:.1f} ms; "
+    n_seen = sum(r["n_witnesses"] - r["n_unseen"] for r in records)
+    n_all = sum(r["n_witnesses"] for r in records)
+    share = 100.0 * n_seen / n_all if n_all else 100.0
+    title = f"{args.building.name}: {task.name} {args.method}, {len(guards_m)} guards, {share:.1f} % seen"
+    plot_site(args.out / "placement.png", buildings, title)
+    for r in records:
+        print(f"{r['building']}: {r['n_guards']} {args.method} guards ({task.name}), "
+              f"{100 * r['seen_fraction']:.1f} % of {r['n_witnesses']} witnesses seen on the outline "
+              f"({r['n_unseen']} unseen), {r['time_ms']:.0f} ms")
+    print(f"{len(records)} building(s), {len(guards_m)} guards, {share:.1f} % of the witnesses seen; "
           f"wrote {', '.join(files)} in {args.out}")
     return 0

@@ -4,7 +4,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uav_swarm.missions.monitoring.footprint import Footprint, FootprintError, fit_to_raster, read_footprint
+from uav_swarm.missions.monitoring.footprint import (
+    Footprint,
+    FootprintError,
+    fit_to_raster,
+    read_footprint,
+    read_site,
+)
 from uav_swarm.missions.monitoring.polygons import is_simple
 
 BUILDINGS = Path(__file__).resolve().parents[2] / "data" / "buildings"
@@ -37,11 +43,32 @@ def test_input_coordinates_round_trip_through_metres():
     np.testing.assert_allclose(footprint.to_input(footprint.vertices_m), lonlat, atol=1e-9)
 
 
-@pytest.mark.parametrize(("name", "match"), [("alta_east_with_courtyard", "1 hole"),
-                                             ("ferguson_two_parts", "MultiPolygon of 2 separate parts")])
-def test_holes_and_several_parts_are_refused_by_name(name, match):
-    with pytest.raises(FootprintError, match=match):
-        read_footprint(BUILDINGS / f"{name}.geojson")
+def test_a_courtyard_is_a_hole_and_a_multipolygon_a_site_of_buildings():
+    courtyard = read_footprint(BUILDINGS / "alta_east_with_courtyard.geojson")
+    outer = read_footprint(BUILDINGS / "alta_east_outer.geojson")
+    assert len(courtyard.holes_m) == 1
+    outline = courtyard.outline()
+    assert outline.polygon.area < outer.outline().polygon.area  # the courtyard is not the building
+    site = read_site(BUILDINGS / "ferguson_two_parts.geojson")
+    assert len(site) == 2 and site[0].origin == site[1].origin  # one East-North frame for the site
+    assert not site[0].outline().polygon.intersects(site[1].outline().polygon)
+    with pytest.raises(FootprintError, match="2 buildings; read a site with read_site"):
+        read_footprint(BUILDINGS / "ferguson_two_parts.geojson")
+
+
+def test_a_feature_collection_is_a_site_and_a_courtyard_outside_its_building_is_refused(tmp_path):
+    features = [json.loads((BUILDINGS / f"{name}.geojson").read_text())["features"][0]
+                for name in ("urban_market", "picnic_shelter")]
+    path = tmp_path / "site.geojson"
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+    assert [b.name for b in read_site(path)] == ["Urban Market", "picnic shelter"]
+    broken = json.loads((BUILDINGS / "urban_market.geojson").read_text())
+    ring = broken["features"][0]["geometry"]["coordinates"][0]
+    hole = [[lon + 0.01, lat] for lon, lat in ring]  # a kilometre east: outside the building
+    broken["features"][0]["geometry"]["coordinates"].append(hole)
+    path.write_text(json.dumps(broken))
+    with pytest.raises(FootprintError, match="Hole lies outside shell"):
+        read_site(path)
 
 
 def test_a_multipolygon_of_one_part_is_that_part(tmp_path):

@@ -6,5 +6,10 @@
 - :mod:`~uav_swarm.missions.monitoring.setcover`, :mod:`~uav_swarm.missions.monitoring.guards`:
   the exact experts (a set cover over candidate guards).
 - :mod:`~uav_swarm.missions.monitoring.guard_repair`: repair of learned guards with the guarantee.
-- :mod:`~uav_swarm.missions.monitoring.footprint`: a user's building (GeoJSON) in the task's frame.
+- :mod:`~uav_swarm.missions.monitoring.footprint`: a user's buildings (GeoJSON, sites, courtyards) and
+  the raster the network sees of them.
+- :mod:`~uav_swarm.missions.monitoring.outline`: a user's building in metres (GEOS): witnesses, guard
+  positions and visibility with a margin, the truth a placement is judged on.
+- :mod:`~uav_swarm.missions.monitoring.outline_guards`: guards judged, repaired and solved exactly on
+  that outline.
 """

@@ -1,26 +1,26 @@
-"""A user's building: footprint files in, a :class:`Polygon` on the monitoring raster out, and back.
+"""A user's buildings: footprint files in, outlines in metres, and the raster the network sees.
 
-Two inputs (:func:`read_footprint`):
+Two inputs (:func:`read_site`):
 
-- **GeoJSON** (``.geojson``, or ``.json`` holding a GeoJSON object): a ``Polygon`` geometry, a
-  ``Feature`` with one, or a ``FeatureCollection`` of exactly one such feature, in WGS84
-  longitude/latitude as GIS tools export it. The outline is projected to East-North metres
-  around the mean of its vertices (:func:`bridge.geo.geodetic_to_enu`). A ``MultiPolygon`` of one
-  part is that part; of several parts it is refused (place each part from its own file), and so is
-  a polygon with holes (an inner courtyard): the missions take simple polygons without holes.
-- **Vertices in metres**: a ``.json`` list of ``[x, y]`` pairs, or a ``.csv`` / ``.txt`` file with
-  one ``x, y`` (or ``x y``) pair per line (``#`` starts a comment).
+- **GeoJSON** (``.geojson``, or ``.json`` holding a GeoJSON object), in WGS84 longitude/latitude as GIS
+  tools export it: a ``Polygon`` (holes, i.e. courtyards, allowed), a ``MultiPolygon`` (one building per
+  part), a ``Feature`` with either, or a ``FeatureCollection`` of such features (a whole site). The site
+  is projected to East-North metres around the mean of its outer vertices
+  (:func:`bridge.geo.geodetic_to_enu`).
+- **Vertices in metres** (one building without holes): a ``.json`` list of ``[x, y]`` pairs, or a
+  ``.csv`` / ``.txt`` file with one ``x, y`` (or ``x y``) pair per line (``#`` starts a comment).
 
-The outline must be a simple polygon (:func:`uav_swarm.missions.monitoring.polygons.is_simple`) of at most
-``max_vertices`` distinct vertices; a repeated closing vertex is dropped.
+Each building must be a valid polygon (GEOS: rings that neither cross nor touch, courtyards inside the
+building) of at most ``max_vertices`` vertices over all its rings; a repeated closing vertex is dropped.
+:meth:`Footprint.outline` is the building in metres every placement is judged on.
 
-Fitting (:func:`fit_to_raster`): the outline is scaled uniformly so that its larger side spans the
-raster less ``margin_px`` on each side (the room Fortress guards need outside), vertices are rounded
-to pixel centres (the missions' exact geometry needs them) and vertices the rounding makes
-repeated or straight are dropped. A building needing more than ``max_pixel_m`` metres per pixel,
-or whose rounded outline is no longer simple or lost a part (an input vertex farther than half a
-pixel diagonal from it: detail finer than a pixel), is refused.
-:meth:`FittedFootprint.to_metres` maps raster positions back to the input's metres.
+The raster (:func:`fit_to_raster`) is only what the network sees: the outer ring scaled uniformly so
+that its larger side spans the raster less ``margin_px`` on each side, vertices rounded to pixel centres
+and vertices the rounding makes repeated or straight dropped. A ring needing more than ``max_pixel_m``
+metres per pixel, or whose rounded ring is no longer simple or lost a part (detail finer than a pixel),
+raises :class:`FootprintError`; the command then shows the network parts of the building
+(``uav_swarm.cli.place``) and the repair covers the rest.
+:meth:`FittedFootprint.to_metres` maps raster positions back to metres.
 
 Examples:
     >>> footprint = Footprint(np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 20.0], [0.0, 20.0]]))
@@ -40,10 +40,11 @@ from typing import Any
 import numpy as np
 
 from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
+from uav_swarm.missions.monitoring.outline import Outline, OutlineError
 from uav_swarm.missions.monitoring.polygons import Polygon, is_simple
 from uav_swarm.world.geometry import point_segment_distances
 
-__all__ = ["FootprintError", "Footprint", "FittedFootprint", "read_footprint", "fit_to_raster"]
+__all__ = ["FootprintError", "Footprint", "FittedFootprint", "read_site", "read_footprint", "fit_to_raster"]
 
 DEFAULT_MAX_VERTICES = 64
 """Most vertices a footprint may have (the exact experts' cost grows with them)."""
@@ -62,14 +63,20 @@ class Footprint:
     """A building outline in East-North metres.
 
     Attributes:
-        vertices_m: ``(n, 2)`` float64 outline vertices ``(x east, y north)``, metres.
+        vertices_m: ``(n, 2)`` float64 outer ring ``(x east, y north)``, metres.
         origin: The geodetic point the metres are measured from (GeoJSON input), None for metres input.
         name: A name for outputs (the GeoJSON feature's ``name`` property, else the file's stem).
+        holes_m: The courtyards' rings, ``(m, 2)`` metres each.
     """
 
     vertices_m: np.ndarray
     origin: Home | None = None
     name: str = "building"
+    holes_m: tuple[np.ndarray, ...] = ()
+
+    def outline(self) -> Outline:
+        """The building in metres, holes included, as placements are judged on it."""
+        return Outline.from_rings(self.vertices_m, self.holes_m, self.name)
 
     def to_input(self, points_m: np.ndarray) -> np.ndarray:
         """``(k, 2)`` points in the input's coordinates: ``(lon, lat)`` degrees for GeoJSON, else metres."""
@@ -101,36 +108,30 @@ class FittedFootprint:
         return self.offset_m + np.asarray(positions_px, dtype=np.float64).reshape(-1, 2) * self.metres_per_px
 
 
-def _ring_from_geojson(data: Any, path: Path) -> tuple[list, str | None]:
-    """The outer ring and the name of the one polygon of a GeoJSON object."""
-    name = None
+def _polygons_from_geojson(data: Any, path: Path) -> list[tuple[list, str | None]]:
+    """Every polygon (its rings) of a GeoJSON object, with the name of its feature."""
     if isinstance(data, dict) and data.get("type") == "FeatureCollection":
         features = data.get("features") or []
-        if len(features) != 1:
-            raise FootprintError(f"{path}: a FeatureCollection of {len(features)} features; give exactly "
-                                 "one building per file")
-        data = features[0]
+        if not features:
+            raise FootprintError(f"{path}: a FeatureCollection without features; give at least one building")
+        return [p for feature in features for p in _polygons_from_geojson(feature, path)]
+    name = None
     if isinstance(data, dict) and data.get("type") == "Feature":
         name = (data.get("properties") or {}).get("name")
         data = data.get("geometry")
     kind = data.get("type") if isinstance(data, dict) else None
     coordinates = data.get("coordinates") if isinstance(data, dict) else None
-    if kind == "MultiPolygon" and isinstance(coordinates, list):
-        if len(coordinates) != 1:
-            raise FootprintError(f"{path}: a MultiPolygon of {len(coordinates)} separate parts; place each "
-                                 "part from its own file (one Polygon each)")
-        kind, coordinates = "Polygon", coordinates[0]
+    if kind == "MultiPolygon" and isinstance(coordinates, list) and coordinates:
+        return [(rings, name if len(coordinates) == 1 else f"{name or path.stem} part {i + 1}")
+                for i, rings in enumerate(coordinates)]
     if kind != "Polygon" or not isinstance(coordinates, list) or not coordinates:
         raise FootprintError(f"{path}: no Polygon geometry (found {kind!r}); a building is a GeoJSON "
-                             "Polygon")
-    if len(coordinates) > 1:
-        raise FootprintError(f"{path}: the polygon has {len(coordinates) - 1} hole(s) (an inner courtyard); "
-                             "the placement takes polygons without holes: give the outer ring alone")
-    return coordinates[0], name
+                             "Polygon or MultiPolygon")
+    return [(coordinates, name)]
 
 
-def _read_points(path: Path) -> tuple[np.ndarray, Home | None, str | None]:
-    """Raw outline points, their geodetic origin (GeoJSON) and a name, from a file."""
+def _read_rings(path: Path) -> tuple[list[tuple[list[np.ndarray], str | None]], Home | None]:
+    """The rings of every building of a file (metres), the geodetic origin (GeoJSON) and the names."""
     try:
         text = path.read_text()
     except OSError as exc:
@@ -141,22 +142,26 @@ def _read_points(path: Path) -> tuple[np.ndarray, Home | None, str | None]:
         except json.JSONDecodeError as exc:
             raise FootprintError(f"{path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
         if isinstance(data, list):
-            return _as_points(data, path), None, None
-        ring, name = _ring_from_geojson(data, path)
-        lonlat = _as_points(ring, path)
+            return [([_as_points(data, path)], None)], None
+        polygons = [([_as_points(ring, path) for ring in rings], name)
+                    for rings, name in _polygons_from_geojson(data, path)]
+        lonlat = np.concatenate([rings[0] for rings, _ in polygons])
         if np.any(np.abs(lonlat[:, 0]) > 180.0) or np.any(np.abs(lonlat[:, 1]) > 90.0):
             raise FootprintError(f"{path}: coordinates outside longitude [-180, 180] / latitude [-90, 90]; "
                                  "GeoJSON is WGS84 degrees (give metres as a plain list of vertices instead)")
         origin = Home(lat_deg=float(lonlat[:, 1].mean()), lon_deg=float(lonlat[:, 0].mean()), alt_m=0.0)
-        metres = [geodetic_to_enu(origin, float(lat), float(lon), 0.0)[:2] for lon, lat in lonlat]
-        return np.array(metres), origin, name
+
+        def metres(ring: np.ndarray) -> np.ndarray:
+            return np.array([geodetic_to_enu(origin, float(lat), float(lon), 0.0)[:2] for lon, lat in ring])
+
+        return [([metres(ring) for ring in rings], name) for rings, name in polygons], origin
     if path.suffix.lower() in (".csv", ".txt"):
         rows = []
         for line in text.splitlines():
             line = line.split("#", 1)[0].strip()
             if line:
                 rows.append(next(csv.reader([line.replace(" ", ",")], skipinitialspace=True)))
-        return _as_points([[cell for cell in row if cell] for row in rows], path), None, None
+        return [([_as_points([[cell for cell in row if cell] for row in rows], path)], None)], None
     raise FootprintError(f"{path}: unknown building file type {path.suffix!r}; allowed .geojson, .json "
                          "(GeoJSON or a list of [x, y] metres), .csv or .txt (x, y metres per line)")
 
@@ -172,31 +177,63 @@ def _as_points(values: Any, path: Path) -> np.ndarray:
     return points.reshape(-1, 2)
 
 
-def read_footprint(path: str | Path, max_vertices: int = DEFAULT_MAX_VERTICES) -> Footprint:
-    """Read a building outline (see the module docstring).
+def _clean(ring: np.ndarray) -> np.ndarray:
+    """The ring without its closing vertex and without repeated consecutive vertices."""
+    if len(ring) >= 2 and np.array_equal(ring[0], ring[-1]):
+        ring = ring[:-1]
+    keep = np.ones(len(ring), dtype=bool)
+    keep[1:] = np.any(ring[1:] != ring[:-1], axis=1)
+    return ring[keep]
 
-    Raises:
-        FootprintError: Unreadable or unknown file, holes, several parts, fewer than 3 or more than
-            ``max_vertices`` vertices, a self-intersecting or degenerate outline.
-    """
-    path = Path(path)
-    points, origin, name = _read_points(path)
-    if len(points) >= 2 and np.array_equal(points[0], points[-1]):
-        points = points[:-1]
-    keep = np.ones(len(points), dtype=bool)
-    keep[1:] = np.any(points[1:] != points[:-1], axis=1)
-    points = points[keep]
+
+def _building(rings: list[np.ndarray], origin: Home | None, name: str, where: str, max_vertices: int
+              ) -> Footprint:
+    rings = [_clean(ring) for ring in rings]
+    points = rings[0]
     if len(points) < 3:
-        raise FootprintError(f"{path}: {len(points)} distinct vertices; a building needs at least 3")
-    if len(points) > max_vertices:
-        raise FootprintError(f"{path}: {len(points)} vertices; allowed at most {max_vertices}")
+        raise FootprintError(f"{where}: {len(points)} distinct vertices; a building needs at least 3")
+    count = sum(len(ring) for ring in rings)
+    if count > max_vertices:
+        raise FootprintError(f"{where}: {count} vertices; allowed at most {max_vertices}")
     scale = float(np.ptp(points, axis=0).max())
     if scale == 0.0 or np.linalg.matrix_rank(points - points.mean(axis=0), tol=1e-9 * scale) < 2:
-        raise FootprintError(f"{path}: the outline encloses no area (degenerate: its vertices are collinear)")
+        raise FootprintError(f"{where}: the outline encloses no area (degenerate: its vertices are "
+                             "collinear)")
     if not is_simple(points):
-        raise FootprintError(f"{path}: the outline is not a simple polygon (it crosses or touches itself, or "
-                             "repeats a vertex)")
-    return Footprint(points, origin, name or path.stem)
+        raise FootprintError(f"{where}: the outline is not a simple polygon (it crosses or touches itself, "
+                             "or repeats a vertex)")
+    footprint = Footprint(points, origin, name, tuple(rings[1:]))
+    try:
+        footprint.outline()
+    except OutlineError as exc:
+        raise FootprintError(f"{where}: {exc}") from None
+    return footprint
+
+
+def read_site(path: str | Path, max_vertices: int = DEFAULT_MAX_VERTICES) -> list[Footprint]:
+    """Every building of a file (see the module docstring), in one East-North frame.
+
+    Raises:
+        FootprintError: Unreadable or unknown file, a building of fewer than 3 or more than
+            ``max_vertices`` vertices, a self-intersecting or degenerate outline, a courtyard outside
+            its building; the message names the building.
+    """
+    path = Path(path)
+    buildings, origin = _read_rings(path)
+    out = []
+    for i, (rings, name) in enumerate(buildings):
+        label = name or (path.stem if len(buildings) == 1 else f"{path.stem} {i + 1}")
+        where = f"{path}" if len(buildings) == 1 else f"{path} ({label})"
+        out.append(_building(rings, origin, label, where, max_vertices))
+    return out
+
+
+def read_footprint(path: str | Path, max_vertices: int = DEFAULT_MAX_VERTICES) -> Footprint:
+    """The one building of a file (:func:`read_site`; a site of several buildings is refused)."""
+    site = read_site(path, max_vertices)
+    if len(site) != 1:
+        raise FootprintError(f"{path}: {len(site)} buildings; read a site with read_site")
+    return site[0]
 
 
 def _clean_ring(vertices: np.ndarray) -> np.ndarray:

@@ -44,7 +44,7 @@ import numpy as np
 
 from typed_config import Config, param
 from uav_swarm.missions.monitoring.polygons import Polygon, locate_points
-from uav_swarm.missions.monitoring.setcover import InfeasibleCoverError, min_set_cover
+from uav_swarm.missions.monitoring.setcover import InfeasibleCoverError, prune_cover, small_cover
 from uav_swarm.missions.monitoring.visibility import Region, visibility_matrix
 
 __all__ = ["RepairConfig", "RepairResult", "repair_guards"]
@@ -95,57 +95,6 @@ def _spread(count: int, limit: int) -> np.ndarray:
     if count <= limit:
         return np.arange(count)
     return np.unique(np.linspace(0, count - 1, limit).round().astype(np.int64))
-
-
-def _greedy_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
-    """Rows of ``sees`` (candidates) covering every column (witness): most newly seen first, then cheapest."""
-    order = np.lexsort((np.arange(len(cost)), cost))
-    ordered = sees[order]
-    uncovered = np.ones(sees.shape[1], dtype=bool)
-    picks: list[int] = []
-    while np.any(uncovered):
-        gains = np.count_nonzero(ordered[:, uncovered], axis=1)
-        best = int(order[np.argmax(gains)])  # argmax takes the first, i.e. cheapest, of the best gains
-        picks.append(best)
-        uncovered &= ~sees[best]
-    return np.array(picks, dtype=np.int64)
-
-
-def _disjoint_witnesses(sees: np.ndarray) -> int:
-    """Size of a set of witnesses no two of which share a candidate (a lower bound on any cover)."""
-    m = sees.astype(np.float32)
-    shared = (m.T @ m) > 0  # (W, W)
-    free = np.ones(sees.shape[1], dtype=bool)
-    count = 0
-    for w in np.argsort(m.sum(axis=0), kind="stable"):  # the most constrained witnesses first
-        if free[w]:
-            count += 1
-            free &= ~shared[w]
-    return count
-
-
-def _cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
-    """Fewest candidates (rows) seeing every witness (column), preferring cheap candidates.
-
-    The greedy cover (cheapest first among equal gains) is kept when it is provably as small as any,
-    i.e. when as many witnesses as it has guards pairwise share no candidate; otherwise the exact set
-    cover decides (HiGHS; among the smallest covers, the one of least total cost).
-    """
-    greedy = _greedy_cover(sees, cost)
-    if len(greedy) <= _disjoint_witnesses(sees):
-        return np.sort(greedy)
-    return min_set_cover(sees.T, cost, single_solve=True)
-
-
-def _prune(seen_by: np.ndarray) -> np.ndarray:
-    """Indices of the guards (rows of ``seen_by``) kept after dropping redundant ones, fewest-seeing first."""
-    keep = np.ones(len(seen_by), dtype=bool)
-    counts = seen_by.sum(axis=0)
-    for g in np.argsort(seen_by.sum(axis=1), kind="stable"):
-        if np.all(counts[seen_by[g]] >= 2):
-            keep[g] = False
-            counts -= seen_by[g]
-    return np.flatnonzero(keep)
 
 
 def repair_guards(
@@ -207,7 +156,7 @@ def repair_guards(
         pool_sees = sees(pool, spread)
         reachable = np.any(pool_sees, axis=0)
         if np.any(reachable):
-            picks = _cover(pool_sees[:, reachable], np.rint(to_proposals[pool]))
+            picks = small_cover(pool_sees[:, reachable], np.rint(to_proposals[pool]))
             chosen = pool[picks]
             complete = len(spread) == len(witnesses)  # the judged witnesses were all of them
             seen_by = pool_sees[picks] if complete else sees(chosen)
@@ -232,13 +181,13 @@ def repair_guards(
                 f"(first: {tuple(witnesses[missing[np.argmax(blind)]])})")
         useful = np.flatnonzero(np.any(sees_unseen, axis=1))
         cost = np.rint(to_proposals[useful]).clip(max=_FAR_COST)
-        added = useful[_cover(sees_unseen[useful], cost)]
+        added = useful[small_cover(sees_unseen[useful], cost)]
         n_added = len(added)
         chosen = np.concatenate([chosen, added])
         seen_by = np.concatenate([seen_by, sees(added)])
 
     # 4. prune.
-    keep = _prune(seen_by)
+    keep = prune_cover(seen_by)
     guards = candidates[chosen[keep]]
     guards = guards[np.lexsort((guards[:, 0], guards[:, 1]))]
     return RepairResult(guards, len(proposals), n_moved, n_added, len(chosen) - len(keep))

@@ -35,7 +35,7 @@ import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import csr_array
 
-__all__ = ["min_set_cover", "InfeasibleCoverError"]
+__all__ = ["min_set_cover", "small_cover", "prune_cover", "InfeasibleCoverError"]
 
 logger = logging.getLogger(__name__)
 
@@ -173,3 +173,62 @@ def min_set_cover(cover: np.ndarray, cost: np.ndarray | None = None, *, single_s
         picks = _solve(reduced, cost[columns], count)
         chosen.extend(int(c) for c in columns[picks])
     return np.array(sorted(chosen), dtype=np.int64)
+
+
+def _greedy_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Rows of ``sees`` (candidates) covering every column (witness): most newly seen first, then cheapest."""
+    order = np.lexsort((np.arange(len(cost)), cost))
+    ordered = sees[order]
+    uncovered = np.ones(sees.shape[1], dtype=bool)
+    picks: list[int] = []
+    while np.any(uncovered):
+        gains = np.count_nonzero(ordered[:, uncovered], axis=1)
+        best = int(order[np.argmax(gains)])  # argmax takes the first, i.e. cheapest, of the best gains
+        picks.append(best)
+        uncovered &= ~sees[best]
+    return np.array(picks, dtype=np.int64)
+
+
+def _disjoint_witnesses(sees: np.ndarray) -> int:
+    """Size of a set of witnesses no two of which share a candidate (a lower bound on any cover)."""
+    m = sees.astype(np.float32)
+    shared = (m.T @ m) > 0  # (W, W)
+    free = np.ones(sees.shape[1], dtype=bool)
+    count = 0
+    for w in np.argsort(m.sum(axis=0), kind="stable"):  # the most constrained witnesses first
+        if free[w]:
+            count += 1
+            free &= ~shared[w]
+    return count
+
+
+def small_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Fewest candidates (rows) seeing every witness (column), preferring cheap candidates.
+
+    The greedy cover (cheapest first among equal gains) is kept when it is provably as small as any,
+    i.e. when as many witnesses as it has guards pairwise share no candidate; otherwise the exact set
+    cover decides (HiGHS; among the smallest covers, the one of least total cost).
+    """
+    order = np.lexsort((np.arange(len(cost)), cost))  # of candidates seeing the same, keep the cheapest
+    _, first = np.unique(np.packbits(sees[order], axis=1), axis=0, return_index=True)
+    distinct = np.sort(order[first])
+    sees, cost = sees[distinct], cost[distinct]
+    greedy = _greedy_cover(sees, cost)
+    if len(greedy) <= _disjoint_witnesses(sees):
+        return distinct[np.sort(greedy)]
+    return distinct[min_set_cover(sees.T, cost, single_solve=True)]
+
+
+def prune_cover(seen_by: np.ndarray) -> np.ndarray:
+    """Indices of the guards (rows of ``seen_by``, guard x witness) kept after dropping redundant ones.
+
+    A guard is redundant when every witness it sees is seen by another kept guard; the guards seeing
+    the fewest witnesses are dropped first.
+    """
+    keep = np.ones(len(seen_by), dtype=bool)
+    counts = seen_by.sum(axis=0)
+    for g in np.argsort(seen_by.sum(axis=1), kind="stable"):
+        if np.all(counts[seen_by[g]] >= 2):
+            keep[g] = False
+            counts -= seen_by[g]
+    return np.flatnonzero(keep)
