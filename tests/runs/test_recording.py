@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import doctest
 import json
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from mcap.reader import make_reader
 from bridge.telemetry_schema import Qos
 from typed_config import ConfigError
 from uav_swarm.cli import main
+from uav_swarm.runs import foxglove_messages, recording
 from uav_swarm.runs.recording import RUN_METADATA, SceneInfo, open_recording
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -152,3 +154,8 @@ def test_the_command_records_with_record(tmp_path, capsys):
     assert f"recorded the expert planner's run in {path}" in capsys.readouterr().out
     topics = read_back(path)["topics"]
     assert len(topics["/qos"]["messages"]) == 10 and len(topics["/uav/1/state"]["messages"]) == 10
+
+
+@pytest.mark.parametrize("module", [recording, foxglove_messages], ids=lambda m: m.__name__)
+def test_module_doctests(module):
+    assert doctest.testmod(module).failed == 0
