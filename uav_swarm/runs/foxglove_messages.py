@@ -10,7 +10,7 @@ needs is built here: each builder returns the message as a plain dict.
 Positions are East-North-Up metres in the frame :data:`MAP_FRAME` (origin: the run's home, the
 area's South-West corner); a UAV ``i`` has its own frame ``uav_<i>``.
 
-Example:
+Examples:
     >>> stamp(1.25)
     {'sec': 1, 'nsec': 250000000}
     >>> SCHEMAS["foxglove.PosesInFrame"]["properties"]["poses"]["type"]

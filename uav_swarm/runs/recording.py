@@ -20,7 +20,7 @@ The ``uav_swarm.*`` channels carry exactly the JSON that telemetry publishes ove
 schemas are generated from the payload types. The file is written beside its final path and
 renamed when the run ends (:func:`learning.files.atomic_path`): a run that fails leaves no file.
 
-Example:
+Examples:
     >>> import tempfile
     >>> from mcap.reader import make_reader
     >>> from bridge.telemetry_schema import Qos
