@@ -28,9 +28,8 @@ def test_fleet_upload_through_lossy_relays(drop):
     )
     plans = {i + 1: [(10.0 * i, -5.0 * i), (20.0 + i, 30.0 - i, 25.0 + i)] for i in range(N_VEHICLES)}
     autopilots = [mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, mavlink.MAV_AUTOPILOT_PX4]
-    # The ground station binds its ports before the relays and vehicles open theirs: a socket bound
-    # to port 0 (or sending unbound) gets a random ephemeral port, which could be one of the free ports
-    # found above (about 1 % of runs with 30 such sockets) and then refuse the ground station its port.
+    # The ground station binds its ports before the relays and vehicles open theirs (see tests/ports.py:
+    # a port found free must not be left for others to take before the code under test binds it).
     with Fleet(config) as fleet:
         relays = [
             LossyRelay(port, rng.spawn(1)[0], drop=drop, duplicate=0.1, reorder=0.1) for port in gcs_ports
