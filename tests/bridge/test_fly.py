@@ -31,6 +31,7 @@ from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
 
 FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
+LINK_TIMEOUT_S = 2.0  # a healthy vehicle's heartbeats can stall for a second on a busy machine
 
 
 def _vehicles(n: int, transports: tuple[str, ...] = ("udpin",),
@@ -71,8 +72,8 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
     endpoint = _free_endpoint()
     config = load_fly_config(None, {
         "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)),
-        "duration_s": 60.0, "speedup": 4.0,
-        "flight": {"link_timeout_s": 1.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
+        "duration_s": 68.0, "speedup": 4.0,
+        "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         "telemetry": {"swarm": "flytest", "listen": [endpoint]}})
     received: list = []
     watch = TelemetryConfig(swarm="flytest", listen=(), connect=(endpoint,))
@@ -88,7 +89,7 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
                 time.sleep(0.05)
             for sid in (killed, killed_tcp):
                 vehicles[sid - 1].close()  # killed in flight
-            time.sleep(2.5)
+            time.sleep(2 * LINK_TIMEOUT_S)  # silent twice the link timeout: lost however slow the machine
             for sid in (killed, killed_tcp):
                 vehicles[sid - 1] = FlyingVehicle(vehicles[sid - 1].url, sid, speed_m_s=25.0)
             runner.join(timeout=60.0)

@@ -13,7 +13,8 @@ import pytest
 from conftest import SMALL_WIFI_TASK
 from mcap.reader import make_reader
 
-from bridge.telemetry_schema import Qos
+from bridge.geo import Home
+from bridge.telemetry_schema import Qos, UavState
 from typed_config import ConfigError
 from uav_swarm.cli import main
 from uav_swarm.runs import foxglove_messages, recording
@@ -125,6 +126,27 @@ def test_recorded_values_equal_the_run(recorded):
         assert [position["x"], position["y"], position["z"]] == state["position_enu_m"]
         fix = topics[f"/uav/{uav_id}/location"]["messages"][-1]
         assert fix["frame_id"] == f"uav_{uav_id}" and 47.0 < fix["latitude"] < 48.0  # the default home
+
+
+def test_a_vehicle_without_a_fix_is_recorded_on_its_state_channel_only(tmp_path):
+    path = tmp_path / "flight.mcap"
+    header = {"stamp_s": 1.0, "seq": 0, "source": "vehicle"}
+    states = [UavState(**header, uav_id=0, position_enu_m=(10.0, 20.0, 30.0),
+                       velocity_enu_m_s=(0.0, 0.0, 0.0), target_enu_m=(50.0, 60.0, 30.0)),
+              UavState(**header, uav_id=1, fix=False, position_enu_m=None, velocity_enu_m_s=None)]
+    qos = Qos(**header, qos_s1=0.5, qos_s2=0.0, mean_throughput_mbps=1.0, n_users=2)
+    scene = SceneInfo(width_m=100.0, height_m=100.0, coverage_radius_m=30.0, home=Home())
+    with open_recording(path, scene) as rec:
+        rec.step(0.5, states, qos, np.array([[10.0, 20.0], [90.0, 90.0]]), np.array([True, False]))
+    topics = read_back(path)["topics"]
+    assert "/uav/1/location" not in topics and topics["/uav/1/state"]["messages"][0]["fix"] is False
+    assert len(topics["/uav/0/location"]["messages"]) == 1
+    frames = topics["/tf"]["messages"][0]["transforms"]
+    assert [f["child_frame_id"] for f in frames] == ["uav_0"]
+    entities = {e["id"]: e for e in topics["/scene"]["messages"][0]["entities"]}
+    assert len(entities["uavs"]["spheres"]) == len(entities["coverage"]["cylinders"]) == 1
+    leg = entities["targets"]["lines"][0]["points"]
+    assert [(p["x"], p["y"]) for p in leg] == [(10.0, 20.0), (50.0, 60.0)]
 
 
 def test_a_run_that_fails_leaves_no_file(tmp_path):

@@ -326,7 +326,7 @@ class Flight:
                           "target_x_m": target[0], "target_y_m": target[1], "target_z_m": target[2]})
 
     def _record_step(self, qos: Any, users: np.ndarray, covered: np.ndarray, seq: int) -> None:
-        """Record the vehicles' states (those :meth:`_record` tracks), the scene and the QoS."""
+        """Record each heard vehicle's state (with or without a position fix), the scene and the QoS."""
         from bridge.telemetry_schema import state_from_vehicle
 
         heard = [(v, self._state(v)) for v in self.vehicles]

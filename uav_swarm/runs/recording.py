@@ -58,6 +58,8 @@ from uav_swarm.runs import foxglove_messages as fox
 if TYPE_CHECKING:
     from bridge.geo import Home
 
+Vec3 = tuple[float, float, float]
+
 __all__ = ["SceneInfo", "RunRecorder", "open_recording", "maybe_recording", "check_recording_path",
            "RUN_METADATA"]
 
@@ -161,15 +163,20 @@ class RunRecorder:
 
         Args:
             time_s: Run time of the step.
-            states: The state of each UAV flying now.
+            states: The state of each UAV flying now (one without a position fix is recorded on its
+                ``/state`` channel only).
             qos: The QoS of those UAVs over the crowd.
             pedestrians_m: ``(N, 2)`` crowd positions.
             covered: ``(N,)`` True for a user a UAV serves.
         """
         from bridge.geo import enu_to_geodetic
 
+        placed: dict[int, tuple[Vec3, Vec3 | None]] = {}  # position and target of each UAV with a fix
         for state in states:
             self._write(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, encode_payload(state))
+            if state.position_enu_m is None:  # no position fix: its state says so, nothing to draw
+                continue
+            placed[state.uav_id] = (state.position_enu_m, state.target_enu_m)
             fix = state.position_wgs84
             if fix is None and self.scene.home is not None:
                 lat, lon, alt = enu_to_geodetic(self.scene.home, *state.position_enu_m)
@@ -180,30 +187,28 @@ class RunRecorder:
             self._write_json(f"/uav/{state.uav_id}/location", "foxglove.LocationFix", time_s,
                              fox.location_fix(time_s, state.uav_id, lat, lon, alt))
         self._write_json("/tf", "foxglove.FrameTransforms", time_s,
-                         fox.frame_transforms(time_s, {s.uav_id: s.position_enu_m for s in states}))
+                         fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
         self._write_json("/scene", "foxglove.SceneUpdate", time_s,
-                         {"deletions": [], "entities": self._swarm_entities(time_s, states)})
+                         {"deletions": [], "entities": self._swarm_entities(time_s, list(placed.values()))})
         users = np.asarray(pedestrians_m, np.float64).reshape(-1, 2)
         points = np.column_stack([users, np.zeros(len(users))])
         self._write_json("/pedestrians", "foxglove.PointCloud", time_s,
                          fox.point_cloud(time_s, points, {"covered": np.asarray(covered, np.float32)}))
         self.qos(time_s, qos)
 
-    def _swarm_entities(self, time_s: float, states: Sequence[UavState]) -> list[dict[str, Any]]:
+    def _swarm_entities(self, time_s: float, placed: list[tuple[Vec3, Vec3 | None]]) -> list[dict[str, Any]]:
+        """The UAVs, their coverage discs and their targets (``placed``: position and target of each)."""
         size = {"x": _UAV_SIZE_M, "y": _UAV_SIZE_M, "z": _UAV_SIZE_M}
-        uavs = [{"pose": fox.pose(*s.position_enu_m), "size": size, "color": _UAV} for s in states]
+        uavs = [{"pose": fox.pose(*position), "size": size, "color": _UAV} for position, _ in placed]
         radius = self.scene.coverage_radius_m
-        discs = [{"pose": fox.pose(s.position_enu_m[0], s.position_enu_m[1], 0.05),
-                  "size": {"x": 2 * radius, "y": 2 * radius, "z": 0.1}, "bottom_scale": 1.0, "top_scale": 1.0,
-                  "color": _DISC} for s in states]
-        aimed = [s for s in states if s.target_enu_m is not None]
+        discs = [{"pose": fox.pose(x, y, 0.05), "size": {"x": 2 * radius, "y": 2 * radius, "z": 0.1},
+                  "bottom_scale": 1.0, "top_scale": 1.0, "color": _DISC} for (x, y, _), _ in placed]
+        aimed = [(position, target) for position, target in placed if target is not None]
         marker = {"x": _TARGET_SIZE_M, "y": _TARGET_SIZE_M, "z": _TARGET_SIZE_M}
-        targets = [{"pose": fox.pose(*s.target_enu_m), "size": marker, "color": _TARGET}  # type: ignore[misc]
-                   for s in aimed]
-        ends = [p for s in aimed for p in (s.position_enu_m, s.target_enu_m)]
+        targets = [{"pose": fox.pose(*target), "size": marker, "color": _TARGET} for _, target in aimed]
         legs = {"type": fox.LINE_LIST, "pose": fox.pose(0.0, 0.0, 0.0), "thickness": 0.3,
                 "scale_invariant": False, "color": _TARGET, "colors": [], "indices": [],
-                "points": [fox.pose(*p)["position"] for p in ends]}
+                "points": [fox.pose(*p)["position"] for pair in aimed for p in pair]}
         return [fox.scene_entity("uavs", time_s, spheres=uavs),
                 fox.scene_entity("coverage", time_s, cylinders=discs),
                 fox.scene_entity("targets", time_s, cubes=targets, lines=[legs] if aimed else [])]
