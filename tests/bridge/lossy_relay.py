@@ -18,6 +18,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+from ports import free_tcp_port, free_udp_port  # re-exported: the bridge tests import them from here
 
 __all__ = ["LossyRelay", "free_udp_port", "free_tcp_port", "message_id", "TO_GCS", "TO_VEHICLE"]
 
@@ -28,18 +29,6 @@ TO_GCS, TO_VEHICLE = 0, 1  # directions
 def message_id(data: bytes) -> int | None:
     """The message id of a MAVLink 2 packet, ``None`` for anything else."""
     return int.from_bytes(data[7:10], "little") if len(data) >= 12 and data[0] == 0xFD else None
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind((HOST, 0))
-        return s.getsockname()[1]
-
-
-def free_tcp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((HOST, 0))
-        return s.getsockname()[1]
 
 
 class LossyRelay:

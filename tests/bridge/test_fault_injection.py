@@ -20,17 +20,6 @@ N_VEHICLES = 10
 def test_fleet_upload_through_lossy_relays(drop):
     rng = np.random.default_rng(1234)
     gcs_ports = [free_udp_port() for _ in range(N_VEHICLES)]
-    relays = [LossyRelay(port, rng.spawn(1)[0], drop=drop, duplicate=0.1, reorder=0.1) for port in gcs_ports]
-    autopilots = [mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, mavlink.MAV_AUTOPILOT_PX4]
-    vehicles = [
-        SimVehicle(
-            f"udpout:127.0.0.1:{relay.vehicle_port}",
-            i + 1,
-            autopilot=autopilots[i % 2],
-            telemetry_period_s=0.3,
-        )
-        for i, relay in enumerate(relays)
-    ]
     config = BridgeConfig(
         vehicles=tuple(
             VehicleEndpoint(system_id=i + 1, url=f"udpin:127.0.0.1:{port}")
@@ -38,17 +27,32 @@ def test_fleet_upload_through_lossy_relays(drop):
         )
     )
     plans = {i + 1: [(10.0 * i, -5.0 * i), (20.0 + i, 30.0 - i, 25.0 + i)] for i in range(N_VEHICLES)}
-    try:
-        with Fleet(config) as fleet:
+    autopilots = [mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, mavlink.MAV_AUTOPILOT_PX4]
+    # The ground station binds its ports before the relays and vehicles open theirs (see tests/ports.py:
+    # a port found free must not be left for others to take before the code under test binds it).
+    with Fleet(config) as fleet:
+        relays = [
+            LossyRelay(port, rng.spawn(1)[0], drop=drop, duplicate=0.1, reorder=0.1) for port in gcs_ports
+        ]
+        vehicles = [
+            SimVehicle(
+                f"udpout:127.0.0.1:{relay.vehicle_port}",
+                i + 1,
+                autopilot=autopilots[i % 2],
+                telemetry_period_s=0.3,
+            )
+            for i, relay in enumerate(relays)
+        ]
+        try:
             fleet.wait_for_vehicles(timeout_s=10.0)
             missions = fleet.upload_plans(plans, verify=True)  # download-and-compare on every vehicle
             for vehicle in vehicles:
                 assert tuple(vehicle.mission) == missions[vehicle.system_id].items
                 placeholder = vehicle.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
                 assert len(vehicle.mission) == (5 if placeholder else 4)  # takeoff, 2 waypoints, loiter
-    finally:
-        for closable in (*vehicles, *relays):
-            closable.close()
+        finally:
+            for closable in (*vehicles, *relays):
+                closable.close()
     dropped = sum(r.counts["dropped"] for r in relays)
     total = sum(r.counts["in"] for r in relays)
     assert dropped / total == pytest.approx(drop, abs=0.05)
@@ -58,24 +62,29 @@ def test_fleet_upload_through_lossy_relays(drop):
 MISSION_COUNT, MISSION_REQUEST_INT = 44, 51
 
 
-def _upload_through(relay_faults: dict, seconds_at_most: float) -> tuple[LossyRelay, SimVehicle, tuple]:
-    """Upload to one PX4-like vehicle through a relay with only the given (scripted) faults."""
+def _upload_through(relay_faults: dict) -> tuple[LossyRelay, SimVehicle, tuple]:
+    """Upload to one PX4-like vehicle through a relay with only the given (scripted) faults.
+
+    What the transfer did is judged by the messages it took (counted by the relay), not by its wall
+    time, which a busy machine stretches.
+    """
     port = free_udp_port()
-    relay = LossyRelay(port, np.random.default_rng(0), drop=0.0, duplicate=0.0, reorder=0.0, **relay_faults)
-    vehicle = SimVehicle(f"udpout:127.0.0.1:{relay.vehicle_port}", 1, personality="px4", armed=False)
     config = BridgeConfig(
         max_home_offset_m=0.0, vehicles=(VehicleEndpoint(system_id=1, url=f"udpin:127.0.0.1:{port}"),)
     )
-    try:
-        with Fleet(config) as fleet:
+    with Fleet(config) as fleet:  # bound before the relay and the vehicle take ephemeral ports
+        relay = LossyRelay(
+            port, np.random.default_rng(0), drop=0.0, duplicate=0.0, reorder=0.0, **relay_faults
+        )
+        vehicle = SimVehicle(f"udpout:127.0.0.1:{relay.vehicle_port}", 1, personality="px4", armed=False)
+        try:
             fleet.wait_for_vehicles(timeout_s=10.0)
             mission = fleet.build_missions({1: [(10.0, 5.0), (20.0, 30.0)]})[1]
-            seconds = fleet.upload({1: mission}, verify=False)
-            assert seconds[1] < seconds_at_most
+            fleet.upload({1: mission}, verify=False)
             assert tuple(vehicle.mission) == mission.items
-    finally:
-        vehicle.close()
-        relay.close()
+        finally:
+            vehicle.close()
+            relay.close()
     return relay, vehicle, mission.items
 
 
@@ -90,7 +99,7 @@ def test_busy_answer_to_a_late_duplicate_count_does_not_stop_the_transfer():
             return True
         return False
 
-    relay, vehicle, _ = _upload_through({"duplicate_late_if": once}, seconds_at_most=1.0)
+    relay, vehicle, _ = _upload_through({"duplicate_late_if": once})
     assert duplicated and relay.messages[TO_VEHICLE, MISSION_COUNT] == 1
     assert vehicle.transfers_started == 1
 
@@ -108,7 +117,7 @@ def test_vehicle_still_asking_keeps_its_transfer_when_we_start_again():
             return True
         return False
 
-    relay, vehicle, _ = _upload_through({"drop_if": first_requests_for_item_2}, seconds_at_most=3.0)
+    relay, vehicle, _ = _upload_through({"drop_if": first_requests_for_item_2})
     assert len(lost) == 7
     assert relay.messages[TO_VEHICLE, MISSION_COUNT] == 2  # the first, and one after 1.5 s of silence
     assert vehicle.transfers_started == 1

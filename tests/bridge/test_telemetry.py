@@ -12,7 +12,6 @@ import logging
 import os
 import queue
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -21,6 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from ports import free_tcp_port
 
 from bridge.geo import Home, enu_to_geodetic
 from bridge.telemetry import SwarmSubscriber
@@ -32,17 +32,11 @@ PEER = Path(__file__).with_name("telemetry_peer.py")
 SWARM = "test"
 
 
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
 class Peer:
     """A telemetry_peer.py process whose stdout lines are read by a thread (so waits can be bounded)."""
 
     def __init__(self, *args: str) -> None:
-        port = free_port()
+        port = free_tcp_port()
         self.proc = subprocess.Popen(
             [sys.executable, str(PEER), *args, "--port", str(port), "--swarm", SWARM],
             stdin=subprocess.PIPE,

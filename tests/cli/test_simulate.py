@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import json
 import socket
 import time
@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from conftest import SMALL_WIFI_TASK
 from PIL import Image
+from ports import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 
 from bridge.geo import Home
@@ -42,12 +43,6 @@ def small_config(tmp_path):
     path = tmp_path / "sim.toml"
     path.write_text(SMALL_TOML, encoding="utf-8")
     return path
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
 
 
 def tiny(checkpoint_path, **changes) -> SimulateConfig:
@@ -168,7 +163,7 @@ def test_a_telemetry_endpoint_in_use_exits_2_before_the_first_step_and_writes_no
 
 
 def test_telemetry_reaches_a_subscriber_on_loopback(tmp_path, tiny_checkpoint):
-    port = free_port()
+    port = free_tcp_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     config = tiny(tiny_checkpoint, publish_telemetry=True, compare_expert=False, gif=False,
                   wait_for_subscriber_s=10.0,
@@ -191,17 +186,18 @@ def test_telemetry_reaches_a_subscriber_on_loopback(tmp_path, tiny_checkpoint):
     assert qos and all(0.0 <= q.qos_s2 <= q.qos_s1 <= 1.0 for q in qos)
 
 
-def _sim_vehicle_module():
-    """tests/bridge/sim_vehicle.py: a pymavlink vehicle serving the mission protocol on loopback."""
-    spec = importlib.util.spec_from_file_location("sim_vehicle",
-                                                  Path(__file__).parents[1] / "bridge" / "sim_vehicle.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+@pytest.fixture()
+def sim_vehicle(monkeypatch):
+    """tests/bridge/sim_vehicle.py, a pymavlink vehicle serving the mission protocol on loopback.
+
+    Its folder goes on the path for the test, so the modules it imports beside it are found when
+    this file runs alone.
+    """
+    monkeypatch.syspath_prepend(str(Path(__file__).parents[1] / "bridge"))
+    return importlib.import_module("sim_vehicle")
 
 
-def test_final_missions_are_uploaded_to_the_configured_vehicles(tmp_path, tiny_checkpoint):
-    sim_vehicle = _sim_vehicle_module()
+def test_final_missions_are_uploaded_to_the_configured_vehicles(tmp_path, tiny_checkpoint, sim_vehicle):
     ports = {7: free_udp_port(), 8: free_udp_port()}
     lines = ["[protocol]", "heartbeat_timeout_s = 5.0", ""]
     for sid, port in ports.items():
@@ -222,12 +218,6 @@ def test_final_missions_are_uploaded_to_the_configured_vehicles(tmp_path, tiny_c
         sent = load_plan(tmp_path / "out" / "missions" / f"vehicle_{vehicle.system_id}.plan").items
         assert len(vehicle.mission) == 3 and tuple(vehicle.mission) == sent
         assert [item.z for item in sent] == [config.uav.alt_m] * 3  # take-off, target, loiter: one altitude
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
 
 
 def test_refine_flag_merges_into_the_planning_table_of_the_file(tmp_path):

@@ -7,7 +7,8 @@ mode, armed and taken off to ``[uav] alt_m`` above its home; then the planner re
 flies (``--mode guided``: MAV_CMD_DO_REPOSITION; ``--mode mission``: a new mission flown in AUTO).
 At the end (``--duration-s`` of crowd time, Ctrl-C or SIGTERM) every vehicle is sent RTL
 (``--end land``: LAND). Vehicle states, plans and QoS go out over Zenoh (tcp/127.0.0.1:7447).
-Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json.
+Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json; ``--record flight.mcap``
+also records the flight for Foxglove.
 
 Examples:
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
@@ -54,6 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--n-uavs", type=int, help="fly the first N vehicles of the bridge config (default: all)")
     add("--seed", type=int, help="seed of the simulated crowd (default: 0)")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
+    add("--record", type=Path, metavar="FLIGHT.mcap",
+        help="record the flight (scene, vehicle states, plans, QoS) as MCAP for Foxglove")
     parser.set_defaults(func=run)
 
 
@@ -88,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        result = fly(config, args.out, stop_event=stop)
+        result = fly(config, args.out, stop_event=stop, record=args.record)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm fly: {exc}", file=sys.stderr)
         return 2
@@ -111,4 +114,6 @@ def run(args: argparse.Namespace) -> int:
               f"{summary['mean_qos_s1']:.3f}, S2 {summary['mean_qos_s2']:.3f}, "
               f"mean throughput {summary['mean_throughput_mbps']:.2f} Mbps")
     print(f"wrote {', '.join(summary['files'])} in {args.out}")
+    if "recording" in summary:
+        print(f"recorded the flight in {summary['recording']}")
     return 0

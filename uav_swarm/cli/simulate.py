@@ -11,6 +11,7 @@ Examples:
   uav-swarm simulate --out out/sim --duration-s 60 --n-uavs 6 --seed 3 --no-gif
   uav-swarm simulate --out out/sim --checkpoint runs/s1/train/best.pt --config sim.toml
   uav-swarm simulate --out out/sim --bridge-config configs/bridge/px4_sitl_10.toml   # upload the missions
+  uav-swarm simulate --out out/sim --record out/sim/run.mcap   # open it in Foxglove
 
 Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint or telemetry
 endpoint (e.g. "tcp/127.0.0.1:7447 is in use"), found before the first step and before any output.
@@ -48,6 +49,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--no-expert", action="store_true", help="do not fly the expert on the same sequence")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
     add("--no-gif", action="store_true", help="do not write scene.gif")
+    add("--record", type=Path, metavar="RUN.mcap",
+        help="record the flown run (scene, UAV states, plans, QoS) as MCAP for Foxglove")
     add("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -100,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         config = load_simulate_config(args.config, _overrides(args))
-        result = simulate(config, args.out, progress=not args.quiet)
+        result = simulate(config, args.out, progress=not args.quiet, record=args.record)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm simulate: {exc}", file=sys.stderr)
         return 2
@@ -118,4 +121,6 @@ def run(args: argparse.Namespace) -> int:
     print(format_summary(summary))
     files = summary["files"]
     print(f"wrote {', '.join(files[:5])}{' ...' if len(files) > 5 else ''} in {args.out}")
+    if "recording" in summary:
+        print(f"recorded the {config.planner} planner's run in {summary['recording']}")
     return 0

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from bridge.fleet import Fleet
     from bridge.telemetry import SwarmPublisher
     from bridge.vehicle_state import VehicleState
+    from uav_swarm.runs.recording import RunRecorder
 
 __all__ = ["Flight"]
 
@@ -73,11 +74,15 @@ class Flight:
         publisher: An open telemetry publisher, or None.
         planner: The planner for every vehicle of the flight, when already built (others are built
             when vehicles are lost).
+        recorder: Records the plans, and every ``record_every_s`` the scene, the vehicles' states
+            and the QoS, at crowd time (:mod:`uav_swarm.runs.recording`).
     """
 
     def __init__(self, config: FlyConfig, bridge: BridgeConfig, fleet: Fleet,
-                 publisher: SwarmPublisher | None = None, planner: Planner | None = None) -> None:
+                 publisher: SwarmPublisher | None = None, planner: Planner | None = None,
+                 recorder: RunRecorder | None = None) -> None:
         self.config = config
+        self.recorder = recorder
         self.bridge = bridge
         self.fleet = fleet
         self.publisher = publisher
@@ -241,14 +246,17 @@ class Flight:
         result = planner.plan(self.crowd.positions_m, positions, self.crowd.velocities_m_s)
         targets = [(float(x), float(y), self.alt_m) for x, y in result.targets_m]
         self.plans.append({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
-        if self.publisher is not None:
+        if self.publisher is not None or self.recorder is not None:
             from bridge.telemetry_schema import Plan, PlanTarget
 
-            self.publisher.publish_plan(Plan(
-                stamp_s=time.time(), seq=seq, source="vehicle", planner=planner.name,
-                latency_ms=float(result.latency_ms),
-                targets=tuple(PlanTarget(uav_id=v.uav_id, target_enu_m=t)
-                              for (v, _), t in zip(live, targets, strict=True))))
+            plan = Plan(stamp_s=time.time(), seq=seq, source="vehicle", planner=planner.name,
+                        latency_ms=float(result.latency_ms),
+                        targets=tuple(PlanTarget(uav_id=v.uav_id, target_enu_m=t)
+                                      for (v, _), t in zip(live, targets, strict=True)))
+            if self.publisher is not None:
+                self.publisher.publish_plan(plan)
+            if self.recorder is not None:
+                self.recorder.plan(self._clock_s, plan)
         for (vehicle, _), target in zip(live, targets, strict=True):
             moved = vehicle.sent_m is None or np.hypot(target[0] - vehicle.sent_m[0],
                                                        target[1] - vehicle.sent_m[1]) > _RESEND_M
@@ -299,12 +307,15 @@ class Flight:
         cov = evaluate_coverage(users, uavs, self.config.task.radio)
         times.append(self._clock_s)
         rows.append((float(cov.qos_s1), float(cov.qos_s2), float(cov.mean_throughput_mbps)))
-        if self.publisher is not None:
+        if self.publisher is not None or self.recorder is not None:
             from bridge.telemetry_schema import Qos
 
-            self.publisher.publish_qos(Qos(stamp_s=time.time(), seq=seq, source="vehicle", qos_s1=rows[-1][0],
-                                           qos_s2=rows[-1][1], mean_throughput_mbps=rows[-1][2],
-                                           n_users=int(users.shape[0])))
+            qos = Qos(stamp_s=time.time(), seq=seq, source="vehicle", qos_s1=rows[-1][0], qos_s2=rows[-1][1],
+                      mean_throughput_mbps=rows[-1][2], n_users=int(users.shape[0]))
+            if self.publisher is not None:
+                self.publisher.publish_qos(qos)
+            if self.recorder is not None:
+                self._record_step(qos, users, cov.covered, seq)
         for vehicle in self.vehicles:
             state = self._state(vehicle)
             if state is None or state.x_m is None:
@@ -313,6 +324,16 @@ class Flight:
             track.append({"time_s": self._clock_s, "uav_id": vehicle.uav_id, "system_id": vehicle.system_id,
                           "status": vehicle.status, "x_m": state.x_m, "y_m": state.y_m, "z_m": state.z_m,
                           "target_x_m": target[0], "target_y_m": target[1], "target_z_m": target[2]})
+
+    def _record_step(self, qos: Any, users: np.ndarray, covered: np.ndarray, seq: int) -> None:
+        """Record each heard vehicle's state (with or without a position fix), the scene and the QoS."""
+        from bridge.telemetry_schema import state_from_vehicle
+
+        heard = [(v, self._state(v)) for v in self.vehicles]
+        states = [state_from_vehicle(state, seq, uav_id=v.uav_id, target_enu_m=v.target_m)
+                  for v, state in heard if state is not None]
+        self.recorder.step(self._clock_s, [s for s in states if s is not None], qos, users,  # type: ignore[union-attr]
+                           covered)
 
     def _loop(self) -> tuple[QosTrace, list[dict[str, Any]]]:
         cfg = self.config
@@ -328,6 +349,8 @@ class Flight:
         start_s = time.monotonic()
         step = 0
         self._event("loop_started", None)
+        if self.recorder is not None:
+            self.recorder.static_scene(self.scenario.obstacles)
         while step < n_steps and not self._stop.is_set():
             due = min(n_steps, int((time.monotonic() - start_s) * cfg.speedup / dt_s) + 1)
             while step < due:

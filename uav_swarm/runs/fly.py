@@ -23,7 +23,8 @@ Telemetry (Zenoh, loopback by default): each vehicle's state on ``uav_swarm/<swa
 
 The loop itself is :class:`uav_swarm.runs.flight_loop.Flight`. Outputs in ``out_dir``: ``qos.png``,
 ``timeseries.csv`` (QoS over time), ``track.csv`` (each
-vehicle's measured track and target) and ``summary.json`` (events, failures, QoS, the config).
+vehicle's measured track and target) and ``summary.json`` (events, failures, QoS, the config);
+with ``record``, an MCAP file of the flight at crowd time (:mod:`uav_swarm.runs.recording`).
 """
 
 from __future__ import annotations
@@ -96,16 +97,19 @@ def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
     return path
 
 
-def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event | None = None) -> FlightResult:
+def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event | None = None,
+        record: str | Path | None = None) -> FlightResult:
     """Fly the vehicles of ``config.bridge_config`` under the planner and write the outputs.
 
     Args:
         config: The flight's settings.
         out_dir: Output folder.
         stop_event: Set it (e.g. from a signal handler) to end the flight early; it still ends safely.
+        record: Also record the flight into this MCAP file (plans; every ``record_every_s`` the
+            scene, the vehicles' measured states and the QoS).
 
     Raises:
-        typed_config.ConfigError: Invalid bridge config, no vehicles.
+        typed_config.ConfigError: Invalid bridge config, no vehicles, or ``record`` not a .mcap file.
         bridge.errors.GeofenceError: The area at the cruise altitude is outside the geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
         bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened.
@@ -115,9 +119,13 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     from bridge.telemetry import SwarmPublisher
     from learning.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure
+    from uav_swarm.runs.recording import SceneInfo, check_recording_path, maybe_recording
 
     out_dir = Path(out_dir)
     bridge = load_flight_bridge(config)
+    record = None if record is None else check_recording_path(record)
+    scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
+                      coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
     n = config.n_uavs or len(bridge.vehicles)
     planner = make_planner(config.planner, n, config.task, checkpoint=config.checkpoint or None,
                            config=config.planning, uav_config=config.uav)
@@ -129,8 +137,9 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     track: list[dict[str, Any]] = []
     error: BaseException | None = None
     try:
-        with Fleet(bridge) as fleet:
-            flight = Flight(config, bridge, fleet, publisher, planner)
+        with (Fleet(bridge) as fleet,
+              maybe_recording(record, scene, command="fly", config=config.to_dict()) as recorder):
+            flight = Flight(config, bridge, fleet, publisher, planner, recorder)
             watcher = None
             if stop_event is not None:
                 watcher = threading.Thread(target=lambda: (stop_event.wait(), flight.stop()), daemon=True)
@@ -160,6 +169,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     if error is not None:
         summary["error"] = f"{type(error).__name__}: {error}"
     summary["files"] = [p.name for p in files] + ["summary.json"]
+    if record is not None:
+        summary["recording"] = str(record)
     text = json.dumps(summary, indent=1, sort_keys=True) + "\n"
     write_bytes_atomic(out_dir / "summary.json", text.encode())
     files.append(out_dir / "summary.json")

@@ -43,6 +43,8 @@ from uav_swarm.runs.simulate_config import SimulateConfig
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
     from bridge.telemetry import SwarmPublisher
+    from bridge.telemetry_schema import Plan, Qos, UavState
+    from uav_swarm.runs.recording import RunRecorder
 
 __all__ = ["SimulationResult", "run_sequence", "simulate", "summarise_run"]
 
@@ -58,36 +60,36 @@ class SimulationResult:
     files: list[Path]
 
 
-def _publish(publisher: SwarmPublisher, env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> None:
+def _telemetry(env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> tuple[list[UavState], Qos]:
+    """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them."""
     from bridge.telemetry_schema import Qos, UavState
 
     stamp_s = time.time()
     positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
-    for uav_id in range(len(positions)):
-        publisher.publish_state(UavState(
-            stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
-            position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), alt_m),
-            velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
-            target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), alt_m)))
+    states = [UavState(
+        stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
+        position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), alt_m),
+        velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
+        target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), alt_m))
+        for uav_id in range(len(positions))]
     cov = env.coverage
-    publisher.publish_qos(Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1),
-                              qos_s2=float(cov.qos_s2), mean_throughput_mbps=float(cov.mean_throughput_mbps),
-                              n_users=int(cov.covered.shape[0])))
+    qos = Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1), qos_s2=float(cov.qos_s2),
+              mean_throughput_mbps=float(cov.mean_throughput_mbps), n_users=int(cov.covered.shape[0]))
+    return states, qos
 
 
-def _publish_plan(publisher: SwarmPublisher, planner: Planner, targets_m: np.ndarray, alt_m: float,
-                  latency_ms: float, seq: int) -> None:
+def _plan(planner: Planner, targets_m: np.ndarray, alt_m: float, latency_ms: float, seq: int) -> Plan:
     from bridge.telemetry_schema import Plan, PlanTarget
 
     targets = tuple(PlanTarget(uav_id=i, target_enu_m=(float(x), float(y), alt_m))
                     for i, (x, y) in enumerate(targets_m))
-    publisher.publish_plan(Plan(stamp_s=time.time(), seq=seq, source="sim", targets=targets,
-                                planner=planner.name, latency_ms=float(latency_ms)))
+    return Plan(stamp_s=time.time(), seq=seq, source="sim", targets=targets, planner=planner.name,
+                latency_ms=float(latency_ms))
 
 
 def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
-                 publisher: SwarmPublisher | None = None, frame_every: int = 0, progress: bool = False
-                 ) -> SequenceRun:
+                 publisher: SwarmPublisher | None = None, recorder: RunRecorder | None = None,
+                 frame_every: int = 0, progress: bool = False) -> SequenceRun:
     """Fly one planner over the sequence of ``config`` (same seed, same crowd, for every planner).
 
     Args:
@@ -95,6 +97,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         planner: The planner, for ``config.n_uavs`` UAVs.
         kind: Its label in the results (``"learned"`` or ``"expert"``).
         publisher: Publish states and QoS every ``config.telemetry_every`` steps and every plan.
+        recorder: Record them too, with the scene (:mod:`uav_swarm.runs.recording`), at simulated time.
         frame_every: Keep a :class:`Frame` every this many steps (and the last); 0 keeps none.
         progress: Show a progress bar.
 
@@ -106,6 +109,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     env = parallel_env(config=config.env_config())
     env.reset(seed=config.seed)
     planner.reset()
+    if recorder is not None:
+        recorder.static_scene(env.scenario.obstacles)
     agents = list(env.possible_agents)
     steps, alt_m = config.n_steps, float(config.uav.alt_m)
     qos_s1, qos_s2, rate = (np.zeros(steps) for _ in range(3))
@@ -126,15 +131,25 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
             targets = result.targets_m
             plans.append(targets.copy())
             latencies.append(result.latency_ms)
-            if publisher is not None:
-                _publish_plan(publisher, planner, targets, alt_m, result.latency_ms, len(latencies) - 1)
+            if publisher is not None or recorder is not None:
+                plan = _plan(planner, targets, alt_m, result.latency_ms, len(latencies) - 1)
+                if publisher is not None:
+                    publisher.publish_plan(plan)
+                if recorder is not None:
+                    recorder.plan(step * env.dt_s, plan)
         before = np.array(env.uav_positions_m)
         env.step(dict(zip(agents, targets, strict=True)))
         distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
         cov = env.coverage
         qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
-        if publisher is not None and step % config.telemetry_every == 0:
-            _publish(publisher, env, targets, alt_m, step)
+        if (publisher is not None or recorder is not None) and step % config.telemetry_every == 0:
+            states, qos = _telemetry(env, targets, alt_m, step)
+            if publisher is not None:
+                for state in states:
+                    publisher.publish_state(state)
+                publisher.publish_qos(qos)
+            if recorder is not None:
+                recorder.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
             frames.append(Frame(
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
@@ -276,14 +291,22 @@ def _upload(bridge: BridgeConfig, plans: dict[int, list[tuple]]) -> None:
     logger.info("uploaded the final missions to vehicles %s", sorted(plans))
 
 
-def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = True) -> SimulationResult:
+def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = True,
+             record: str | Path | None = None) -> SimulationResult:
     """Run the main job and write its outputs (see the module docstring).
 
     Everything that can fail on bad input (planner kind, checkpoint, bridge config, telemetry
-    session) is checked before the first step.
+    session, recording path) is checked before the first step.
+
+    Args:
+        config: The sequence, the planners and the outputs.
+        out_dir: Output folder.
+        progress: Show a progress bar.
+        record: Also record the flown planner's run into this MCAP file
+            (:mod:`uav_swarm.runs.recording`, every ``telemetry_every`` steps and every plan).
 
     Raises:
-        typed_config.ConfigError: Invalid bridge config or too few vehicles.
+        typed_config.ConfigError: Invalid bridge config, too few vehicles, or ``record`` not a .mcap file.
         bridge.errors.GeofenceError: The area at the flight altitude is not inside the bridge's geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
         bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened, e.g. a
@@ -294,9 +317,11 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     from bridge.telemetry import SwarmPublisher
     from learning.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
+    from uav_swarm.runs.recording import SceneInfo, check_recording_path, maybe_recording
 
     out_dir = Path(out_dir)
     bridge = _load_bridge(config)
+    record = None if record is None else check_recording_path(record)
     kinds = [config.planner] + (["expert"] if config.compare_expert and config.planner != "expert" else [])
     planners = {kind: make_planner(kind, config.n_uavs, config.task, checkpoint=config.checkpoint or None,
                                    config=config.planning, uav_config=config.uav) for kind in kinds}
@@ -310,10 +335,15 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
             if not publisher.wait_for_subscriber(config.wait_for_subscriber_s):
                 logger.warning("no telemetry subscriber after %.1f s: flying anyway",
                                config.wait_for_subscriber_s)
+        scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
+                          coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
         for kind, planner in planners.items():
             flown = kind == config.planner
-            runs[kind] = run_sequence(config, planner, kind, publisher=publisher if flown else None,
-                                      frame_every=frame_every if flown else 0, progress=progress)
+            with maybe_recording(record if flown else None, scene, command="simulate",
+                                 config=config.to_dict()) as recorder:
+                runs[kind] = run_sequence(config, planner, kind, publisher=publisher if flown else None,
+                                          recorder=recorder, frame_every=frame_every if flown else 0,
+                                          progress=progress)
     finally:
         if publisher is not None:
             publisher.close()
@@ -348,6 +378,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     plans = _final_plans(bridge, flown.final_targets_m, float(config.uav.alt_m))
     files += _write_plan_files(bridge, plans, out_dir / "missions")
     summary["files"] = [str(p.relative_to(out_dir)) for p in files] + ["summary.json"]
+    if record is not None:
+        summary["recording"] = str(record)
     summary["uploaded_to_vehicles"] = []
     try:
         if bridge.vehicles:
