@@ -57,6 +57,8 @@ class MotionConfig(Config):
         "walk in), so a kept or added UAV is not at the cap's edge, m")
     park_margin_m: float = param(
         5.0, ge=0.0, le=100.0, doc="strategy 2: a spare UAV parks at least radius + this from every user, m")
+    stick_m: float = param(
+        5.0, ge=0.0, le=100.0, doc="a free UAV keeps the proposal within this distance of its last target, m")
     switch_margin: float = param(
         0.01, ge=0.0, le=1.0, doc="a fresh solve replaces keeping the service only when it gains this "
         "much QoS (share of the crowd, averaged over the horizon)")
@@ -128,6 +130,7 @@ class MotionPlanning:
         """Forget every UAV's users (a new sequence starts)."""
         self._users: list[np.ndarray] = [np.zeros(0, np.int64) for _ in range(self.n_uavs)]
         self._offsets = np.zeros((self.n_uavs, 2))
+        self._previous: np.ndarray | None = None  # the last targets
         self._n_pedestrians = -1
 
     # --- the steps of one replan ------------------------------------------------------------
@@ -186,13 +189,26 @@ class MotionPlanning:
     def _assign(self, uavs: np.ndarray, free: np.ndarray, proposals: np.ndarray) -> np.ndarray:
         """``(n,)`` proposal index of each free UAV (-1: none), by least total squared time to reach."""
         index = np.full(self.n_uavs, -1, dtype=np.int64)
+        free = free.copy()
+        open_ = np.ones(len(proposals), dtype=bool)
+        if self._previous is not None and np.any(free) and len(proposals):
+            # a free UAV whose last target drifted less than stick_m keeps it (no jump for a drift)
+            ids = np.flatnonzero(free)
+            drift = np.linalg.norm(self._previous[ids, None, :] - proposals[None, :, :], axis=-1)
+            rows, cols = linear_sum_assignment(drift)
+            for row, col in zip(rows, cols, strict=True):
+                if drift[row, col] <= self.config.stick_m:
+                    index[ids[row]] = col
+                    free[ids[row]] = False
+                    open_[col] = False
         uav_ids = np.flatnonzero(free)
-        if len(uav_ids) == 0 or len(proposals) == 0:
+        cand_ids = np.flatnonzero(open_)
+        if len(uav_ids) == 0 or len(cand_ids) == 0:
             return index
-        distance = np.linalg.norm(uavs[uav_ids, None, :] - proposals[None, :, :], axis=-1)
+        distance = np.linalg.norm(uavs[uav_ids, None, :] - proposals[None, cand_ids, :], axis=-1)
         cost = time_to_reach(distance, self.uav.max_speed_m_s, self.uav.max_accel_m_s2) ** 2
         rows, cols = linear_sum_assignment(cost)
-        index[uav_ids[rows]] = cols
+        index[uav_ids[rows]] = cand_ids[cols]
         return index
 
     def _valid(self, predicted: np.ndarray, targets: np.ndarray) -> bool:
@@ -264,6 +280,7 @@ class MotionPlanning:
             self._users[j] = users
             self._offsets[j] = (targets[j] - predicted[users].mean(axis=0)) if len(users) else 0.0
         self._n_pedestrians = len(peds)
+        self._previous = targets.copy()
 
     def plan(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, proposals: np.ndarray) -> MotionPlan:
         """One replan (module docstring).
@@ -308,7 +325,8 @@ class MotionPlanning:
         if self.rules.max_users is not None and np.any(spare) and len(predicted):
             tree = cKDTree(predicted)
             for j in np.flatnonzero(spare):
-                out[j] = self._parking(tree, out[j], np.delete(out, j, axis=0))
+                start = out[j] if self._previous is None else self._previous[j]  # a free spot stays
+                out[j] = self._parking(tree, start, np.delete(out, j, axis=0))
         separate_spares(out, spare, self.min_gap_m)
         return out
 

@@ -340,8 +340,17 @@ class LearnedPlanner(AssigningPlanner):
                 raise CheckpointError(_missing_checkpoint_message(path, task_name))
             raise CheckpointError(f"checkpoint not found: {path} (--checkpoint)")
         side = task_config.size_px
-        ckpt = load_checkpoint(path, task_name=task_name, input_shape=(self.task.channels, side, side))
+        ckpt = load_checkpoint(path, task_name=task_name)
         trained = ckpt.task_config
+        velocity = bool(trained.get("velocity_channels", False))
+        if velocity != task_config.velocity_channels:  # the raster is the network's: take its channels
+            task_config = task_config.replace(velocity_channels=velocity)
+            self.task = WifiTask(task_config)
+            logger.info("%s was trained with velocity_channels = %s: the planner's raster follows", path,
+                        velocity)
+        if tuple(ckpt.input_shape) != (self.task.channels, side, side):
+            raise CheckpointError(f"{path}: trained on inputs of shape {tuple(ckpt.input_shape)}, the "
+                                  f"planner's raster is {(self.task.channels, side, side)}")
         for name in _RASTER_FIELDS:
             if name in trained and trained[name] != getattr(task_config, name):
                 raise CheckpointError(f"{path}: trained with {name} = {trained[name]!r}, the planner's "
