@@ -69,7 +69,7 @@ def calibrate_check(
     if manifest["task"] != task.name or manifest["task_config"] != task.config.to_dict():
         raise ValueError(f"{data_dir} holds {manifest['task']!r} scenes of another config than this "
                          f"{task.name!r} task (its [task] table must be the one the data was made with)")
-    ckpt = load_checkpoint(checkpoint, task_name=task.name, task_config=task.config.to_dict(),
+    ckpt = load_checkpoint(checkpoint, task_name=task.name, task_config=task.config,
                            input_shape=(task.channels, *task.shape))
     _, val = split_indices(len(arrays["inputs"]), TrainConfig.from_dict(ckpt.payload["train_config"]))
     val = val[:n] if n is not None else val

@@ -22,7 +22,7 @@ from learning.files import atomic_path
 from learning.model import ModelConfig, UtilityNet, build_model
 from learning.peaks import PeakConfig
 from learning.targets import TargetConfig
-from typed_config import ConfigError
+from typed_config import Config, ConfigError
 
 __all__ = ["CHECKPOINT_FORMAT", "CheckpointError", "Checkpoint", "save_checkpoint", "load_checkpoint",
            "checkpoint_label"]
@@ -70,7 +70,7 @@ def load_checkpoint(
     path: str | Path,
     *,
     task_name: str | None = None,
-    task_config: dict[str, Any] | None = None,
+    task_config: dict[str, Any] | Config | None = None,
     input_shape: tuple[int, int, int] | None = None,
     device: str | torch.device = "cpu",
 ) -> Checkpoint:
@@ -79,7 +79,9 @@ def load_checkpoint(
     Args:
         path: The ``.pt`` file.
         task_name: When given, the checkpoint must have been trained on this task.
-        task_config: When given, the checkpoint's task config must equal it.
+        task_config: When given, the checkpoint's task config must equal it. Given as a config object,
+            the checkpoint's is read through its class first, so fields added to the class since the
+            checkpoint was saved take their defaults.
         input_shape: When given, ``(C, h, w)`` must equal the checkpoint's.
         device: Where to put the model.
 
@@ -102,10 +104,18 @@ def load_checkpoint(
         raise CheckpointError(f"{path}: checkpoint lacks {missing}")
     if task_name is not None and payload["task_name"] != task_name:
         raise CheckpointError(f"{path}: trained on task {payload['task_name']!r}, not {task_name!r}")
-    if task_config is not None and payload["task_config"] != task_config:
-        diff = sorted(k for k in set(task_config) | set(payload["task_config"])
-                      if task_config.get(k) != payload["task_config"].get(k))
-        raise CheckpointError(f"{path}: task config differs from the checkpoint's in {diff}")
+    if task_config is not None:
+        expected, stored = task_config, payload["task_config"]
+        if isinstance(task_config, Config):
+            expected = task_config.to_dict()
+            try:
+                stored = type(task_config).from_dict(stored).to_dict()
+            except ConfigError as exc:
+                name = type(task_config).__name__
+                raise CheckpointError(f"{path}: its task config is not a valid {name}: {exc}") from None
+        if stored != expected:
+            diff = sorted(k for k in set(expected) | set(stored) if expected.get(k) != stored.get(k))
+            raise CheckpointError(f"{path}: task config differs from the checkpoint's in {diff}")
     shape = tuple(int(v) for v in payload["input_shape"])
     if input_shape is not None and tuple(input_shape) != shape:
         raise CheckpointError(f"{path}: trained on inputs of shape {shape}, not {tuple(input_shape)}")

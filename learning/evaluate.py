@@ -206,7 +206,7 @@ def evaluate(
         ValueError: The test scenes overlap the checkpoint's training scenes.
     """
     task = task_factory()
-    ckpt = load_checkpoint(checkpoint, task_name=task.name, task_config=task.config.to_dict(),
+    ckpt = load_checkpoint(checkpoint, task_name=task.name, task_config=task.config,
                            input_shape=(task.channels, *task.shape))
     peaks = peak_config or ckpt.peak_config
     if check is not None:
