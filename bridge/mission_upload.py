@@ -21,7 +21,8 @@ transfers in all, while a late request of the last transfer is still answered.
 Once the vehicle has asked for an item, ``MAV_MISSION_INVALID_SEQUENCE`` (ArduPilot's
 answer to a duplicated item) and the "busy" answers to a duplicated MISSION_COUNT
 (``MAV_MISSION_ERROR`` from PX4, ``MAV_MISSION_DENIED``) do not stop the transfer that
-goes on: they are raised only if the vehicle then stops answering. Every other error
+goes on: they are raised only if the vehicle then stops answering through every retry of the last
+transfer attempt (before that, a new attempt starts). Every other error
 acknowledgement raises its named exception at once, except during the handshake:
 
 Every item is sent as MISSION_ITEM_INT (degE7 positions, exact), whether the vehicle
@@ -222,12 +223,14 @@ class _Upload:
                 self.deadline_s = time.monotonic() + self.timeout_s
                 self.resend()
                 return False
-            if self.deferred is not None:
-                raise self.deferred
-            exc = MissionTimeoutError(self.system_id, self.seq, self.stage, self.timeout_s * self.tries)
+            # a transfer that went silent after a deferred refusal broke off like any other: the
+            # refusal is the error only when no attempt is left
+            exc = self.deferred or MissionTimeoutError(self.system_id, self.seq, self.stage,
+                                                       self.timeout_s * self.tries)
             if self.seq is None or self.attempt >= self.attempts:
                 raise exc
             self.attempt += 1
+            self.deferred = None
         log.warning("%s; transfer attempt %d", exc, self.attempt)
         self.start()
         return False

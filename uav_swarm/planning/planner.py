@@ -349,8 +349,8 @@ class LearnedPlanner(AssigningPlanner):
             logger.info("%s was trained with velocity_channels = %s: the planner's raster follows", path,
                         velocity)
         if tuple(ckpt.input_shape) != (self.task.channels, side, side):
-            raise CheckpointError(f"{path}: trained on inputs of shape {tuple(ckpt.input_shape)}, the "
-                                  f"planner's raster is {(self.task.channels, side, side)}")
+            raise CheckpointError(f"{path}: trained on inputs of shape {tuple(ckpt.input_shape)}, not "
+                                  f"{(self.task.channels, side, side)} (the planner's raster)")
         for name in _RASTER_FIELDS:
             if name in trained and trained[name] != getattr(task_config, name):
                 raise CheckpointError(f"{path}: trained with {name} = {trained[name]!r}, the planner's "
