@@ -38,6 +38,7 @@ Everything is deterministic.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -68,15 +69,10 @@ class WifiExpertConfig(Config):
     branching: int = param(
         4, ge=1, le=50, doc="greedy fills try this many separated first candidates and keep the best")
     refine_passes: int = param(3, ge=0, le=100, doc="passes of the continuous centroid refinement")
-    method: str = param(
+    method: Literal["auto", "search", "groups"] = param(
         "auto", doc="'search' (greedy + ruin-and-recreate), 'groups' (strategy 2 only, "
         "uav_swarm.missions.wifi.group_expert) or 'auto' (strategy 1: search; strategy 2: groups)")
     groups: GroupExpertConfig = param(GroupExpertConfig(), doc="the group expert ([task.expert.groups])")
-
-    def check(self) -> None:
-        """Reject an unknown ``method``."""
-        if self.method not in _METHODS:
-            raise ConfigError(f"WifiExpertConfig.method = {self.method!r}: allowed {', '.join(_METHODS)}")
 
     def method_for(self, rules: CoverageRules) -> str:
         """The method that runs under ``rules``: ``"search"`` or ``"groups"``.
@@ -89,9 +85,6 @@ class WifiExpertConfig(Config):
         if self.method == "auto":
             return "search" if rules.exclusive else "groups"
         return self.method
-
-
-_METHODS = ("auto", "search", "groups")
 
 
 class CandidatePairs:
