@@ -10,6 +10,7 @@
   the raster the network sees of them.
 - :mod:`~uav_swarm.missions.monitoring.outline`: a user's building in metres (GEOS): witnesses, guard
   positions and visibility with a margin, the truth a placement is judged on.
+- :mod:`~uav_swarm.missions.monitoring.sightlines`: that visibility's guard-witness test, compiled (numba).
 - :mod:`~uav_swarm.missions.monitoring.outline_guards`: guards judged, repaired and solved exactly on
   that outline.
 """

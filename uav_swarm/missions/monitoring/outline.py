@@ -46,6 +46,7 @@ from typing import Literal
 import numpy as np
 import shapely
 
+from uav_swarm.missions.monitoring.sightlines import sees
 from uav_swarm.world.geometry import point_segment_distances
 
 __all__ = ["OutlineError", "Outline", "Witnesses", "Region", "witnesses", "candidates", "visibility",
@@ -55,10 +56,6 @@ Region = Literal["interior", "exterior"]
 
 TOUCH_M = 1e-7
 """A segment closer than this to a wall touches it (metres; far below any survey's accuracy)."""
-
-_BLOCK_PAIRS = 400_000
-"""Guard-witness pairs judged at once (bounds the memory of :func:`visibility`)."""
-
 
 class OutlineError(ValueError):
     """An outline the placement cannot take; the message names the problem, in metres."""
@@ -245,42 +242,6 @@ def _cross(ax: np.ndarray, ay: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np
     return ax * by - ay * bx
 
 
-def _segment_distance(px, py, qx, qy, ax, ay, bx, by) -> np.ndarray:
-    """Distance between segments ``p q`` and ``a b`` (arrays of equal shape; zero when they cross)."""
-    def to_segment(x, y, sx, sy, ex, ey):
-        wx, wy = ex - sx, ey - sy
-        t = np.clip(((x - sx) * wx + (y - sy) * wy) / np.maximum(wx * wx + wy * wy, 1e-300), 0.0, 1.0)
-        return np.hypot(x - sx - t * wx, y - sy - t * wy)
-
-    d = np.minimum(np.minimum(to_segment(px, py, ax, ay, bx, by), to_segment(qx, qy, ax, ay, bx, by)),
-                   np.minimum(to_segment(ax, ay, px, py, qx, qy), to_segment(bx, by, px, py, qx, qy)))
-    o1 = _cross(qx - px, qy - py, ax - px, ay - py)
-    o2 = _cross(qx - px, qy - py, bx - px, by - py)
-    o3 = _cross(bx - ax, by - ay, px - ax, py - ay)
-    o4 = _cross(bx - ax, by - ay, qx - ax, qy - ay)
-    crossing = (o1 * o2 < 0) & (o3 * o4 < 0)
-    return np.where(crossing, 0.0, d)
-
-
-def _leaves_into(outline: Outline, region: Region, walls: np.ndarray, dx: np.ndarray, dy: np.ndarray
-                 ) -> np.ndarray:
-    """Whether direction ``(dx, dy)`` from a witness on ``walls`` (``(n, 2)``) points into ``region``."""
-    w = outline.walls_m
-    here, ending = walls[:, 0], walls[:, 1]  # the wall the witness is on (starts there); the one ending there
-    vx, vy = w[here, 2] - w[here, 0], w[here, 3] - w[here, 1]
-    left_here = _cross(vx, vy, dx, dy)
-    corner = ending >= 0
-    e = np.where(corner, ending, here)
-    ux, uy = w[e, 2] - w[e, 0], w[e, 3] - w[e, 1]
-    left_ending = _cross(ux, uy, dx, dy)
-    convex = _cross(ux, uy, vx, vy) > 0
-    if region == "interior":
-        into = np.where(convex, (left_here > 0) & (left_ending > 0), (left_here > 0) | (left_ending > 0))
-        return np.where(corner, into, left_here > 0)
-    into = np.where(convex, (left_here < 0) | (left_ending < 0), (left_here < 0) & (left_ending < 0))
-    return np.where(corner, into, left_here < 0)
-
-
 def visibility(outline: Outline, guards_m: np.ndarray, targets: Witnesses, min_clearance_m: float,
                region: Region = "interior") -> np.ndarray:
     """``(G, W)`` bool: guard ``g`` sees witness ``w`` (the three rules of the module docstring).
@@ -297,46 +258,15 @@ def visibility(outline: Outline, guards_m: np.ndarray, targets: Witnesses, min_c
     """
     if not min_clearance_m >= 0:
         raise ValueError(f"min_clearance_m = {min_clearance_m}: allowed >= 0")
-    guards = np.asarray(guards_m, dtype=np.float64).reshape(-1, 2)
-    seen = np.zeros((len(guards), len(targets)), dtype=bool)
-    if seen.size == 0:
-        return seen
+    guards = np.ascontiguousarray(np.asarray(guards_m, dtype=np.float64).reshape(-1, 2))
+    if len(guards) == 0 or len(targets) == 0:
+        return np.zeros((len(guards), len(targets)), dtype=bool)
     targets = targets.prepared(outline, min_clearance_m, region)
-    rows_per_block = max(1, _BLOCK_PAIRS // len(targets))
-    for first in range(0, len(guards), rows_per_block):
-        block = guards[first:first + rows_per_block]
-        seen[first:first + len(block)] = _visible_block(outline, block, targets, min_clearance_m, region)
-    return seen
-
-
-def _visible_block(outline: Outline, guards: np.ndarray, targets: Witnesses, clearance: float,
-                   region: Region) -> np.ndarray:
-    """``(G, W)`` bool visibility of a block of guards (see :func:`visibility`)."""
-    points, own, near = targets.points_m, targets.walls, targets.near
-    seen = np.ones((len(guards), len(points)), dtype=bool)
-    on_wall = np.flatnonzero(own[:, 0] >= 0)  # rule 2
-    if len(on_wall):
-        dx = guards[:, None, 0] - points[None, on_wall, 0]
-        dy = guards[:, None, 1] - points[None, on_wall, 1]
-        walls = np.broadcast_to(own[on_wall][None], (*dx.shape, 2)).reshape(-1, 2)
-        seen[:, on_wall] = _leaves_into(outline, region, walls, dx.ravel(), dy.ravel()).reshape(dx.shape)
-    bound = max(clearance, TOUCH_M)
-    far_limit = bound - TOUCH_M if clearance > TOUCH_M else TOUCH_M
-    guard_codes = _codes(outline, region, guards, bound)  # (G, E)
-    point_codes = targets.codes if targets.codes is not None else _codes(outline, region, points, bound)
-    for e, (ax, ay, bx, by) in enumerate(outline.walls_m):
-        # safe: both ends beyond the bound on the region's side of the wall's line, or on one side out of
-        # the wall's box grown by the bound (they share a bit of their codes)
-        unsure = seen & ((guard_codes[:, e, None] & point_codes[None, :, e]) == 0)
-        unsure[:, (own[:, 0] == e) | (own[:, 1] == e)] = False  # rules 1 and 3 spare w's own walls
-        g, w = np.nonzero(unsure)
-        if len(g) == 0:
-            continue
-        limit = np.where(near[w, e], TOUCH_M, far_limit)
-        distance = _segment_distance(guards[g, 0], guards[g, 1], points[w, 0], points[w, 1], ax, ay, bx, by)
-        bad = distance < limit
-        seen[g[bad], w[bad]] = False
-    return seen
+    bound = max(min_clearance_m, TOUCH_M)
+    far_limit = bound - TOUCH_M if min_clearance_m > TOUCH_M else TOUCH_M
+    guard_codes = _codes(outline, region, guards, bound)
+    return sees(outline.walls_m, guards, targets.points_m, targets.walls, targets.near, guard_codes,
+                targets.codes, far_limit, TOUCH_M, region == "interior")
 
 
 def _codes(outline: Outline, region: Region, points: np.ndarray, bound: float) -> np.ndarray:

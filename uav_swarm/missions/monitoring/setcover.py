@@ -191,14 +191,12 @@ def _greedy_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
 
 def _disjoint_witnesses(sees: np.ndarray) -> int:
     """Size of a set of witnesses no two of which share a candidate (a lower bound on any cover)."""
-    m = sees.astype(np.float32)
-    shared = (m.T @ m) > 0  # (W, W)
     free = np.ones(sees.shape[1], dtype=bool)
     count = 0
-    for w in np.argsort(m.sum(axis=0), kind="stable"):  # the most constrained witnesses first
+    for w in np.argsort(sees.sum(axis=0), kind="stable"):  # the most constrained witnesses first
         if free[w]:
             count += 1
-            free &= ~shared[w]
+            free &= ~np.any(sees[sees[:, w]], axis=0)  # what shares a candidate with w
     return count
 
 
