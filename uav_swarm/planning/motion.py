@@ -302,14 +302,15 @@ class MotionPlanning:
         if len(uncovered):
             index = np.where(index >= 0, uncovered[np.maximum(index, 0)], -1)
         option = "hybrid"
-        qos = self.horizon_qos(peds, vels, uavs, self._finish(targets, index, kept, predicted))
+        targets = self._finish(targets, index, kept, predicted)
+        qos = self.horizon_qos(peds, vels, uavs, targets)
         if np.any(kept):
             none = np.zeros(self.n_uavs, dtype=bool)
             fresh, fresh_index = self._option(uavs, peds, vels, followed, none, proposals)
-            fresh_qos = self.horizon_qos(peds, vels, uavs, self._finish(fresh, fresh_index, none, predicted))
+            fresh = self._finish(fresh, fresh_index, none, predicted)
+            fresh_qos = self.horizon_qos(peds, vels, uavs, fresh)
             if fresh_qos > qos + self.config.switch_margin:
                 targets, index, kept, option, qos = fresh, fresh_index, none, "fresh", fresh_qos
-        targets = self._finish(targets, index, kept, predicted)
         self._remember(peds, vels, targets)
         return MotionPlan(targets, kept.copy(), index, option, qos)
 
