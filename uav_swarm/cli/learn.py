@@ -100,6 +100,13 @@ def _dataset(args: argparse.Namespace) -> int:
     return 0
 
 
+def _agrees(given: object, stored: object) -> bool:
+    """A settings value agrees with a dataset's: equal, or for a table, every key given agrees."""
+    if isinstance(given, dict) and isinstance(stored, dict):
+        return all(_agrees(v, stored.get(k)) for k, v in given.items())
+    return given == stored
+
+
 def _train(args: argparse.Namespace) -> int:
     from learning.data import load_manifest
     from learning.train import train
@@ -110,7 +117,7 @@ def _train(args: argparse.Namespace) -> int:
     if manifest["task"] != args.task:
         print(f"uav-swarm: {args.data} holds {manifest['task']!r} scenes, not {args.task!r}", file=sys.stderr)
         return 2
-    differ = sorted(k for k, v in settings.task.items() if manifest["task_config"].get(k) != v)
+    differ = sorted(k for k, v in settings.task.items() if not _agrees(v, manifest["task_config"].get(k)))
     if differ:
         print(f"uav-swarm: {args.data} was generated with other [task] values for {differ} "
               f"than {args.config}", file=sys.stderr)

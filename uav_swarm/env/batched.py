@@ -27,6 +27,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from uav_swarm.env.config import MAX_UAVS, EnvConfig
 from uav_swarm.env.parallel import raw_env
+from uav_swarm.world.comms import Association
 from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.crowd_batch import BatchedCrowd
 from uav_swarm.world.scenario import Scenario, random_scenario
@@ -80,6 +81,9 @@ class BatchedUAVSwarm:
         self._scene = scene
         self.dt_s = template.dt_s
         self.radio = template.radio
+        # Admission control keeps per-copy association state; the paper's model is computed for all at once.
+        self._links = [Association(self.radio) for _ in range(self.num_envs)] \
+            if self.radio.max_stations is not None else []
         self._obs_low = self.single_observation_space.low
         self._obs_high = self.single_observation_space.high
         self._act_low = self.single_action_space.low.astype(np.float64)
@@ -144,6 +148,8 @@ class BatchedUAVSwarm:
         self._targets_m[copies] = self._positions_m[copies]
         self._cycle[copies] = 0
         self._finished[copies] = False
+        for c in copies if self._links else ():
+            self._links[c].reset()
         self._update_world_view()
         return self._observations(), self._infos()
 
@@ -290,6 +296,9 @@ class BatchedUAVSwarm:
 
     def _coverage(self, peds: np.ndarray, copy: np.ndarray) -> None:
         """Strongest-UAV association per pedestrian within its copy (``evaluate_coverage``)."""
+        if self._links:
+            self._admitted_coverage(peds, copy)
+            return
         radio, b, n = self.radio, self.num_envs, self.n_agents
         x, y = peds[:, 0], peds[:, 1]
         uav_x = np.ascontiguousarray(self._positions_m[:, :, 0].T)  # (n, B)
@@ -323,6 +332,18 @@ class BatchedUAVSwarm:
         self._qos_s1 = np.divide(self._covered_users, users, out=np.zeros(b), where=some)
         self._qos_s2 = np.divide(n_fast, users, out=np.zeros(b), where=some)
         self._mean_throughput = np.divide(total_mbps, users, out=np.zeros(b), where=some)
+
+    def _admitted_coverage(self, peds: np.ndarray, copy: np.ndarray) -> None:
+        """Admission control: each copy's association sequence (:class:`~uav_swarm.world.comms.Association`)."""
+        b, n = self.num_envs, self.n_agents
+        starts = np.searchsorted(copy, np.arange(b + 1))
+        coverages = [link.update(peds[starts[c]:starts[c + 1]], self._positions_m[c])
+                     for c, link in enumerate(self._links)]
+        self._users_per_uav = np.array([cov.users_per_uav for cov in coverages]).reshape(b, n)
+        self._covered_users = self._users_per_uav.sum(axis=1)
+        self._qos_s1 = np.array([cov.qos_s1 for cov in coverages])
+        self._qos_s2 = np.array([cov.qos_s2 for cov in coverages])
+        self._mean_throughput = np.array([cov.mean_throughput_mbps for cov in coverages])
 
     def _observations(self) -> np.ndarray:
         cfg, b, n, p = self.config, self.num_envs, self.n_agents, self.config.patch_px

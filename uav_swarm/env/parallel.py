@@ -24,7 +24,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 from uav_swarm.env.actions import parse_actions
 from uav_swarm.env.config import MAX_UAVS, EnvConfig, merge_overrides
 from uav_swarm.env.render import HumanViewer, draw_frame
-from uav_swarm.world.comms import Coverage, evaluate_coverage
+from uav_swarm.world.comms import Association, Coverage
 from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.raster import density_map
 from uav_swarm.world.scenario import Scenario, random_scenario
@@ -84,12 +84,19 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     followed by all UAV positions / (width_m, height_m).
 
     **Rewards.** One shared team reward, a Python float: the chosen strategy's QoS (strategy 1:
-    share of pedestrians covered; strategy 2: share covered with at least
+    share of pedestrians with network; strategy 2: share with network and at least
     ``radio.min_user_rate_mbps``, 5 Mbps) minus
     ``separation_weight * separation_penalty``, where the penalty sums ``1 - d / min_separation_m``
     over UAV pairs closer than ``uav.min_separation_m``. ``infos[agent]`` holds ``qos_s1``,
     ``qos_s2``, ``mean_throughput_mbps``, ``covered_users``, ``n_pedestrians``,
-    ``separation_penalty``, and the agent's own ``users_served`` and ``throughput_per_user_mbps``.
+    ``separation_penalty``, ``association`` (which radio association ran), and the agent's own
+    ``users_served`` and ``throughput_per_user_mbps``.
+
+    **Association.** ``radio.station_limit`` chooses it (:mod:`uav_swarm.world.comms`): ``None``, the
+    paper's model, joins every user in range to its strongest UAV at every step; a limit (an integer, or
+    ``"auto"`` = capacity / minimum rate = 40) is admission control as a deployed access point does it:
+    a full UAV refuses newcomers, who try their next UAV in range, and a user keeps its UAV while it stays
+    in range. ``reset`` clears the associations.
 
     **Episode end.** No termination; all agents are truncated after ``max_cycles`` steps.
     One step lasts ``crowd_steps_per_env_step * crowd.dt_s`` simulated seconds (0.1 s by default).
@@ -140,6 +147,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         self._area_m = np.array([self.width_m, self.height_m])
         self.dt_s = cfg.crowd_steps_per_env_step * cfg.crowd.dt_s
         self.radio = cfg.effective_radio
+        self._association = Association(self.radio)
         self.possible_agents = [f"uav_{i}" for i in range(cfg.n_uavs)]
         self.agents: list[str] = []
         self._agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
@@ -206,6 +214,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         self._targets_m = self._fleet.positions_m.copy()
         self.agents = self.possible_agents[:]
         self._cycle = 0
+        self._association.reset()
         self._update_world_view()
         if self.render_mode == "human":
             self.render()
@@ -328,7 +337,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         self._share_map = self._density / max(1, peds.shape[0])
         half, (h, w) = cfg.patch_px // 2, cfg.density_shape
         self._padded_share_map[half:half + h, half:half + w] = self._share_map
-        self._coverage = evaluate_coverage(peds, self._fleet.positions_m, self.radio)
+        self._coverage = self._association.update(peds, self._fleet.positions_m)
         self._separation = separation_penalty(self._fleet.positions_m, cfg.uav.min_separation_m)
         qos = self._coverage.qos_s1 if cfg.strategy == 1 else self._coverage.qos_s2
         self._reward = float(qos - cfg.separation_weight * self._separation)
@@ -367,6 +376,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
             "covered_users": int(np.count_nonzero(cov.covered)),
             "n_pedestrians": int(cov.covered.shape[0]),
             "separation_penalty": self._separation,
+            "association": cov.model,
         }
         served = cov.users_per_uav.tolist()
         capacity = self.radio.capacity_mbps

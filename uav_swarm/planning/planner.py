@@ -77,7 +77,7 @@ if TYPE_CHECKING:
     import torch
 
 __all__ = ["PLANNER_KINDS", "PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "LearnedPlanner",
-           "ExpertPlanner", "make_planner", "default_checkpoint", "check_n_uavs"]
+           "ExpertPlanner", "make_planner", "default_checkpoint", "shipped_checkpoint_name", "check_n_uavs"]
 
 logger = logging.getLogger(__name__)
 
@@ -290,6 +290,16 @@ def default_checkpoint(task_name: str = "wifi-s1") -> Path:
     return Path(str(importlib.resources.files("uav_swarm").joinpath("checkpoints", f"{task_name}.pt")))
 
 
+def shipped_checkpoint_name(task_config: WifiConfig) -> str:
+    """The shipped checkpoint a task flies by default: ``wifi-s2-ac`` for strategy 2 under admission control.
+
+    That network learned the capacitated expert (:mod:`uav_swarm.missions.wifi.capacitated`); the others
+    are the task's name (``wifi-s1``, ``wifi-s2``: the paper's radio).
+    """
+    admission = task_config.strategy == 2 and task_config.radio.max_stations is not None
+    return "wifi-s2-ac" if admission else f"wifi-s{task_config.strategy}"
+
+
 def _missing_checkpoint_message(path: Path, task_name: str) -> str:
     return (f"no checkpoint at {path}: the shipped {task_name} checkpoint is not installed. Train one "
             f"(uav-swarm dataset --task {task_name} --n 5000 --seed 1 --out runs/{task_name}/data; "
@@ -306,7 +316,7 @@ class LearnedPlanner(AssigningPlanner):
         task_config: The Wi-Fi task whose raster the planner builds (``size_px``, ``density_scale``,
             the area); it must match the checkpoint's. Default ``WifiConfig()``.
         checkpoint: A ``.pt`` file from ``uav-swarm train``; default the shipped
-            ``uav_swarm/checkpoints/wifi-s<strategy>.pt``.
+            ``uav_swarm/checkpoints/wifi-s<strategy>.pt`` (``wifi-s2-ac.pt`` under admission control).
         config: Assignment and inference settings.
         uav_config: The UAVs' speed and acceleration limits (planning in motion).
 
@@ -334,7 +344,8 @@ class LearnedPlanner(AssigningPlanner):
         """The refinement's settings: ``[planning.refinement]``, else the strategy's own."""
         if self.config.refine:
             self.refinement.check_rules(self.task.rules, "[planning.refinement]")
-        path = default_checkpoint(task_name) if checkpoint in (None, "") else Path(checkpoint)
+        shipped = shipped_checkpoint_name(task_config)
+        path = default_checkpoint(shipped) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
             if checkpoint in (None, ""):
                 raise CheckpointError(_missing_checkpoint_message(path, task_name))

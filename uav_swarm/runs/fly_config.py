@@ -54,10 +54,15 @@ class FlyConfig(Config):
     flight: FlightConfig = param(FlightConfig(), doc="launch, link and end of the flight ([flight])")
 
     def check(self) -> None:
-        """A bridge config is required; the radio is 2-D (the altitude is the flight's)."""
+        """A bridge config is required; strategy 2 takes admission control unless told; the radio is 2-D."""
         if not self.bridge_config:
             raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
+        if self.task.strategy == 2 and self.task.radio.station_limit is None:
+            # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);
+            # station_limit = "off" keeps the paper's model.
+            radio = self.task.radio.replace(station_limit="auto")
+            object.__setattr__(self, "task", self.task.replace(radio=radio))
         if self.task.radio.altitude_m != 0.0:
             raise ConfigError(f"FlyConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the flight's "
                               "QoS uses 2-D radio distances at uav.alt_m; set altitude_m = 0")

@@ -62,7 +62,12 @@ class SimulateConfig(Config):
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
 
     def check(self) -> None:
-        """The radio is 2-D in the environment (its altitude comes from ``uav.alt_m``)."""
+        """Strategy 2 takes admission control unless the radio says otherwise; the radio is 2-D."""
+        if self.task.strategy == 2 and self.task.radio.station_limit is None:
+            # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);
+            # station_limit = "off" keeps the paper's model.
+            radio = self.task.radio.replace(station_limit="auto")
+            object.__setattr__(self, "task", self.task.replace(radio=radio))
         if self.task.radio.altitude_m != 0.0:
             raise ConfigError(f"SimulateConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the "
                               "simulation flies at uav.alt_m with 2-D radio distances; set altitude_m = 0")

@@ -1,4 +1,4 @@
-"""The paper's Wi-Fi model: rescaled signal, user association, shared throughput and QoS.
+"""The paper's Wi-Fi model, and the same radio with admission control: signal, association, throughput, QoS.
 
 A UAV transmits with a fixed power; the received power, rescaled from the user's
 sensitivity to the transmit power onto ``[signal_at_range, 1]``, is approximated by an
@@ -8,10 +8,25 @@ unnormalised Gaussian of the UAV-user distance ``d``::
 
 By default ``sigma_sq_m2 = range_m**2 / (2 ln(1 / signal_at_range))`` (about 195.4 m^2),
 so the signal is exactly ``signal_at_range`` (0.1) at the 30 m range; the paper's
-``sigma_sq_m2 = 450`` can be set explicitly. Each user associates with its strongest
-UAV (the nearest one; ties go to the lowest UAV index) and is covered when that
-signal is at least ``signal_at_range``. A UAV's capacity is shared equally among its
-covered users.
+``sigma_sq_m2 = 450`` can be set explicitly. A user is *in range* of a UAV when that signal is
+at least ``signal_at_range``. A UAV's capacity is shared equally among its associated users.
+
+**Association** (``RadioConfig.station_limit``):
+
+- ``None``, the paper's model: every user in range joins its strongest UAV (the nearest one;
+  ties go to the lowest UAV index), however many are already there.
+- an integer ``L`` or ``"auto"`` (``floor(capacity / min_user_rate)``, 40 by default), admission control
+  as a deployed access point does it (hostapd's ``max_num_sta``): a UAV admits at most ``L``
+  stations and refuses the next one (802.11 status 17), which then tries its next-strongest UAV in
+  range. A snapshot (:func:`evaluate_coverage`) takes the (user, UAV) pairs in range strongest signal
+  first (ties: lower UAV index, then lower user index) and admits a pair while the user has no UAV and the
+  UAV has room. A sequence (:class:`Association`, for the environment, ``simulate`` and ``fly``) keeps
+  every incumbent on its UAV while it stays in range, even when a newcomer is nearer; newcomers fill
+  the free places strongest first.
+
+A user *has network* (``covered``) when it is associated; strategy 1's QoS is the share of users
+with network, strategy 2's the share with network and at least ``min_user_rate_mbps``. Under
+admission control with ``L <= capacity / min_user_rate`` the two are equal.
 
 Examples:
     >>> import numpy as np
@@ -19,18 +34,23 @@ Examples:
     >>> cov = evaluate_coverage(users, np.zeros((1, 2)), RadioConfig())
     >>> cov.covered.tolist(), cov.throughput_mbps.tolist()
     ([True, True, False], [100.0, 100.0, 0.0])
+    >>> full = evaluate_coverage(users, np.zeros((1, 2)), RadioConfig(station_limit=1))
+    >>> full.association.tolist(), full.in_range.tolist(), full.model
+    ([0, -1, -1], [True, True, False], 'admission control (1 stations per UAV)')
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from typed_config import Config, ConfigError, param
 
-__all__ = ["RadioConfig", "Coverage", "rescaled_signal", "evaluate_coverage"]
+__all__ = ["RadioConfig", "Coverage", "Association", "rescaled_signal", "evaluate_coverage",
+           "admit_stations"]
 
 
 @dataclass(frozen=True)
@@ -48,13 +68,53 @@ class RadioConfig(Config):
     min_user_rate_mbps: float = param(5.0, ge=0.0, doc="per-user rate (Mbps) that strategy 2 requires")
     altitude_m: float = param(0.0, ge=0.0, le=10_000.0,
                               doc="UAV height above the users (m); > 0 uses the 3D distance")
+    station_limit: int | Literal["auto", "off"] | None = param(
+        None, ge=1, doc="stations a UAV admits (admission control, as an access point's max_num_sta): "
+        "an integer 1..floor(capacity_mbps / min_user_rate_mbps), 'auto' for that floor (40 by default), "
+        "or 'off' for the paper's model (every user in range joins its strongest UAV); None (not given) is the "
+        "paper's model too, except in simulate and fly with strategy 2, which take 'auto'")
 
     def check(self) -> None:
-        """Reject a ``min_user_rate_mbps`` above the capacity (strategy 2 could never be met)."""
+        """Reject a minimum rate above the capacity and a station limit the capacity cannot serve."""
         if self.min_user_rate_mbps > self.capacity_mbps:
             raise ConfigError(
                 f"RadioConfig.min_user_rate_mbps = {self.min_user_rate_mbps} is out of range: "
                 f"allowed 0 <= min_user_rate_mbps <= capacity_mbps ({self.capacity_mbps})")
+        if self.station_limit is None or self.station_limit == "off":
+            return
+        most = self.rate_bound_stations
+        if self.station_limit == "auto":
+            if most is None:
+                raise ConfigError("RadioConfig.station_limit = 'auto' needs min_user_rate_mbps > 0 "
+                                  "(the limit is floor(capacity_mbps / min_user_rate_mbps)); give an integer")
+        elif most is not None and self.station_limit > most:
+            raise ConfigError(
+                f"RadioConfig.station_limit = {self.station_limit} is out of range: allowed 1 <= station_limit "
+                f"<= {most} (capacity_mbps / min_user_rate_mbps = {self.capacity_mbps} / "
+                f"{self.min_user_rate_mbps}: more stations could not all get the minimum rate)")
+
+    @property
+    def rate_bound_stations(self) -> int | None:
+        """``floor(capacity / min_user_rate)``: the most users that all get the minimum rate (None at 0)."""
+        if self.min_user_rate_mbps <= 0.0:
+            return None
+        return int(math.floor(self.capacity_mbps / self.min_user_rate_mbps + 1e-9))
+
+    @property
+    def max_stations(self) -> int | None:
+        """The station limit in force per UAV, ``None`` for the paper's model (no admission control)."""
+        if self.station_limit == "auto":
+            return self.rate_bound_stations
+        if self.station_limit == "off":
+            return None
+        return self.station_limit  # type: ignore[return-value]
+
+    @property
+    def association_name(self) -> str:
+        """Which association runs, in words (outputs and tables say it)."""
+        limit = self.max_stations
+        return "paper (no admission control)" if limit is None else \
+            f"admission control ({limit} stations per UAV)"
 
     @property
     def effective_sigma_sq_m2(self) -> float:
@@ -75,13 +135,16 @@ class Coverage:
     """Association, coverage and throughput of N users served by K UAVs.
 
     Attributes:
-        association: (N,) int, index of each user's strongest UAV, -1 when uncovered.
-        covered: (N,) bool, strongest signal >= ``signal_at_range``.
-        users_per_uav: (K,) int, covered users associated with each UAV.
-        throughput_mbps: (N,) float, ``capacity / users_per_uav[association]``, 0 when uncovered.
-        qos_s1: Share of users covered (strategy 1), 0.0 without users.
-        qos_s2: Share of users covered with at least ``min_user_rate_mbps`` (strategy 2).
-        mean_throughput_mbps: Mean throughput over all users (uncovered users count as 0).
+        association: (N,) int, index of each user's UAV, -1 without network.
+        covered: (N,) bool, the user has network (is associated).
+        users_per_uav: (K,) int, users associated with each UAV.
+        throughput_mbps: (N,) float, ``capacity / users_per_uav[association]``, 0 without network.
+        qos_s1: Share of users with network (strategy 1), 0.0 without users.
+        qos_s2: Share of users with network and at least ``min_user_rate_mbps`` (strategy 2).
+        mean_throughput_mbps: Mean throughput over all users (users without network count as 0).
+        in_range: (N,) bool, strongest signal >= ``signal_at_range`` (equals ``covered`` in the paper's model;
+            under admission control a user in range of full UAVs only is refused).
+        model: Which association ran (:attr:`RadioConfig.association_name`).
     """
 
     association: np.ndarray
@@ -91,6 +154,8 @@ class Coverage:
     qos_s1: float
     qos_s2: float
     mean_throughput_mbps: float
+    in_range: np.ndarray
+    model: str
 
 
 def _check_points(name: str, points: np.ndarray) -> np.ndarray:
@@ -131,13 +196,87 @@ def rescaled_signal(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig
     return np.exp(-d2 / (2.0 * config.effective_sigma_sq_m2)).T
 
 
+def admit_stations(d2: np.ndarray, in_range: np.ndarray, free: np.ndarray,
+                   association: np.ndarray | None = None) -> np.ndarray:
+    """Admission control: pairs strongest first, a full UAV refuses, a refused user tries its next UAV.
+
+    The (user, UAV) pairs in range are ordered by squared distance (strongest signal first), then
+    UAV index, then user index; a pair is admitted while its user has no UAV and its UAV has a free
+    place. Because both sides rank pairs by the same order, this greedy gives the unique stable
+    matching, which deferred acceptance computes in vectorised rounds: every waiting user
+    asks its strongest UAV that has not refused it, and every UAV keeps its strongest askers up to
+    its free places.
+
+    Args:
+        d2: (K, N) squared UAV-user distances.
+        in_range: (K, N) bool, the user is in range of the UAV.
+        free: (K,) int, places each UAV still has.
+        association: (N,) int, users already associated (kept as they are, not re-admitted); -1 waits.
+
+    Returns:
+        (N,) int association, -1 for users refused everywhere or out of range.
+    """
+    n_uavs, n_users = d2.shape
+    result = np.full(n_users, -1, np.int64) if association is None else association.copy()
+    waiting = result < 0
+    # Each waiting user's UAVs in range, strongest first (a stable sort keeps the lower index on ties).
+    order = np.argsort(np.where(in_range, d2, np.inf), axis=0, kind="stable")  # (K, N)
+    reach = in_range.sum(axis=0)
+    tried = np.zeros(n_users, np.int64)
+    held = np.zeros(n_users, bool)  # a tentative place (deferred acceptance)
+    while True:
+        asking = np.flatnonzero(waiting & ~held & (tried < reach))
+        if asking.size == 0:
+            break
+        choice = order[tried[asking], asking]
+        tried[asking] += 1
+        holders = np.flatnonzero(held)
+        cand_u = np.concatenate([holders, asking])
+        cand_k = np.concatenate([result[holders], choice])
+        # Each UAV keeps its strongest candidates (ties: lower user index) up to its free places.
+        rank_key = np.lexsort((cand_u, d2[cand_k, cand_u], cand_k))
+        cand_u, cand_k = cand_u[rank_key], cand_k[rank_key]
+        first = np.searchsorted(cand_k, cand_k, side="left")
+        keep = (np.arange(cand_k.size) - first) < free[cand_k]
+        held[:] = False
+        result[waiting] = -1
+        held[cand_u[keep]] = True
+        result[cand_u[keep]] = cand_k[keep]
+    return result
+
+
+def _coverage(association: np.ndarray, in_range_any: np.ndarray, n_uavs: int, config: RadioConfig
+              ) -> Coverage:
+    """The :class:`Coverage` of an association."""
+    n_users = association.shape[0]
+    covered = association >= 0
+    served_by = association[covered]
+    users_per_uav = np.bincount(served_by, minlength=n_uavs)
+    rate_mbps = config.capacity_mbps / np.maximum(users_per_uav, 1)  # (K,) per-user rate of each UAV
+    n_fast = int(users_per_uav[rate_mbps >= config.min_user_rate_mbps].sum())
+    # Each UAV with users hands out its whole capacity: the throughput sums to capacity * active UAVs.
+    total_mbps = config.capacity_mbps * np.count_nonzero(users_per_uav)
+    return Coverage(
+        association=np.where(covered, association, -1),
+        covered=covered,
+        users_per_uav=users_per_uav,
+        throughput_mbps=np.where(covered, rate_mbps[np.maximum(association, 0)], 0.0) if n_uavs else
+        np.zeros(n_users),
+        qos_s1=served_by.size / n_users if n_users else 0.0,
+        qos_s2=n_fast / n_users if n_users else 0.0,
+        mean_throughput_mbps=float(total_mbps / n_users) if n_users else 0.0,
+        in_range=in_range_any,
+        model=config.association_name,
+    )
+
+
 def evaluate_coverage(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig) -> Coverage:
-    """Associate users with their strongest UAV and share each UAV's capacity among its users.
+    """Associate the users (the config's association, snapshot) and share each UAV's capacity.
 
     Args:
         users_m: (N, 2) user positions in metres.
         uavs_m: (K, 2) UAV positions in metres.
-        config: The radio model.
+        config: The radio model; ``config.station_limit`` chooses the association (module docstring).
 
     Returns:
         The :class:`Coverage` of the users.
@@ -148,29 +287,75 @@ def evaluate_coverage(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConf
     d2 = _squared_distances(users_m, uavs_m, config)  # (K, N)
     n_uavs, n_users = d2.shape
     if n_users == 0 or n_uavs == 0:
-        return Coverage(
-            association=np.full(n_users, -1, dtype=np.int64),
-            covered=np.zeros(n_users, dtype=bool),
-            users_per_uav=np.zeros(n_uavs, dtype=np.int64),
-            throughput_mbps=np.zeros(n_users),
-            qos_s1=0.0, qos_s2=0.0, mean_throughput_mbps=0.0,
-        )
+        return _coverage(np.full(n_users, -1, np.int64), np.zeros(n_users, bool), n_uavs, config)
     # The signal decreases with distance: the strongest UAV is the nearest (argmin keeps the lowest index).
     nearest = d2.argmin(axis=0)
     best_signal = np.exp(d2.min(axis=0) * (-0.5 / config.effective_sigma_sq_m2))
-    covered = best_signal >= config.signal_at_range
-    served_by = nearest[covered]
-    users_per_uav = np.bincount(served_by, minlength=n_uavs)
-    rate_mbps = config.capacity_mbps / np.maximum(users_per_uav, 1)  # (K,) per-user rate of each UAV
-    n_fast = int(users_per_uav[rate_mbps >= config.min_user_rate_mbps].sum())
-    # Each UAV with users hands out its whole capacity: the throughput sums to capacity * active UAVs.
-    total_mbps = config.capacity_mbps * np.count_nonzero(users_per_uav)
-    return Coverage(
-        association=np.where(covered, nearest, -1),
-        covered=covered,
-        users_per_uav=users_per_uav,
-        throughput_mbps=np.where(covered, rate_mbps[nearest], 0.0),
-        qos_s1=served_by.size / n_users,
-        qos_s2=n_fast / n_users,
-        mean_throughput_mbps=float(total_mbps / n_users),
-    )
+    in_range_any = best_signal >= config.signal_at_range
+    association = np.where(in_range_any, nearest, -1)
+    limit = config.max_stations
+    # Admission control changes nothing while no UAV's nearest users exceed its limit.
+    if limit is not None and np.bincount(nearest[in_range_any], minlength=n_uavs).max() > limit:
+        association = admit_stations(d2, _signal_in_range(d2, config), np.full(n_uavs, limit, np.int64))
+    return _coverage(association, in_range_any, n_uavs, config)
+
+
+def _signal_in_range(d2: np.ndarray, config: RadioConfig) -> np.ndarray:
+    """(K, N) bool: the signal of the UAV at the user reaches ``signal_at_range`` (the same test as above)."""
+    return np.exp(d2 * (-0.5 / config.effective_sigma_sq_m2)) >= config.signal_at_range
+
+
+class Association:
+    """The association of a sequence of snapshots (the environment, ``simulate``, ``fly``).
+
+    In the paper's model (no station limit) every snapshot is associated afresh, exactly as
+    :func:`evaluate_coverage`. Under admission control a user keeps its UAV while it stays in range
+    (no eviction by newcomers, no roaming while its signal holds); users that left their UAV's range,
+    and users new in range, fill the free places strongest first (:func:`admit_stations`).
+    Users are identified by their row: the crowd keeps its pedestrians in order.
+
+    Args:
+        config: The radio model.
+
+    Examples:
+        >>> link = Association(RadioConfig(station_limit=1))
+        >>> link.update(np.array([[10.0, 0.0]]), np.array([[0.0, 0.0], [25.0, 0.0]])).association.tolist()
+        [0]
+        >>> link.update(np.array([[14.0, 0.0]]), np.array([[0.0, 0.0], [25.0, 0.0]])).association.tolist()
+        [0]
+    """
+
+    def __init__(self, config: RadioConfig) -> None:
+        self.config = config
+        self._association: np.ndarray | None = None
+
+    def reset(self) -> None:
+        """Forget every association (a new episode)."""
+        self._association = None
+
+    def update(self, users_m: np.ndarray, uavs_m: np.ndarray) -> Coverage:
+        """Associate the users of this snapshot, keeping incumbents in range, and return the coverage.
+
+        Raises:
+            ValueError: An input is not of shape (n, 2).
+        """
+        config, limit = self.config, self.config.max_stations
+        previous = self._association
+        if limit is None:
+            coverage = evaluate_coverage(users_m, uavs_m, config)
+            self._association = coverage.association
+            return coverage
+        d2 = _squared_distances(users_m, uavs_m, config)  # (K, N)
+        n_uavs, n_users = d2.shape
+        in_range = _signal_in_range(d2, config)
+        in_range_any = in_range.any(axis=0) if n_uavs else np.zeros(n_users, bool)
+        kept = np.full(n_users, -1, np.int64)
+        if previous is not None and previous.shape[0] == n_users and n_uavs:
+            stays = (previous >= 0) & (previous < n_uavs)
+            rows = np.flatnonzero(stays)
+            stays[rows] = in_range[previous[rows], rows]
+            kept[stays] = previous[stays]
+        free = limit - np.bincount(kept[kept >= 0], minlength=n_uavs)
+        association = admit_stations(d2, in_range, np.maximum(free, 0), kept) if n_uavs else kept
+        self._association = association
+        return _coverage(association, in_range_any, n_uavs, config)

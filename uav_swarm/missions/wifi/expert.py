@@ -44,6 +44,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from typed_config import Config, ConfigError, param
+from uav_swarm.missions.wifi.capacitated import CapacitatedExpertConfig, place_uavs_capacitated
 from uav_swarm.missions.wifi.group_expert import GroupExpertConfig, place_uavs_by_groups
 from uav_swarm.missions.wifi.rules import (
     Assignment,
@@ -69,10 +70,14 @@ class WifiExpertConfig(Config):
     branching: int = param(
         4, ge=1, le=50, doc="greedy fills try this many separated first candidates and keep the best")
     refine_passes: int = param(3, ge=0, le=100, doc="passes of the continuous centroid refinement")
-    method: Literal["auto", "search", "groups"] = param(
+    method: Literal["auto", "search", "groups", "capacitated"] = param(
         "auto", doc="'search' (greedy + ruin-and-recreate), 'groups' (strategy 2 only, "
-        "uav_swarm.missions.wifi.group_expert) or 'auto' (strategy 1: search; strategy 2: groups)")
+        "uav_swarm.missions.wifi.group_expert), 'capacitated' (strategy 2 under admission control, "
+        "uav_swarm.missions.wifi.capacitated) or 'auto' (strategy 1: search; strategy 2: capacitated "
+        "under admission control, else groups)")
     groups: GroupExpertConfig = param(GroupExpertConfig(), doc="the group expert ([task.expert.groups])")
+    capacitated: CapacitatedExpertConfig = param(
+        CapacitatedExpertConfig(), doc="the expert under admission control ([task.expert.capacitated])")
 
     def method_for(self, rules: CoverageRules) -> str:
         """The method that runs under ``rules``: ``"search"`` or ``"groups"``.
@@ -80,10 +85,14 @@ class WifiExpertConfig(Config):
         Raises:
             ConfigError: ``"groups"`` asked for strategy 1 (exclusive rules).
         """
-        if self.method == "groups" and rules.exclusive:
-            raise ConfigError("WifiExpertConfig.method = 'groups' is strategy 2's; strategy 1 uses 'search'")
+        if self.method in ("groups", "capacitated") and rules.exclusive:
+            raise ConfigError(f"WifiExpertConfig.method = {self.method!r} is strategy 2's; strategy 1 uses "
+                              "'search'")
+        if self.method == "capacitated" and not rules.admission_control:
+            raise ConfigError("WifiExpertConfig.method = 'capacitated' needs admission control: set "
+                              "[task.radio] station_limit (an integer or 'auto')")
         if self.method == "auto":
-            return "search" if rules.exclusive else "groups"
+            return "search" if rules.exclusive else "capacitated" if rules.admission_control else "groups"
         return self.method
 
 
@@ -347,8 +356,18 @@ def place_uavs(
     users_m = np.asarray(users_m, dtype=np.float64)
     if users_m.ndim != 2 or users_m.shape[1] != 2 or not np.all(np.isfinite(users_m)):
         raise ValueError(f"users_m must be a finite (N, 2) array, got shape {users_m.shape}")
-    if config.method_for(rules) == "groups":
+    method = config.method_for(rules)
+    if method == "groups":
         return place_uavs_by_groups(users_m, rules, config.groups, velocities_m_s)
+    if method == "capacitated":
+        seed = _search_placement(users_m, rules, width_m, height_m, config, None)
+        return place_uavs_capacitated(users_m, rules, width_m, height_m, config.capacitated, seeds=[seed])
+    return _search_placement(users_m, rules, width_m, height_m, config, candidates_m)
+
+
+def _search_placement(users_m: np.ndarray, rules: CoverageRules, width_m: float, height_m: float,
+                      config: WifiExpertConfig, candidates_m: np.ndarray | None) -> np.ndarray:
+    """The search expert's placement (greedy + ruin-and-recreate + centring) under the paper's association."""
     if candidates_m is None:
         candidates_m, _ = candidate_grid(width_m, height_m, config.grid_step_m)
     if len(users_m) < rules.min_users or rules.max_uavs == 0:

@@ -29,6 +29,8 @@ class CoverageRules:
         exclusive: How ``min_users`` counts: True (strategy 1) the users this UAV alone
             covers (who would lose the network without it); False (strategy 2) the users it
             serves (its association).
+        admission_control: The radio's UAVs admit at most ``max_users`` stations and refuse the
+            next (:mod:`uav_swarm.world.comms`); False: the paper's model, every user in range joins.
     """
 
     radius_m: float
@@ -36,6 +38,7 @@ class CoverageRules:
     max_users: int | None
     max_uavs: int
     exclusive: bool = False
+    admission_control: bool = False
 
     def __post_init__(self) -> None:
         if not (self.radius_m > 0.0 and math.isfinite(self.radius_m)):

@@ -122,12 +122,15 @@ def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageR
     """
     radio = config.radio
     max_users = None
-    if config.strategy == 2 and radio.min_user_rate_mbps > 0:
+    admission = config.strategy == 2 and radio.max_stations is not None
+    if admission:
+        max_users = radio.max_stations
+    elif config.strategy == 2 and radio.min_user_rate_mbps > 0:
         max_users = int(math.floor(radio.capacity_mbps / radio.min_user_rate_mbps + 1e-9))
     return CoverageRules(radius_m=radio.coverage_radius_m, min_users=config.expert.min_group_size + 1,
                          max_users=max_users,
                          max_uavs=config.expert.max_uavs if max_uavs is None else max_uavs,
-                         exclusive=config.strategy == 1)
+                         exclusive=config.strategy == 1, admission_control=admission)
 
 
 def crowd_raster(users_m: np.ndarray, config: WifiConfig, velocities_m_s: np.ndarray | None = None
