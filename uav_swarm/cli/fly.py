@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     if "mean_qos_s1" in summary:
         print(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: mean QoS S1 "
               f"{summary['mean_qos_s1']:.3f}, S2 {summary['mean_qos_s2']:.3f}, "
-              f"mean throughput {summary['mean_throughput_mbps']:.2f} Mbps")
+              f"mean throughput {summary['mean_throughput_mbps']:.2f} Mbps ({summary['association']})")
     print(f"wrote {', '.join(summary['files'])} in {args.out}")
     if "recording" in summary:
         print(f"recorded the flight in {summary['recording']}")

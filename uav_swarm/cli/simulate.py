@@ -81,6 +81,14 @@ def format_summary(summary: dict[str, Any]) -> str:
         lines.append(f"{kind:<8} {s['mean_qos_s1']:>11.3f} {s['min_qos_s1']:>6.3f} {s['mean_qos_s2']:>11.3f} "
                      f"{s['min_qos_s2']:>6.3f} {s['mean_throughput_mbps']:>9.2f} "
                      f"{s['median_latency_ms']:>11.2f} {s['p95_latency_ms']:>8.2f}")
+    first = next(iter(summary["planners"].values()), {})
+    if "association" in first:
+        lines.append(f"radio association: {first['association']}")
+    paper = {kind: s["mean_qos_s2_paper_radio"] for kind, s in summary["planners"].items()
+             if "mean_qos_s2_paper_radio" in s}
+    if paper:
+        lines.append("the same flights, QoS S2 on the paper's radio: "
+                     + ", ".join(f"{kind} {value:.3f}" for kind, value in paper.items()))
     ratios = summary.get("ratios_learned_over_expert")
     if ratios:
         def show(value: float | None) -> str:

@@ -334,7 +334,7 @@ class BatchedUAVSwarm:
         self._mean_throughput = np.divide(total_mbps, users, out=np.zeros(b), where=some)
 
     def _admitted_coverage(self, peds: np.ndarray, copy: np.ndarray) -> None:
-        """Admission control: each copy's association sequence (:class:`~uav_swarm.world.comms.Association`)."""
+        """Admission control: each copy's own association sequence (``comms.Association``)."""
         b, n = self.num_envs, self.n_agents
         starts = np.searchsorted(copy, np.arange(b + 1))
         coverages = [link.update(peds[starts[c]:starts[c + 1]], self._positions_m[c])

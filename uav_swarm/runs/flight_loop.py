@@ -28,7 +28,7 @@ from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.records import QosTrace
 from uav_swarm.runs.service import STATIC_EVERY_S
-from uav_swarm.world.comms import evaluate_coverage
+from uav_swarm.world.comms import Association
 from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.scenario import random_scenario
 
@@ -102,6 +102,8 @@ class Flight:
         rng = np.random.default_rng(config.seed)
         self.scenario = random_scenario(rng, config.task.scenario)
         self.crowd = CrowdSim(self.scenario, config.task.crowd, rng)
+        self._association = Association(config.task.radio)
+        """The users' association over the flight (admission control keeps incumbents on their UAV)."""
         self.alt_m = float(config.uav.alt_m)
         fleet.tracker.add_listener(self._on_state)
 
@@ -304,7 +306,7 @@ class Flight:
         live = self._live()
         users = self.crowd.positions_m
         uavs = np.array([(s.x_m, s.y_m) for _, s in live]).reshape(-1, 2)
-        cov = evaluate_coverage(users, uavs, self.config.task.radio)
+        cov = self._association.update(users, uavs, [vehicle.uav_id for vehicle, _ in live])
         times.append(self._clock_s)
         rows.append((float(cov.qos_s1), float(cov.qos_s2), float(cov.mean_throughput_mbps)))
         if self.publisher is not None or self.recorder is not None:

@@ -161,7 +161,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
                   write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]
         summary |= {"duration_s": float(trace.times_s[-1]), "planner": trace.planner_name,
                     "mean_qos_s1": float(trace.qos_s1.mean()), "mean_qos_s2": float(trace.qos_s2.mean()),
-                    "mean_throughput_mbps": float(trace.throughput_mbps.mean())}
+                    "mean_throughput_mbps": float(trace.throughput_mbps.mean()),
+                    "association": config.task.radio.association_name}
         flown = trace.qos_s1 if config.task.strategy == 1 else trace.qos_s2
         summary["service"] = flight_figures(flown, flight.plans, track, flight.crowd_samples, config.task, n,
                                             float(trace.times_s[-1]))

@@ -52,8 +52,14 @@ def write_qos_figure(runs: Mapping[str, QosSeries], path: Path, reference: Stati
     for kind, run in runs.items():
         style = _STYLE.get(kind, {})
         ax_qos.plot(run.times_s, run.qos_s1, label=f"{kind}: S1 (share covered)", **style)
-        ax_qos.plot(run.times_s, run.qos_s2, linestyle="--", label=f"{kind}: S2 (covered with >= min rate)",
-                    **style)
+        paper = getattr(run, "qos_s2_paper", None)  # the same flight under the paper's radio, if recorded
+        paper = paper if paper is not None and len(paper) else None
+        radio = " (admission control)" if paper is not None else ""
+        ax_qos.plot(run.times_s, run.qos_s2, linestyle="--",
+                    label=f"{kind}: S2 (covered with >= min rate){radio}", **style)
+        if paper is not None:
+            ax_qos.plot(run.times_s, paper, linestyle=":", label=f"{kind}: S2, paper's radio",
+                        **style)
         ax_rate.plot(run.times_s, run.throughput_mbps, label=f"{kind} ({run.planner_name})", **style)
     if reference is not None and reference.qos.size:
         ax_qos.plot(reference.times_s, reference.qos, linestyle="none", marker="D", color="black",

@@ -49,6 +49,9 @@ class SequenceRun:
         n_pedestrians: Crowd size.
         obstacles_m: ``(M, 4)`` the scenario's obstacle segments.
         frames: Snapshots for the animation (empty unless asked for).
+        qos_s2_paper: ``(T,)`` strategy 2's QoS of the same UAVs judged with the paper's radio (no admission
+            control), when the run flew under admission control; empty otherwise.
+        association: Which radio association the run's QoS used.
     """
 
     planner: str
@@ -66,6 +69,8 @@ class SequenceRun:
     frames: list[Frame] = field(default_factory=list)
     target_jumps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     distance_m: float = 0.0
+    qos_s2_paper: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    association: str = "paper (no admission control)"
 
 
 @dataclass

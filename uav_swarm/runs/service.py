@@ -2,8 +2,9 @@
 
 - **Static reference**: every ``every_s`` seconds, the expert's placement of that instant's crowd,
   judged with the radio model as if the UAVs were already there (so it depends on the crowd alone).
-  For strategy 2 it is the better of the two experts (the group expert and the search expert of
-  :mod:`uav_swarm.missions.wifi.expert`), for strategy 1 the search expert.
+  For strategy 2 under admission control it is the capacitated expert
+  (:mod:`uav_swarm.missions.wifi.capacitated`); on the paper's radio the better of the group expert and the
+  search expert of :mod:`uav_swarm.missions.wifi.expert`; for strategy 1 the search expert.
 - **Flown / static**: the mean QoS the UAVs delivered over the run divided by the mean static reference.
 - **Target jumps**: UAVs whose target moved more than ``JUMP_M`` between two replans (a walking group
   moves about 1.3 m in a second, so following it is not a jump).
@@ -53,8 +54,16 @@ class StaticReference:
 
 
 def _experts(task_config: WifiConfig, n_uavs: int) -> dict[str, WifiTask]:
-    """The strategy's experts for ``n_uavs`` UAVs (strategy 2: the group and the search expert)."""
-    methods = ("groups", "search") if task_config.strategy == 2 else ("search",)
+    """The strategy's experts for ``n_uavs`` UAVs.
+
+    Strategy 2 under admission control: the capacitated expert; on the paper's radio: the group and the
+    search expert; strategy 1: the search expert.
+    """
+    if task_config.strategy == 2:
+        admission = task_config.radio.max_stations is not None
+        methods: tuple[str, ...] = ("capacitated",) if admission else ("groups", "search")
+    else:
+        methods = ("search",)
     tasks = {}
     for method in methods:
         expert = task_config.expert.replace(method=method, max_uavs=min(task_config.expert.max_uavs, n_uavs))

@@ -39,6 +39,7 @@ from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.runs.records import Frame, SequenceRun
 from uav_swarm.runs.service import StaticReference, metres_per_uav_minute, static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
+from uav_swarm.world.comms import evaluate_coverage
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
@@ -114,6 +115,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     agents = list(env.possible_agents)
     steps, alt_m = config.n_steps, float(config.uav.alt_m)
     qos_s1, qos_s2, rate = (np.zeros(steps) for _ in range(3))
+    admission = env.radio.max_stations is not None
+    paper_radio = env.radio.replace(station_limit="off")
+    qos_s2_paper = np.zeros(steps if admission else 0)
     latencies: list[float] = []
     changes: list[int] = []
     frames: list[Frame] = []
@@ -142,6 +146,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
         cov = env.coverage
         qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
+        if admission:  # the same flight judged with the paper's radio, for the paper's table and qos.png
+            qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
+                                                   paper_radio).qos_s2
         if (publisher is not None or recorder is not None) and step % config.telemetry_every == 0:
             states, qos = _telemetry(env, targets, alt_m, step)
             if publisher is not None:
@@ -162,7 +169,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         target_changes=np.asarray(changes, dtype=np.int64), final_targets_m=np.array(targets),
         final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
-        target_jumps=target_jumps(np.array(plans)), distance_m=distance_m)
+        target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
+        association=cov.model)
 
 
 def sequence_crowds(config: SimulateConfig, every_s: float
@@ -211,7 +219,8 @@ def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
         "median_latency_ms": float(np.median(run.latency_ms)),
         "p95_latency_ms": float(np.percentile(run.latency_ms, 95)),
         "n_replans": int(run.latency_ms.size), "n_pedestrians": run.n_pedestrians,
-        "mean_target_changes_per_replan": changes,
+        "mean_target_changes_per_replan": changes, "association": run.association,
+        **({"mean_qos_s2_paper_radio": float(run.qos_s2_paper.mean())} if run.qos_s2_paper.size else {}),
     }
 
 

@@ -42,6 +42,7 @@ Examples:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -71,8 +72,8 @@ class RadioConfig(Config):
     station_limit: int | Literal["auto", "off"] | None = param(
         None, ge=1, doc="stations a UAV admits (admission control, as an access point's max_num_sta): "
         "an integer 1..floor(capacity_mbps / min_user_rate_mbps), 'auto' for that floor (40 by default), "
-        "or 'off' for the paper's model (every user in range joins its strongest UAV); None (not given) is the "
-        "paper's model too, except in simulate and fly with strategy 2, which take 'auto'")
+        "or 'off' for the paper's model (every user in range joins its strongest UAV); None (not given) is "
+        "the paper's model too, except in simulate and fly with strategy 2, which take 'auto'")
 
     def check(self) -> None:
         """Reject a minimum rate above the capacity and a station limit the capacity cannot serve."""
@@ -89,8 +90,8 @@ class RadioConfig(Config):
                                   "(the limit is floor(capacity_mbps / min_user_rate_mbps)); give an integer")
         elif most is not None and self.station_limit > most:
             raise ConfigError(
-                f"RadioConfig.station_limit = {self.station_limit} is out of range: allowed 1 <= station_limit "
-                f"<= {most} (capacity_mbps / min_user_rate_mbps = {self.capacity_mbps} / "
+                f"RadioConfig.station_limit = {self.station_limit} is out of range: allowed "
+                f"1 <= station_limit <= {most} (capacity_mbps / min_user_rate_mbps = {self.capacity_mbps} / "
                 f"{self.min_user_rate_mbps}: more stations could not all get the minimum rate)")
 
     @property
@@ -328,19 +329,42 @@ class Association:
     def __init__(self, config: RadioConfig) -> None:
         self.config = config
         self._association: np.ndarray | None = None
+        self._ids = np.zeros(0, np.int64)
 
     def reset(self) -> None:
         """Forget every association (a new episode)."""
         self._association = None
+        self._ids = np.zeros(0, np.int64)
 
-    def update(self, users_m: np.ndarray, uavs_m: np.ndarray) -> Coverage:
+    def _previous_rows(self, ids: np.ndarray) -> np.ndarray | None:
+        """The last association in this update's UAV rows (-1 where the UAV is gone)."""
+        if self._association is None:
+            return None
+        if np.array_equal(ids, self._ids):
+            return self._association
+        row_of = {int(uav_id): row for row, uav_id in enumerate(ids)}
+        rows = np.array([row_of.get(int(uav_id), -1) for uav_id in self._ids] + [-1], np.int64)
+        return rows[self._association]  # -1 (no UAV) indexes the appended -1
+
+    def update(self, users_m: np.ndarray, uavs_m: np.ndarray, uav_ids: Sequence[int] | None = None
+               ) -> Coverage:
         """Associate the users of this snapshot, keeping incumbents in range, and return the coverage.
 
+        Args:
+            users_m: (N, 2) user positions, the same users in the same rows at every update.
+            uavs_m: (K, 2) UAV positions.
+            uav_ids: (K,) a stable id per UAV row, for fleets whose rows change (a vehicle lost or back);
+                default: the row index.
+
         Raises:
-            ValueError: An input is not of shape (n, 2).
+            ValueError: An input is not of shape (n, 2), or ``uav_ids`` not of length K.
         """
         config, limit = self.config, self.config.max_stations
-        previous = self._association
+        ids = np.arange(len(uavs_m)) if uav_ids is None else np.asarray(uav_ids, np.int64).reshape(-1)
+        if len(ids) != len(uavs_m):
+            raise ValueError(f"uav_ids has {len(ids)} ids for {len(uavs_m)} UAVs")
+        previous = self._previous_rows(ids)
+        self._ids = ids
         if limit is None:
             coverage = evaluate_coverage(users_m, uavs_m, config)
             self._association = coverage.association

@@ -5,7 +5,7 @@ With admission control (:mod:`uav_swarm.world.comms`, ``RadioConfig.station_limi
 next UAV in range. Every admitted user gets at least the minimum rate by construction, so strategy 2
 becomes: **place at most ``max_uavs`` UAVs to maximise the users admitted**, every deployed UAV justified
 by more than 30 admitted users (the paper's rule as strategy 2 reads it, order-free: every UAV admits at
-least ``rules.min_users`` users, who would be refused or out of range without it only if no neighbour has room).
+least ``rules.min_users`` users).
 
 The optimiser (:func:`place_uavs_capacitated`) judges every placement it keeps with the true
 association (:func:`uav_swarm.world.comms.admit_stations`), never with a surrogate. It runs from the
@@ -48,7 +48,7 @@ class CapacitatedExpertConfig(Config):
     """Settings of the strategy-2 expert under admission control."""
 
     grid_step_m: float = param(2.5, gt=0.0, le=50.0, doc="spacing of the candidate grid, metres")
-    shortlist: int = param(8, ge=1, le=500, doc="best-ranked candidates evaluated exactly at each greedy step")
+    shortlist: int = param(8, ge=1, le=500, doc="best-ranked candidates judged exactly per greedy step")
     ruin_passes: int = param(0, ge=0, le=20, doc="passes of ruin-and-recreate over every UAV")
     centre_passes: int = param(3, ge=0, le=20, doc="passes of the centring step")
 

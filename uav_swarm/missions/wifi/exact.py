@@ -41,7 +41,7 @@ from scipy.spatial import cKDTree
 
 from uav_swarm.missions.wifi.rules import CoverageRules
 
-__all__ = ["ExactPlacement", "exact_placement"]
+__all__ = ["ExactPlacement", "exact_placement", "capacitated_optimum"]
 
 
 @dataclass(frozen=True)
@@ -206,3 +206,64 @@ def _exclusive_model(
                  -np.ones(n_users), np.zeros(n_users)]
     integrality = np.r_[np.zeros(n_pairs), np.ones(m), np.zeros(2 * n_users)]
     return cost, integrality, constraints, y0, np.r_[np.ones(n_pairs + m + n_users), np.full(n_users, big)]
+
+
+def capacitated_optimum(users_m: np.ndarray, rules: CoverageRules, candidates_m: np.ndarray,
+                        time_limit_s: float = 60.0) -> ExactPlacement:
+    """The capacitated maximal covering problem over ``candidates_m``, solved exactly (admission control).
+
+    Open at most ``max_uavs`` candidates and assign users to open candidates in range, each candidate taking
+    between ``min_users`` and ``max_users`` users, to maximise the users assigned (then the fewest UAVs).
+    Variables ``y_j`` (open, binary) and ``x_ij`` (user i assigned to j, continuous in [0, 1])::
+
+        sum_j x_ij <= 1                                   each user at most once
+        min_users y_j <= sum_i x_ij <= max_users y_j      the station limit and the deployment rule
+        sum_j y_j <= max_uavs
+
+    Given integral ``y`` the rest is a transportation problem, whose optimum is integral. The assignment is
+    the best one, not the radio's strongest-first admission: ``n_served`` bounds from above what any
+    placement on these candidates admits (:func:`uav_swarm.missions.wifi.capacitated.admitted_users` judges
+    the chosen positions with the radio's own rule).
+
+    Raises:
+        ValueError: ``rules`` without a station limit (``max_users``).
+        RuntimeError: HiGHS found no feasible point.
+    """
+    if rules.max_users is None:
+        raise ValueError("capacitated_optimum needs rules.max_users (the station limit)")
+    start = time.perf_counter()
+    users_m = np.asarray(users_m, np.float64).reshape(-1, 2)
+    candidates_m = np.asarray(candidates_m, np.float64).reshape(-1, 2)
+    u, c, _ = _pairs(users_m, candidates_m, rules.radius_m) if len(users_m) and len(candidates_m) else (
+        np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+    useful = np.bincount(c, minlength=len(candidates_m)) >= rules.min_users
+    keep = useful[c]
+    if not keep.any() or rules.max_uavs == 0:
+        return ExactPlacement(np.zeros((0, 2)), 0, True, time.perf_counter() - start)
+    index = np.cumsum(useful) - 1
+    u, c = u[keep], index[c[keep]]
+    cands = candidates_m[useful]
+    n_users, m, p = len(users_m), len(cands), len(u)
+    # Variables: x (p pairs), then y (m candidates).
+    cost = np.concatenate([-np.ones(p), np.full(m, 1.0 / (rules.max_uavs + 1))])
+    pair = np.arange(p)
+    once = sparse.csr_array((np.ones(p), (u, pair)), shape=(n_users, p + m))
+    load = sparse.csr_array((np.ones(p), (c, pair)), shape=(m, p + m))
+    open_y = sparse.csr_array((np.ones(m), (np.arange(m), p + np.arange(m))), shape=(m, p + m))
+    budget = sparse.csr_array((np.ones(m), (np.zeros(m, np.int64), p + np.arange(m))), shape=(1, p + m))
+    constraints = [
+        LinearConstraint(once, -np.inf, 1.0),
+        LinearConstraint(load - rules.max_users * open_y, -np.inf, 0.0),
+        LinearConstraint(load - rules.min_users * open_y, 0.0, np.inf),
+        LinearConstraint(budget, 0.0, rules.max_uavs),
+    ]
+    integrality = np.concatenate([np.zeros(p), np.ones(m)])
+    result = milp(cost, constraints=constraints, integrality=integrality, bounds=Bounds(0.0, 1.0),
+                  options={"time_limit": time_limit_s})
+    if result.x is None:
+        raise RuntimeError(f"HiGHS found no feasible placement: {result.message}")
+    chosen = np.flatnonzero(result.x[p:] > 0.5)
+    uavs_m = cands[chosen]
+    uavs_m = uavs_m[np.lexsort((uavs_m[:, 0], uavs_m[:, 1]))] if len(uavs_m) else np.zeros((0, 2))
+    served = int(round(result.x[:p].sum()))
+    return ExactPlacement(uavs_m, served, bool(result.status == 0), time.perf_counter() - start)
