@@ -93,7 +93,8 @@ def test_an_incumbent_is_never_evicted_by_a_nearer_newcomer():
     second = link.update(np.array([[-10.0, 0.0], [2.0, 0.0]]), uavs)
     assert second.association.tolist() == [0, 1]
     # A snapshot gives UAV 0 to the nearer newcomer; the other user, in range of UAV 0 alone, is refused.
-    # A snapshot gives UAV 0 to the nearer newcomer; the other user (in range of UAV 0 alone) is refused.
+    snapshot = evaluate_coverage(np.array([[-10.0, 0.0], [2.0, 0.0]]), uavs, config)
+    assert snapshot.association.tolist() == [-1, 0]
 
 
 def test_an_incumbent_does_not_roam_while_its_signal_holds_and_leaves_out_of_range():
