@@ -86,8 +86,10 @@ def test_an_engine_whose_maps_differ_is_not_chosen(model, monkeypatch, caplog):
         def maps(self, x):
             return self.engine.maps(x) + 2 * EXACT_TOLERANCE
 
-    monkeypatch.setattr(inference, "build_engine",
-                        lambda name, *a: Off(real("torch-eager", *a[:2])) if name == "torch-jit" else real(name, *a))
+    def build(name, *args):
+        return Off(real("torch-eager", *args[:2])) if name == "torch-jit" else real(name, *args)
+
+    monkeypatch.setattr(inference, "build_engine", build)
     choice = select_engine(model, SHAPE, engines=["torch-jit", "torch-eager"], trials=2)
     assert choice.name == "torch-eager" and choice.skipped == {"torch-jit": "maps differ from eager float32"}
     assert "torch-jit skipped: its maps differ" in caplog.text
