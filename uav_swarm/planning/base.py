@@ -7,6 +7,7 @@ snapshot assignment; the planner module's docstring tells both).
 
 from __future__ import annotations
 
+import copy
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -157,6 +158,13 @@ class AssigningPlanner(ABC):
         """Forget the previous targets and what each UAV serves: a new sequence starts."""
         self._previous = None
         self.motion.reset()
+
+    def fork(self) -> AssigningPlanner:
+        """A planner of another world: the same settings and network, a sequence state of its own (reset)."""
+        twin = copy.copy(self)
+        twin.motion = copy.deepcopy(self.motion)
+        twin.reset()
+        return twin
 
     def plan(self, pedestrians_m: np.ndarray, uav_positions_m: np.ndarray,
              pedestrian_velocities_m_s: np.ndarray | None = None) -> PlanResult:

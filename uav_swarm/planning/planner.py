@@ -215,16 +215,25 @@ class LearnedPlanner(AssigningPlanner):
     def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
         """The ``n_uavs`` highest peaks of the utility map (metres), refined if configured, and the map."""
-        raster = crowd_raster(pedestrians_m, self.task.config, velocities_m_s)
-        utility = self.utility_map(raster)
-        peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
-        if self._check is not None:
-            peaks_px = self._check(raster, peaks_px)
-        peaks_m = self.task.to_metres(peaks_px)
-        if self.config.refine:
-            peaks_m = refine_placement(pedestrians_m, peaks_m, self._rules, self.task.width_m,
-                                       self.task.height_m, self.refinement)
-        return peaks_m, utility
+        return self.propose_batch([pedestrians_m], [velocities_m_s])[0]
+
+    def propose_batch(self, pedestrians_m: list[np.ndarray], velocities_m_s: list[np.ndarray | None]
+                      ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """:meth:`propose` for several crowds, their rasters in one forward pass of the network."""
+        rasters = np.stack([crowd_raster(peds, self.task.config, vels)
+                            for peds, vels in zip(pedestrians_m, velocities_m_s, strict=True)])
+        maps = self.utility_maps(rasters)  # (B, h, w)
+        out = []
+        for peds, raster, utility in zip(pedestrians_m, rasters, maps, strict=True):
+            peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
+            if self._check is not None:
+                peaks_px = self._check(raster, peaks_px)
+            peaks_m = self.task.to_metres(peaks_px)
+            if self.config.refine:
+                peaks_m = refine_placement(peds, peaks_m, self._rules, self.task.width_m, self.task.height_m,
+                                           self.refinement)
+            out.append((peaks_m, utility))
+        return out
 
 
 def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | None = None, *,
