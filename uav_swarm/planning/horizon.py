@@ -4,7 +4,8 @@ Planning in motion (:mod:`uav_swarm.planning.motion`) judges each option by the 
 ``samples`` instants of the next ``horizon_s`` seconds: the crowd walks on with its velocities, the
 UAVs fly to their (moving) targets at their speed and acceleration limits. :func:`horizon_qos` builds
 every (option, instant) pair as one batch of worlds and :func:`coverage_qos_batch` judges the batch in
-one vectorised pass (worlds x UAVs x users), with exactly the arithmetic of
+one pass (worlds x UAVs x users: a compiled loop finds each user's nearest UAV without the large
+temporaries of a broadcast, numpy does the rest on ``(B, N)`` arrays), with exactly the arithmetic of
 :func:`uav_swarm.world.comms.evaluate_coverage`, so the QoS values, and the decisions taken on them,
 are those of one radio-model call per instant and option.
 
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numba
 import numpy as np
 
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
@@ -35,6 +37,33 @@ def travelled_m(t_s: float, max_speed_m_s: float, max_accel_m_s2: float) -> floa
     if t_s <= t_ramp:
         return 0.5 * max_accel_m_s2 * t_s ** 2
     return 0.5 * max_accel_m_s2 * t_ramp ** 2 + max_speed_m_s * (t_s - t_ramp)
+
+
+@numba.njit(cache=True, nogil=True)
+def _nearest(users: np.ndarray, uavs: np.ndarray, altitude_sq: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(B, N)`` nearest UAV (the lowest index among equals) and its squared distance, per world and user.
+
+    The squared distance is evaluate_coverage's, operation for operation: ``dx * dx``, plus ``dy * dy``,
+    plus the squared altitude when there is one (no fused multiply-add: numba keeps IEEE semantics).
+    """
+    n_worlds, n_users = users.shape[0], users.shape[1]
+    nearest = np.zeros((n_worlds, n_users), np.int64)
+    best = np.empty((n_worlds, n_users))
+    for b in range(n_worlds):
+        for n in range(n_users):
+            arg, low = 0, np.inf
+            for k in range(uavs.shape[1]):
+                dx = uavs[b, k, 0] - users[b, n, 0]
+                dy = uavs[b, k, 1] - users[b, n, 1]
+                d2 = dx * dx
+                d2 += dy * dy
+                if altitude_sq != 0.0:
+                    d2 += altitude_sq
+                if d2 < low:
+                    arg, low = k, d2
+            nearest[b, n] = arg
+            best[b, n] = low
+    return nearest, best
 
 
 def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig
@@ -66,18 +95,11 @@ def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioCon
                 np.array([c.qos_s2 for c in pairs], dtype=np.float64))
     if n_users == 0 or n_uavs == 0:
         return np.zeros(n_worlds), np.zeros(n_worlds)
-    # The same operations, in the same order, as evaluate_coverage, with a leading world axis.
-    dx = uavs[:, :, 0:1] - users[:, None, :, 0]  # (B, K, N)
-    dy = uavs[:, :, 1:2] - users[:, None, :, 1]
-    d2 = dx * dx
-    d2 += dy * dy
-    if config.altitude_m:
-        d2 += config.altitude_m**2
-    nearest = d2.argmin(axis=1)  # (B, N)
-    best_signal = np.exp(d2.min(axis=1) * (-0.5 / config.effective_sigma_sq_m2))
+    nearest, nearest_d2 = _nearest(users, uavs, float(config.altitude_m) ** 2 if config.altitude_m else 0.0)
+    best_signal = np.exp(nearest_d2 * (-0.5 / config.effective_sigma_sq_m2))  # numpy's exp, as there
     covered = best_signal >= config.signal_at_range
-    world = np.broadcast_to(np.arange(n_worlds)[:, None], covered.shape)
-    users_per_uav = np.bincount((world * n_uavs + nearest)[covered],
+    world = np.arange(n_worlds)[:, None] * n_uavs
+    users_per_uav = np.bincount((world + nearest)[covered],
                                 minlength=n_worlds * n_uavs).reshape(n_worlds, n_uavs)
     rate_mbps = config.capacity_mbps / np.maximum(users_per_uav, 1)
     n_fast = np.where(rate_mbps >= config.min_user_rate_mbps, users_per_uav, 0).sum(axis=1)
