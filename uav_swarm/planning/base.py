@@ -21,6 +21,7 @@ from uav_swarm.missions.wifi.refine import WifiRefineConfig
 from uav_swarm.missions.wifi.rule_check import RuleCheckConfig
 from uav_swarm.missions.wifi.task import WifiConfig, coverage_rules
 from uav_swarm.planning.assignment import assign_targets
+from uav_swarm.planning.horizon import warm_up
 from uav_swarm.planning.motion import MotionConfig, MotionPlanning
 from uav_swarm.world.uav import UAVConfig
 
@@ -148,6 +149,8 @@ class AssigningPlanner(ABC):
             self.n_uavs, coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs)),
             task_config.radio, task_config.strategy, (scenario.width_m, scenario.height_m), uav_config,
             self.config.motion, self.config.min_gap_m)
+        if self.config.mode == "motion":
+            warm_up()  # the horizon's compiled loop, loaded now rather than at the first replan
 
     @abstractmethod
     def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None

@@ -21,6 +21,7 @@ Examples:
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numba
@@ -28,7 +29,7 @@ import numpy as np
 
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
 
-__all__ = ["coverage_qos_batch", "horizon_qos", "travelled_m"]
+__all__ = ["coverage_qos_batch", "horizon_qos", "travelled_m", "warm_up"]
 
 
 def travelled_m(t_s: float, max_speed_m_s: float, max_accel_m_s2: float) -> float:
@@ -81,8 +82,8 @@ def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioCon
     Raises:
         ValueError: The arrays are not ``(B, N, 2)`` and ``(B, K, 2)`` with the same ``B``.
     """
-    users = np.asarray(users_m, dtype=np.float64)
-    uavs = np.asarray(uavs_m, dtype=np.float64)
+    users = np.ascontiguousarray(users_m, dtype=np.float64)
+    uavs = np.ascontiguousarray(uavs_m, dtype=np.float64)
     if users.ndim != 3 or uavs.ndim != 3 or users.shape[2] != 2 or uavs.shape[2] != 2 \
             or users.shape[0] != uavs.shape[0]:
         raise ValueError(f"users_m and uavs_m must have shapes (B, N, 2) and (B, K, 2), got {users.shape} "
@@ -105,6 +106,12 @@ def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioCon
     n_fast = np.where(rate_mbps >= config.min_user_rate_mbps, users_per_uav, 0).sum(axis=1)
     n_served = covered.sum(axis=1)
     return n_served / n_users, n_fast / n_users
+
+
+@functools.cache
+def warm_up() -> None:
+    """Load the compiled loop once per process (about half a second), so that no replan pays for it."""
+    coverage_qos_batch(np.zeros((1, 1, 2)), np.zeros((1, 1, 2)), RadioConfig())
 
 
 def horizon_qos(peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, options: Sequence[np.ndarray],

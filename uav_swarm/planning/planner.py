@@ -66,6 +66,7 @@ from learning.peaks import find_peaks
 from typed_config import ConfigError
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.refine import refine_placement, strategy_refinement
+from uav_swarm.missions.wifi.relocation import warm_up as relocation_warm_up
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, coverage_rules, crowd_raster
 from uav_swarm.planning.base import AssigningPlanner, Planner, PlannerConfig, PlanResult, check_n_uavs
@@ -160,6 +161,7 @@ class LearnedPlanner(AssigningPlanner):
         """The refinement's settings: ``[planning.refinement]``, else the strategy's own."""
         if self.config.refine:
             self.refinement.check_rules(self.task.rules, "[planning.refinement]")
+            relocation_warm_up()  # strategy 2's relocation search: compiled once, before the first replan
         path = default_checkpoint(task_name) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
             if checkpoint in (None, ""):

@@ -32,6 +32,8 @@ Examples:
 
 from __future__ import annotations
 
+import functools
+
 import numba
 import numpy as np
 
@@ -45,7 +47,7 @@ from uav_swarm.missions.wifi.rules import (
 )
 
 __all__ = ["placement_violation", "relocation_scores", "relocate", "adopt_by_relocation",
-           "insert_by_relocation"]
+           "insert_by_relocation", "warm_up"]
 
 
 def placement_violation(counts: np.ndarray, rules: CoverageRules) -> np.ndarray:
@@ -94,6 +96,13 @@ def _captures(cand: np.ndarray, user: np.ndarray, pair_d2: np.ndarray, owner: np
         if o >= 0 and (fallback[u] < 0 or d < e2[u]):
             gained[fallback[u] + 1, o, c] += 1
     return base, gained
+
+
+@functools.cache
+def warm_up() -> None:
+    """Load the compiled capture pass once per process (about half a second) before the first search."""
+    none = np.zeros(1, np.int64)
+    _captures(none, none, np.zeros(1), none, none - 1, np.ones(1), np.ones(1), 1, 1)
 
 
 def relocation_scores(
