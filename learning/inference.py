@@ -5,6 +5,12 @@ A replan has a budget of a few milliseconds, so this path avoids autograd
 reuses the CoordConv grid that the model builds once per raster shape. Precision
 is that of :mod:`learning.precision` (bfloat16 autocast where native).
 
+The engine (:mod:`learning.engines`) is chosen at load by measuring: :func:`select_engine` builds the
+candidates the machine has (ONNX Runtime when installed, a traced TorchScript graph, eager torch),
+keeps those whose maps equal eager float32 within :data:`EXACT_TOLERANCE` on every pixel of probe
+rasters, times each at batch 1 and returns the fastest. A candidate whose package is missing is
+skipped with a log line, never an error; eager float32 is always there.
+
 Test-time augmentation (``tta=True``): the utility map is the mean of the maps of
 the 8 symmetries of the square raster (flips and transposition), each mapped back,
 computed in one batch. It needs a square raster and a task whose rule commutes with
@@ -13,18 +19,157 @@ the symmetries (the same condition as training augmentation).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import hashlib
+import logging
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
+from learning.engines import ENGINES, Engine, build_engine
 from learning.model import UtilityNet
 from learning.peaks import PeakConfig, find_peaks
 from learning.precision import Precision, autocast
 from learning.symmetry import SYMMETRIES, transform_vector_channels
 
-__all__ = ["SYMMETRIES", "apply_symmetry", "invert_symmetry", "utility_maps", "utility_map",
-           "predict_positions"]
+__all__ = ["SYMMETRIES", "EXACT_TOLERANCE", "BFLOAT16_TOLERANCE", "EngineChoice", "select_engine",
+           "apply_symmetry", "invert_symmetry", "utility_maps", "utility_map", "predict_positions"]
+
+logger = logging.getLogger(__name__)
+
+EXACT_TOLERANCE = 1e-3
+"""Largest difference on any pixel between a float32 engine's map and eager float32's (map units)."""
+
+BFLOAT16_TOLERANCE = 0.05
+"""bfloat16's tolerance, relative to ``max(1, |map|)``: bfloat16 keeps 8 bits of mantissa, so its maps
+are never "equal" to float32's; it runs only when asked for (``precision = "bfloat16"``)."""
+
+EXACT_ENGINES = ("onnxruntime", "torch-jit", "torch-eager")
+"""The float32 candidates, tried in this order (the last is always available)."""
+
+
+@dataclass
+class EngineChoice:
+    """The engine :func:`select_engine` chose, and why.
+
+    Attributes:
+        engine: The fastest candidate that passed the comparison.
+        timings_ms: Median batch-1 milliseconds of every candidate that was measured.
+        skipped: Why each other candidate was left out (package missing, maps differ).
+    """
+
+    engine: Engine
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    skipped: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        """The chosen engine's name."""
+        return self.engine.name
+
+
+_CHOICES: dict[tuple, EngineChoice] = {}
+
+
+def _fingerprint(model: UtilityNet) -> str:
+    """A digest of the network's configuration and weights (equal networks share their engines)."""
+    digest = hashlib.sha256(repr(model.config).encode())
+    for name, tensor in model.state_dict().items():
+        digest.update(f"{name}:{tensor.dtype}".encode())
+        digest.update(tensor.detach().cpu().float().contiguous().numpy().tobytes())
+    return digest.hexdigest()
+
+
+def _within(name: str, maps: np.ndarray, reference: np.ndarray) -> bool:
+    """Whether ``maps`` match the float32 reference within ``name``'s tolerance."""
+    if maps.shape != reference.shape or not np.all(np.isfinite(maps)):
+        return False
+    gap = float(np.abs(maps - reference).max()) if maps.size else 0.0
+    if name.endswith("-bf16"):
+        return gap <= BFLOAT16_TOLERANCE * max(1.0, float(np.abs(reference).max()))
+    return gap <= EXACT_TOLERANCE
+
+
+def select_engine(model: UtilityNet, shape: tuple[int, int, int], precision: Precision = "float32",
+                  threads: int = 1, engines: Sequence[str] | None = None, trials: int = 15) -> EngineChoice:
+    """The fastest engine for ``model`` on ``(C, h, w)`` inputs whose maps equal eager float32's.
+
+    Candidates: ``engines`` when given, else :data:`EXACT_ENGINES` for float32 and
+    ``torch-eager-bf16`` for bfloat16. Each is built, compared with eager float32 on seeded probe
+    rasters (:data:`EXACT_TOLERANCE`, :data:`BFLOAT16_TOLERANCE` for bfloat16), timed at batch 1
+    (``trials`` calls each, interleaved so that the machine's load hits all alike) and the fastest
+    median wins. A candidate that cannot be built (missing package) or differs is skipped with a log
+    line; when none is left, eager float32 runs. Choices are cached per network, shape and settings.
+
+    Args:
+        model: The network.
+        shape: The input shape ``(C, h, w)``.
+        precision: ``"float32"`` or ``"bfloat16"``.
+        threads: ONNX Runtime's threads (torch's are the process's, ``torch.set_num_threads``).
+        engines: Candidate names from :data:`learning.engines.ENGINES`.
+        trials: Timed calls per candidate.
+
+    Raises:
+        ValueError: An unknown engine or precision, or ``shape`` does not fit the network.
+    """
+    if precision not in ("float32", "bfloat16"):
+        raise ValueError(f"precision = {precision!r} is not allowed: choose 'float32' or 'bfloat16'")
+    default = EXACT_ENGINES if precision == "float32" else ("torch-eager-bf16",)
+    names = tuple(engines) if engines else default
+    unknown = [n for n in names if n not in ENGINES]
+    if unknown:
+        raise ValueError(f"engine(s) {unknown} not allowed: choose from {list(ENGINES)}")
+    shape = tuple(int(v) for v in shape)
+    key = (_fingerprint(model), shape, names, threads, trials)
+    if key in _CHOICES:
+        return _CHOICES[key]
+    reference_engine = build_engine("torch-eager", model, shape)
+    probes = np.random.default_rng(0).random((3, *shape), dtype=np.float32)
+    probes[0] = 0.0
+    reference = reference_engine.maps(probes)
+    choice = EngineChoice(reference_engine)
+    built: list[Engine] = []
+    for name in names:
+        try:
+            engine = reference_engine if name == "torch-eager" else build_engine(name, model, shape, threads)
+        except ImportError as exc:
+            choice.skipped[name] = f"not installed ({exc.name or exc})"
+            logger.info("inference engine %s skipped: %s is not installed", name, exc.name or exc)
+            continue
+        except Exception as exc:  # noqa: BLE001  (an exporter's failure must not stop the planner)
+            choice.skipped[name] = f"failed to build: {exc}"
+            logger.warning("inference engine %s skipped: it failed to build (%s)", name, exc)
+            continue
+        if not _within(name, engine.maps(probes), reference):
+            choice.skipped[name] = "maps differ from eager float32"
+            logger.warning("inference engine %s skipped: its maps differ from eager float32", name)
+            continue
+        built.append(engine)
+    if built:
+        choice.timings_ms = _time(built, probes[1:2], trials)
+        choice.engine = min(built, key=lambda e: choice.timings_ms[e.name])
+    else:
+        logger.warning("no requested inference engine is usable: eager float32 runs")
+    logger.info("inference engine: %s (batch-1 median ms: %s)", choice.name,
+                ", ".join(f"{n} {t:.2f}" for n, t in choice.timings_ms.items()) or "not measured")
+    _CHOICES[key] = choice
+    return choice
+
+
+def _time(engines: list[Engine], probe: np.ndarray, trials: int) -> dict[str, float]:
+    """Median milliseconds of one call of each engine on ``probe``, calls interleaved."""
+    for engine in engines:  # warm-up: first-call allocations, kernel selection
+        for _ in range(3):
+            engine.maps(probe)
+    spent: dict[str, list[float]] = {e.name: [] for e in engines}
+    for _ in range(trials):
+        for engine in engines:
+            start = time.perf_counter()
+            engine.maps(probe)
+            spent[engine.name].append((time.perf_counter() - start) * 1e3)
+    return {name: float(np.median(values)) for name, values in spent.items()}
 
 
 

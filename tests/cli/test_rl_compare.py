@@ -34,3 +34,34 @@ def test_bad_input_exits_2_with_a_message(tmp_path, capsys) -> None:
     assert "unknown controller" in capsys.readouterr().err
     assert main(["rl-compare", "--episodes", "0", "--out", str(tmp_path)]) == 2
     assert not (tmp_path / "comparison.json").exists()
+
+
+def test_planned_episodes_fly_in_lockstep_as_they_fly_alone() -> None:
+    """The planners' episodes are planned together (one network pass per replan): the same flights."""
+    import numpy as np
+
+    from uav_swarm.marl import compare
+    from uav_swarm.planning.planner import make_planner
+    from uav_swarm.runs.simulate_config import SimulateConfig
+
+    [score] = compare.compare_controllers(["learned"], episodes=3, duration_s=2.0, n_uavs=3, seed=11,
+                                          replan_every=5)
+    world = SimulateConfig(n_uavs=3, duration_s=2.0, replan_every=5)
+    planner = make_planner("learned", 3, world.task, config=world.planning, uav_config=world.uav)
+    held = {}
+
+    def decide(step, observations, env):
+        if step % 5 == 0:
+            targets = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
+                                   env.pedestrian_velocities_m_s).targets_m
+            held.update(zip(env.agents, targets, strict=True))
+        return dict(held)
+
+    alone = []
+    for episode in range(3):
+        planner.reset()
+        held.clear()
+        alone.append(compare._episode(world.env_config(), 11 + episode, decide, world.n_steps)[0])
+    alone = np.concatenate(alone)
+    assert score.steps == world.n_steps == 20 and score.replan_ms > 0
+    assert score.mean_qos_s1 == float(alone[:, 0].mean()) and score.mean_qos_s2 == float(alone[:, 1].mean())

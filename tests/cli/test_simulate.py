@@ -61,6 +61,7 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
     printed = capsys.readouterr().out
     assert "3 UAVs" in printed and "\nlearned " in printed and "\nexpert " in printed
     assert "learned / expert: QoS S1" in printed
+    assert "learned network: " in printed and " engine, float32" in printed
 
     summary = json.loads((out / "summary.json").read_text())
     assert set(summary["planners"]) == {"learned", "expert"} and summary["flown"] == "learned"
@@ -72,6 +73,7 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
     assert summary["planners"]["learned"]["planner"] == "cnn-peaks-hungarian"
     assert summary["config"]["seed"] == 2 and summary["config"]["n_uavs"] == 3
     assert summary["ratios_learned_over_expert"]["expert_over_learned_median_latency"] > 0.0
+    assert summary["inference_engine"] in ("onnxruntime", "torch-jit", "torch-eager")
 
     assert (out / "qos.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with Image.open(out / "scene.gif") as gif:

@@ -282,3 +282,38 @@ def test_the_rule_checking_planner_keeps_only_peaks_the_raster_justifies():
         expected = drop_unjustified(users, task.to_metres(unchecked), task.rules, 0)
         np.testing.assert_allclose(proposed, expected)
         assert len(proposed) <= len(unchecked)
+
+
+def test_the_learned_planner_names_its_engine_and_falls_back_when_a_package_is_missing(
+        tiny_checkpoint, monkeypatch, caplog):
+    import logging
+    import sys
+
+    from learning import inference
+
+    monkeypatch.setattr(inference, "_CHOICES", {})
+    monkeypatch.setitem(sys.modules, "onnxruntime", None)
+    with caplog.at_level(logging.INFO, logger="learning.inference"):
+        planner = LearnedPlanner(2, checkpoint=tiny_checkpoint, config=PlannerConfig(engine="onnxruntime"))
+    assert planner.engine == "torch-eager" and "onnxruntime is not installed" in caplog.text
+    result = planner.plan(clusters(np.array([[40.0, 40.0]])), np.array([[0.0, 0.0], [200.0, 200.0]]))
+    assert result.engine == "torch-eager"
+    assert ExpertPlanner(2).plan(clusters(np.array([[40.0, 40.0]])), np.zeros((2, 2)) + [[0, 0], [9, 9]]
+                                 ).engine is None
+
+
+def test_every_engine_gives_the_shipped_network_s_maps_within_the_tolerance():
+    from learning.data import sample_seed
+    from learning.engines import build_engine
+    from learning.inference import EXACT_TOLERANCE
+    from uav_swarm.missions.wifi.task import WifiTask
+
+    pytest.importorskip("onnxruntime")
+    planner = LearnedPlanner(10, config=PlannerConfig(engine="torch-eager"))
+    task = WifiTask(WifiConfig(warmup_min_s=5.0, warmup_max_s=8.0))
+    rasters = np.stack([task.observe(task.sample(np.random.default_rng(sample_seed(778, "val", i))))
+                        for i in range(8)]).astype(np.float32)
+    reference = planner.utility_maps(rasters)
+    for name in ("onnxruntime", "torch-jit"):
+        engine = build_engine(name, planner.checkpoint.model, rasters.shape[1:])
+        assert np.abs(engine.maps(rasters) - reference).max() <= EXACT_TOLERANCE, name

@@ -97,6 +97,8 @@ def format_summary(summary: dict[str, Any]) -> str:
         lines.append(f"learned / expert: QoS S1 {show(ratios['mean_qos_s1'])}, "
                      f"S2 {show(ratios['mean_qos_s2'])}, throughput {show(ratios['mean_throughput_mbps'])}; "
                      f"expert / learned planning time {show(ratios['expert_over_learned_median_latency'])}x")
+    if "inference_engine" in summary:
+        lines.append(f"learned network: {summary['inference_engine']} engine, {summary['network_precision']}")
     return "\n".join(lines)
 
 

@@ -10,6 +10,10 @@ time at 0.1 s per step:
   deterministic (mean) action;
 - ``learned`` and ``expert``: the placement planners (:mod:`uav_swarm.planning.planner`) in waypoint mode,
   replanning every ``replan_every`` steps from the live crowd, as ``uav-swarm simulate`` flies them.
+  Their episodes fly in lockstep, one world each, and every replan plans all of them at once
+  (:func:`uav_swarm.planning.batch.plan_batch`: the learned planner's network runs once per replan on
+  the batch of worlds, each world keeping its own sequence state), which gives every episode the
+  targets it would get alone.
 
 Measures per controller, over all steps of all episodes: mean QoS S1, mean QoS S2, mean user
 throughput, and the decision time per step (the controller's wall time, planners' replans included,
@@ -71,6 +75,34 @@ def _episode(env_config: EnvConfig, seed: int, decide: Callable[[int, dict, Any]
     return measures, spent
 
 
+def _planned_episodes(env_config: EnvConfig, seeds: list[int], planner: Planner, replan_every: int,
+                      steps: int, progress: bool) -> tuple[list[np.ndarray], float]:
+    """Fly one episode per seed in lockstep, all worlds replanned together; measures and planning seconds."""
+    from uav_swarm.planning.batch import plan_batch
+
+    envs = [parallel_env(config=env_config.replace(max_cycles=steps)) for _ in seeds]
+    for env, seed in zip(envs, seeds, strict=True):
+        env.reset(seed=seed)
+    planners = [planner.fork() for _ in seeds]  # type: ignore[attr-defined]
+    held: list[dict] = [{} for _ in seeds]
+    measures = np.zeros((len(seeds), steps, 3))
+    spent = 0.0
+    for step in tqdm(range(steps), desc=planner.name, unit="step", disable=not progress, leave=False):
+        start = time.perf_counter()
+        if step % replan_every == 0:
+            results = plan_batch(planners, [env.pedestrian_positions_m for env in envs],
+                                 [env.uav_positions_m for env in envs],
+                                 [env.pedestrian_velocities_m_s for env in envs])
+            for targets, env, result in zip(held, envs, results, strict=True):
+                targets.update(zip(env.agents, result.targets_m, strict=True))
+        spent += time.perf_counter() - start
+        for episode, env in enumerate(envs):
+            env.step(dict(held[episode]))
+            cov = env.coverage
+            measures[episode, step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
+    return list(measures), spent
+
+
 def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int = 100_000,
                         duration_s: float = 60.0, n_uavs: int = 10, strategy: int = 1, replan_every: int = 10,
                         mappo_policy: str | Path | None = None, checkpoint: str | Path | None = None,
@@ -106,13 +138,16 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
     scores = []
     for name in controllers:
         env_config, decide, planner = _controller(name, velocity, world, mappo_policy, checkpoint, seed)
-        measures, spent = [], 0.0
-        for episode in tqdm(range(episodes), desc=name, unit="episode", disable=not progress, leave=False):
-            if planner is not None:
-                planner.reset()
-            m, s = _episode(env_config, seed + episode, decide, steps)
-            measures.append(m)
-            spent += s
+        if decide is None:
+            measures, spent = _planned_episodes(env_config, [seed + e for e in range(episodes)], planner,
+                                                replan_every, steps, progress)
+        else:
+            measures, spent = [], 0.0
+            for episode in tqdm(range(episodes), desc=name, unit="episode", disable=not progress,
+                                leave=False):
+                m, s = _episode(env_config, seed + episode, decide, steps)
+                measures.append(m)
+                spent += s
         all_steps = np.concatenate(measures)
         n_replans = episodes * -(-steps // replan_every)
         scores.append(ControllerScore(
@@ -125,8 +160,8 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
 
 def _controller(name: str, velocity: EnvConfig, world: SimulateConfig, mappo_policy: str | Path | None,
                 checkpoint: str | Path | None, seed: int
-                ) -> tuple[EnvConfig, Callable[[int, dict, Any], dict], Planner | None]:
-    """The environment settings, the decision function and the planner (if any) of one controller."""
+                ) -> tuple[EnvConfig, Callable[[int, dict, Any], dict] | None, Planner | None]:
+    """The environment settings and the decision function of a policy, or the planner of a planner."""
     if name == "random":
         rng = np.random.default_rng(seed)
 
@@ -155,13 +190,4 @@ def _controller(name: str, velocity: EnvConfig, world: SimulateConfig, mappo_pol
 
     planner = make_planner(name, world.n_uavs, world.task, checkpoint=checkpoint or None,
                            config=world.planning, uav_config=world.uav)
-    held: dict = {}
-
-    def planned(step: int, observations: dict, env: Any) -> dict:
-        if step % world.replan_every == 0:
-            targets = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
-                                   env.pedestrian_velocities_m_s).targets_m
-            held.update(zip(env.agents, targets, strict=True))
-        return dict(held)
-
-    return world.env_config(), planned, planner
+    return world.env_config(), None, planner

@@ -2,5 +2,9 @@
 
 - :mod:`~uav_swarm.planning.planner`: the planners (learned: CNN, peaks, optional rule check and
   refinement; expert), built from a :class:`~uav_swarm.planning.planner.PlannerConfig`.
+- :mod:`~uav_swarm.planning.base`: the planners' settings, result, interface and assignment step.
+- :mod:`~uav_swarm.planning.batch`: many worlds planned with one forward pass of the network.
+- :mod:`~uav_swarm.planning.motion`: planning in motion (follow, keep, re-solve when it pays).
+- :mod:`~uav_swarm.planning.horizon`: the motion horizon's options and instants in one radio-model pass.
 - :mod:`~uav_swarm.planning.assignment`: UAVs to targets (Hungarian matching with hysteresis).
 """

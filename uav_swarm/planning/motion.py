@@ -39,7 +39,8 @@ from scipy.spatial import cKDTree
 from typed_config import Config, param
 from uav_swarm.missions.wifi.rules import CoverageRules, assign_users
 from uav_swarm.planning.assignment import separate_spares
-from uav_swarm.world.comms import RadioConfig, evaluate_coverage
+from uav_swarm.planning.horizon import horizon_qos, travelled_m
+from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["MotionConfig", "MotionPlan", "MotionPlanning", "time_to_reach", "travelled_m"]
@@ -89,14 +90,6 @@ def time_to_reach(distance_m: np.ndarray, max_speed_m_s: float, max_accel_m_s2: 
     ramp_m = max_speed_m_s ** 2 / max_accel_m_s2  # accelerating and braking at full speed
     cruising = d / max_speed_m_s + max_speed_m_s / max_accel_m_s2
     return np.where(d <= ramp_m, 2.0 * np.sqrt(d / max_accel_m_s2), cruising)
-
-
-def travelled_m(t_s: float, max_speed_m_s: float, max_accel_m_s2: float) -> float:
-    """Distance flown from rest in ``t_s`` seconds at full acceleration up to the speed cap."""
-    t_ramp = max_speed_m_s / max_accel_m_s2
-    if t_s <= t_ramp:
-        return 0.5 * max_accel_m_s2 * t_s ** 2
-    return 0.5 * max_accel_m_s2 * t_ramp ** 2 + max_speed_m_s * (t_s - t_ramp)
 
 
 class MotionPlanning:
@@ -256,20 +249,15 @@ class MotionPlanning:
 
     def horizon_qos(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, targets: np.ndarray) -> float:
         """The strategy's QoS averaged over the horizon (module docstring, step 4)."""
-        if len(peds) == 0:
-            return 0.0
+        return self._judge(peds, vels, uavs, [targets])[0]
+
+    def _judge(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, options: list[np.ndarray]
+               ) -> list[float]:
+        """Every option's horizon QoS, all options and instants in one radio-model pass."""
         cfg = self.config
-        target_vel = self._users_velocity(targets, peds, vels)
-        total = 0.0
-        for t in np.linspace(cfg.horizon_s / cfg.samples, cfg.horizon_s, cfg.samples):
-            goal = targets + target_vel * t
-            offset = goal - uavs
-            distance = np.linalg.norm(offset, axis=1)
-            reach = travelled_m(float(t), self.uav.max_speed_m_s, self.uav.max_accel_m_s2)
-            scale = np.where(distance > reach, reach / np.maximum(distance, 1e-9), 1.0)
-            coverage = evaluate_coverage(peds + vels * t, uavs + offset * scale[:, None], self.radio)
-            total += coverage.qos_s1 if self.strategy == 1 else coverage.qos_s2
-        return total / cfg.samples
+        velocities = [self._users_velocity(targets, peds, vels) for targets in options]
+        return horizon_qos(peds, vels, uavs, options, velocities, self.radio, self.strategy, cfg.horizon_s,
+                           cfg.samples, self.uav.max_speed_m_s, self.uav.max_accel_m_s2)
 
     def _remember(self, peds: np.ndarray, vels: np.ndarray, targets: np.ndarray) -> None:
         """Each UAV's users at its new target (on the crowd ``lead_s`` ahead) and its offset from them."""
@@ -303,14 +291,15 @@ class MotionPlanning:
             index = np.where(index >= 0, uncovered[np.maximum(index, 0)], -1)
         option = "hybrid"
         targets = self._finish(targets, index, kept, predicted)
-        qos = self.horizon_qos(peds, vels, uavs, targets)
         if np.any(kept):
             none = np.zeros(self.n_uavs, dtype=bool)
             fresh, fresh_index = self._option(uavs, peds, vels, followed, none, proposals)
             fresh = self._finish(fresh, fresh_index, none, predicted)
-            fresh_qos = self.horizon_qos(peds, vels, uavs, fresh)
+            qos, fresh_qos = self._judge(peds, vels, uavs, [targets, fresh])  # both options, one pass
             if fresh_qos > qos + self.config.switch_margin:
                 targets, index, kept, option, qos = fresh, fresh_index, none, "fresh", fresh_qos
+        else:
+            qos = self.horizon_qos(peds, vels, uavs, targets)
         self._remember(peds, vels, targets)
         return MotionPlan(targets, kept.copy(), index, option, qos)
 

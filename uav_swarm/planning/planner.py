@@ -36,12 +36,15 @@ Snapshot assignment (:func:`uav_swarm.planning.assignment.assign_targets`), the 
    UAVs *hold their current position*, nudged off any other UAV's target so that targets stay
    pairwise distinct. With no candidate at all every UAV holds.
 
-Latency: a learned replan (raster, network, peaks, Hungarian) reuses one preallocated input tensor
-(channels-last), runs under :func:`torch.inference_mode` and allocates only the small raster and
-utility arrays; ``PlannerConfig.torch_threads`` (default 1, the fastest on a shared CPU) sets the
-process's torch threads and ``precision = "auto"`` (the default) runs the network in bfloat16 where
-the processor computes it natively (:mod:`learning.precision`), which halves its time, and in
-float32 elsewhere.
+Latency: the learned planner runs its network on the fastest engine the machine has
+(:func:`learning.inference.select_engine`, chosen at load by measuring among ONNX Runtime when
+installed, a traced TorchScript graph and eager torch, all equal to eager float32 within 1e-3 per pixel;
+``PlannerConfig.engine`` names one instead), named in ``PlanResult.engine`` and in ``uav-swarm
+simulate``'s summary. ``PlannerConfig.torch_threads`` (default 1, the fastest on a shared CPU) sets the
+process's torch threads and the engine's; ``precision = "bfloat16"`` (or ``"auto"`` where the processor
+computes bfloat16 natively) runs eager bfloat16 instead, faster on such CPUs but not equal to float32
+(:data:`learning.inference.BFLOAT16_TOLERANCE`). Many worlds are planned in one forward pass by
+:func:`uav_swarm.planning.batch.plan_batch`.
 
 Examples:
     >>> planner = make_planner("expert", n_uavs=2)
@@ -55,26 +58,19 @@ from __future__ import annotations
 
 import importlib.resources
 import logging
-import time
-from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
 from learning.peaks import find_peaks
-from typed_config import Config, ConfigError, param
+from typed_config import ConfigError
 from uav_swarm.env.config import MAX_UAVS
-from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement, strategy_refinement
-from uav_swarm.missions.wifi.rule_check import RuleCheckConfig, WifiRuleCheck
+from uav_swarm.missions.wifi.refine import refine_placement, strategy_refinement
+from uav_swarm.missions.wifi.relocation import warm_up as relocation_warm_up
+from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, coverage_rules, crowd_raster
-from uav_swarm.planning.assignment import assign_targets
-from uav_swarm.planning.motion import MotionConfig, MotionPlanning
+from uav_swarm.planning.base import AssigningPlanner, Planner, PlannerConfig, PlanResult, check_n_uavs
 from uav_swarm.world.uav import UAVConfig
-
-if TYPE_CHECKING:
-    import torch
 
 __all__ = ["PLANNER_KINDS", "PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "LearnedPlanner",
            "ExpertPlanner", "make_planner", "default_checkpoint", "shipped_checkpoint_name", "check_n_uavs"]
@@ -86,176 +82,6 @@ PLANNER_KINDS = ("learned", "expert")
 
 _RASTER_FIELDS = ("size_px", "density_scale")
 _AREA_FIELDS = ("width_m", "height_m")
-
-
-@dataclass(frozen=True)
-class PlannerConfig(Config):
-    """Settings shared by the planners (assignment) and of the learned planner (inference)."""
-
-    hysteresis_m: float = param(5.0, ge=0.0, le=1000.0,
-                                doc="a UAV keeps its target while a new candidate is this close (m)")
-    min_gap_m: float = param(1.0, ge=0.0, le=100.0, doc="smallest distance between two UAVs' targets (m)")
-    torch_threads: int = param(1, ge=0, le=256,
-                               doc="learned: torch CPU threads for the process (0: leave torch's setting)")
-    precision: Literal["auto", "float32", "bfloat16"] = param(
-        "auto", doc="learned: network precision ('auto': bfloat16 where the CPU or GPU computes it natively, "
-        "about 2x faster; float32 elsewhere)")
-    refine: bool = param(False, doc="learned: refine the peaks on the live crowd under the strategy's rules")
-    refinement: WifiRefineConfig | None = param(
-        None, doc="learned: the refinement's effort ([planning.refinement]); none given: the strategy's own "
-        "(uav_swarm.missions.wifi.refine.strategy_refinement)")
-    rule_check: bool = param(False, doc="learned: keep only the peaks the strategy's deployment rule "
-                             "justifies on the density raster (uav_swarm.missions.wifi.rule_check)")
-    rule_checking: RuleCheckConfig = param(RuleCheckConfig(), doc="learned: the rule check's threshold and "
-                                           "slack ([planning.rule_checking])")
-    mode: Literal["motion", "snapshot"] = param(
-        "motion", doc="'motion': replans start from what the UAVs serve (uav_swarm.planning.motion); "
-        "'snapshot': every replan solves the instant, then hysteresis and Hungarian on distance")
-    motion: MotionConfig = param(MotionConfig(), doc="planning in motion's settings ([planning.motion])")
-
-
-@dataclass(frozen=True)
-class PlanResult:
-    """One replan.
-
-    Attributes:
-        targets_m: ``(n, 2)`` float64 target of each UAV, metres, pairwise distinct.
-        peaks_m: ``(k, 2)`` float64 candidate positions the planner proposed, best first, ``k <= n``.
-        utility: ``(h, w)`` float32 utility map (row 0 = South) of the learned planner, None otherwise.
-        candidate_index: ``(n,)`` index into ``peaks_m`` of each UAV's target, -1 where it holds (fallback).
-        kept: ``(n,)`` True where the UAV kept its previous target (snapshot: hysteresis) or kept
-            following its users (motion).
-        latency_ms: Wall time of the whole replan, milliseconds.
-        option: ``"snapshot"``, or in motion ``"hybrid"`` (kept UAVs follow their users, the others go
-            to new proposals) or ``"fresh"`` (every UAV re-solved).
-    """
-
-    targets_m: np.ndarray
-    peaks_m: np.ndarray
-    utility: np.ndarray | None
-    candidate_index: np.ndarray
-    kept: np.ndarray
-    latency_ms: float
-    option: str = "snapshot"
-
-
-@runtime_checkable
-class Planner(Protocol):
-    """Turns the crowd and the UAV positions into one target per UAV.
-
-    Attributes:
-        name: Short name, published with each plan (``cnn-peaks-hungarian``, ``expert-hungarian``).
-        n_uavs: Number of UAVs planned for.
-    """
-
-    name: str
-    n_uavs: int
-
-    def plan(self, pedestrians_m: np.ndarray, uav_positions_m: np.ndarray,
-             pedestrian_velocities_m_s: np.ndarray | None = None) -> PlanResult:
-        """Plan for the crowd ``pedestrians_m`` ``(N, 2)`` and the UAVs at ``uav_positions_m`` ``(n, 2)``.
-
-        ``pedestrian_velocities_m_s`` ``(N, 2)`` tells how the crowd walks (default: at rest).
-        """
-        ...
-
-    def reset(self) -> None:
-        """Forget the previous targets (a new sequence starts)."""
-        ...
-
-
-def check_n_uavs(n_uavs: int) -> int:
-    """``n_uavs`` when ``1 <= n_uavs <= 10``.
-
-    Raises:
-        ConfigError: Out of range.
-    """
-    if isinstance(n_uavs, bool) or not isinstance(n_uavs, (int, np.integer)) or not 1 <= n_uavs <= MAX_UAVS:
-        raise ConfigError(f"n_uavs = {n_uavs!r} is out of range: allowed 1 <= n_uavs <= {MAX_UAVS}")
-    return int(n_uavs)
-
-
-class AssigningPlanner(ABC):
-    """Base of the planners: subclasses propose candidates, this class assigns them (module docstring).
-
-    Args:
-        n_uavs: Number of UAVs, 1 to 10.
-        config: Mode (motion or snapshot), hysteresis and target gap.
-        task_config: The Wi-Fi task whose rules and radio planning in motion judges with; default
-            ``WifiConfig()``.
-        uav_config: The UAVs' speed and acceleration limits; default ``UAVConfig()``.
-
-    Raises:
-        ConfigError: ``n_uavs`` out of range.
-    """
-
-    name = "planner"
-
-    def __init__(self, n_uavs: int, config: PlannerConfig | None = None,
-                 task_config: WifiConfig | None = None, uav_config: UAVConfig | None = None) -> None:
-        self.n_uavs = check_n_uavs(n_uavs)
-        self.config = config or PlannerConfig()
-        self._previous: np.ndarray | None = None
-        task_config = task_config or WifiConfig()
-        scenario = task_config.scenario
-        self.motion = MotionPlanning(
-            self.n_uavs, coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs)),
-            task_config.radio, task_config.strategy, (scenario.width_m, scenario.height_m), uav_config,
-            self.config.motion, self.config.min_gap_m)
-
-    @abstractmethod
-    def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
-                ) -> tuple[np.ndarray, np.ndarray | None]:
-        """At most ``n_uavs`` candidate positions ``(k, 2)`` in metres, best first, and the utility map."""
-
-    def reset(self) -> None:
-        """Forget the previous targets and what each UAV serves: a new sequence starts."""
-        self._previous = None
-        self.motion.reset()
-
-    def plan(self, pedestrians_m: np.ndarray, uav_positions_m: np.ndarray,
-             pedestrian_velocities_m_s: np.ndarray | None = None) -> PlanResult:
-        """Propose candidates for the crowd and assign them to the UAVs (see the module docstring).
-
-        Args:
-            pedestrians_m: ``(N, 2)`` pedestrian positions, metres (``N`` may be 0).
-            uav_positions_m: ``(n_uavs, 2)`` current UAV positions, metres.
-            pedestrian_velocities_m_s: ``(N, 2)`` pedestrian velocities, m/s; default at rest (planning in
-                motion then follows the users without leading them).
-
-        Raises:
-            ValueError: An array of the wrong shape.
-        """
-        start = time.perf_counter()
-        uavs = np.asarray(uav_positions_m, dtype=np.float64)
-        if uavs.shape != (self.n_uavs, 2):
-            raise ValueError(f"uav_positions_m must have shape ({self.n_uavs}, 2), got {uavs.shape}")
-        peds = np.asarray(pedestrians_m, dtype=np.float64)
-        if peds.size == 0:
-            peds = peds.reshape(0, 2)
-        if peds.ndim != 2 or peds.shape[1] != 2:
-            raise ValueError(f"pedestrians_m must have shape (N, 2), got {peds.shape}")
-        if pedestrian_velocities_m_s is None:
-            vels = np.zeros_like(peds)
-        else:
-            vels = np.asarray(pedestrian_velocities_m_s, dtype=np.float64).reshape(-1, 2)
-            if vels.shape != peds.shape or not np.all(np.isfinite(vels)):
-                raise ValueError(f"pedestrian_velocities_m_s must be finite with shape {peds.shape}, "
-                                 f"got {vels.shape}")
-        candidates, utility = self.propose(peds, vels)
-        candidates = np.asarray(candidates, dtype=np.float64).reshape(-1, 2)[:self.n_uavs]
-        if self.config.mode == "motion":
-            moved = self.motion.plan(peds, vels, uavs, candidates)
-            targets, index, kept, option = moved.targets_m, moved.candidate_index, moved.kept, moved.option
-        else:
-            cfg = self.config
-            assignment = assign_targets(uavs, candidates, self._previous, hysteresis_m=cfg.hysteresis_m,
-                                        min_gap_m=cfg.min_gap_m)
-            targets, index, kept, option = (assignment.targets_m, assignment.candidate_index, assignment.kept,
-                                            "snapshot")
-        self._previous = targets.copy()
-        latency_ms = (time.perf_counter() - start) * 1e3
-        return PlanResult(targets, candidates, utility, index, kept, latency_ms, option)
 
 
 class ExpertPlanner(AssigningPlanner):
@@ -336,6 +162,7 @@ class LearnedPlanner(AssigningPlanner):
         import torch
 
         from learning.checkpoint import CheckpointError, load_checkpoint
+        from learning.inference import select_engine
         from learning.precision import resolve_precision
 
         self.task = WifiTask(task_config)
@@ -344,6 +171,7 @@ class LearnedPlanner(AssigningPlanner):
         """The refinement's settings: ``[planning.refinement]``, else the strategy's own."""
         if self.config.refine:
             self.refinement.check_rules(self.task.rules, "[planning.refinement]")
+            relocation_warm_up()  # strategy 2's relocation search: compiled once, before the first replan
         shipped = shipped_checkpoint_name(task_config)
         path = default_checkpoint(shipped) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
@@ -383,32 +211,42 @@ class LearnedPlanner(AssigningPlanner):
         if self._check is not None:
             self.peak_config = self.peak_config.replace(threshold_abs=self._check.threshold_abs)
         self.precision = resolve_precision(self.config.precision, next(ckpt.model.parameters()).device)
-        dtype = torch.bfloat16 if self.precision == "bfloat16" else torch.float32
-        self._model = ckpt.model.eval().to(dtype=dtype, memory_format=torch.channels_last)
-        self._input: torch.Tensor = torch.zeros((1, self.task.channels, side, side), dtype=dtype).contiguous(
-            memory_format=torch.channels_last)  # (1, C, h, w), reused by every replan
-        self._inference_mode = torch.inference_mode
-        self._from_numpy = torch.from_numpy
+        engines = None if self.config.engine == "auto" else (self.config.engine,)
+        self.engine_choice = select_engine(ckpt.model, (self.task.channels, side, side), self.precision,
+                                           self.config.torch_threads, engines)
+        """The inference engine, the candidates' timings and why others were skipped."""
+        self.engine = self.engine_choice.name
 
     def utility_map(self, raster: np.ndarray) -> np.ndarray:
-        """The ``(h, w)`` float32 utility map of one ``(C, h, w)`` raster (no autograd, input reused)."""
-        with self._inference_mode():
-            self._input.copy_(self._from_numpy(raster)[None])  # (1, C, h, w)
-            return self._model(self._input)[0, 0].float().numpy()  # (h, w)
+        """The ``(h, w)`` float32 utility map of one ``(C, h, w)`` raster, on the chosen engine."""
+        return self.utility_maps(np.asarray(raster, dtype=np.float32)[None])[0]
+
+    def utility_maps(self, rasters: np.ndarray) -> np.ndarray:
+        """The ``(B, h, w)`` float32 utility maps of ``(B, C, h, w)`` rasters in one forward pass."""
+        return self.engine_choice.engine.maps(np.ascontiguousarray(rasters, dtype=np.float32))
 
     def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
         """The ``n_uavs`` highest peaks of the utility map (metres), refined if configured, and the map."""
-        raster = crowd_raster(pedestrians_m, self.task.config, velocities_m_s)
-        utility = self.utility_map(raster)
-        peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
-        if self._check is not None:
-            peaks_px = self._check(raster, peaks_px)
-        peaks_m = self.task.to_metres(peaks_px)
-        if self.config.refine:
-            peaks_m = refine_placement(pedestrians_m, peaks_m, self._rules, self.task.width_m,
-                                       self.task.height_m, self.refinement)
-        return peaks_m, utility
+        return self.propose_batch([pedestrians_m], [velocities_m_s])[0]
+
+    def propose_batch(self, pedestrians_m: list[np.ndarray], velocities_m_s: list[np.ndarray | None]
+                      ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """:meth:`propose` for several crowds, their rasters in one forward pass of the network."""
+        rasters = np.stack([crowd_raster(peds, self.task.config, vels)
+                            for peds, vels in zip(pedestrians_m, velocities_m_s, strict=True)])
+        maps = self.utility_maps(rasters)  # (B, h, w)
+        out = []
+        for peds, raster, utility in zip(pedestrians_m, rasters, maps, strict=True):
+            peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
+            if self._check is not None:
+                peaks_px = self._check(raster, peaks_px)
+            peaks_m = self.task.to_metres(peaks_px)
+            if self.config.refine:
+                peaks_m = refine_placement(peds, peaks_m, self._rules, self.task.width_m, self.task.height_m,
+                                           self.refinement)
+            out.append((peaks_m, utility))
+        return out
 
 
 def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | None = None, *,

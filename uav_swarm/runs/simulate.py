@@ -375,6 +375,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     if learned is not None:
         summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
         summary["network_precision"] = learned.precision  # type: ignore[attr-defined]
+        summary["inference_engine"] = learned.engine  # type: ignore[attr-defined]
         if config.planning.refine:
             summary["refinement"] = {  # which settings ran: [planning.refinement], else the strategy's own
                 "source": "[planning.refinement]" if config.planning.refinement else "strategy defaults",

@@ -32,6 +32,9 @@ Examples:
 
 from __future__ import annotations
 
+import functools
+
+import numba
 import numpy as np
 
 from uav_swarm.missions.wifi.expert import CandidatePairs, PlacementSearch, separated_candidates
@@ -44,7 +47,7 @@ from uav_swarm.missions.wifi.rules import (
 )
 
 __all__ = ["placement_violation", "relocation_scores", "relocate", "adopt_by_relocation",
-           "insert_by_relocation"]
+           "insert_by_relocation", "warm_up"]
 
 
 def placement_violation(counts: np.ndarray, rules: CoverageRules) -> np.ndarray:
@@ -69,6 +72,37 @@ def _nearest_two(users_m: np.ndarray, uavs_m: np.ndarray) -> tuple[np.ndarray, .
     d2[rows, first] = np.inf
     second = np.argmin(d2, axis=1)
     return first, e1, second, d2[rows, second]
+
+
+@numba.njit(cache=True, nogil=True)
+def _captures(cand: np.ndarray, user: np.ndarray, pair_d2: np.ndarray, owner: np.ndarray,
+              fallback: np.ndarray, e1: np.ndarray, e2: np.ndarray, k: int, m: int
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The captures of every candidate, in one pass over the (candidate, user) pairs.
+
+    Returns ``base`` ``(K + 1, M)``: per owner + 1 (0: uncovered) and candidate, the users the
+    candidate captures against the current placement (row ``j + 1``: the users UAV ``j`` would lose to
+    it, which its own relocation gives back); and ``gained`` ``(K + 1, K, M)``: per fallback + 1
+    (0: none), moved UAV and candidate, the moved UAV's users the candidate captures against their
+    fallback instead.
+    """
+    base = np.zeros((k + 1, m), np.int64)
+    gained = np.zeros((k + 1, k, m), np.int64)
+    for p in range(len(cand)):
+        u, c, d = user[p], cand[p], pair_d2[p]
+        o = owner[u]
+        if d < e1[u]:
+            base[o + 1, c] += 1
+        if o >= 0 and (fallback[u] < 0 or d < e2[u]):
+            gained[fallback[u] + 1, o, c] += 1
+    return base, gained
+
+
+@functools.cache
+def warm_up() -> None:
+    """Load the compiled capture pass once per process (about half a second) before the first search."""
+    none = np.zeros(1, np.int64)
+    _captures(none, none, np.zeros(1), none, none - 1, np.ones(1), np.ones(1), 1, 1)
 
 
 def relocation_scores(
@@ -104,18 +138,7 @@ def relocation_scores(
         nearest[back] * k + fallback[back], minlength=k * k).reshape(k, k)
     served_without = served - counts + np.bincount(nearest[back], minlength=k)
 
-    k1 = k + 1
-    cand, user, pair_d2 = pairs.cand, pairs.user, pairs.d2
-    pair_owner = owner[user] + 1  # 0: an uncovered user
-    # Arrays are (owner + 1, [moved UAV,] candidate): reductions over owners run along the first axis.
-    # Capture against the current placement, per owner and candidate: also, for each UAV, the users it
-    # would lose to the candidate (row j + 1), which its own relocation gives back.
-    captured = pair_d2 < e1[user]
-    base = np.bincount((pair_owner * m + cand)[captured], minlength=k1 * m).reshape(k1, m)
-    # The moved UAV's users, captured against their fallback instead (moved block 0: uncovered, unused).
-    regained = pair_d2 < np.where(fallback >= 0, e2, np.inf)[user]
-    slot = (((fallback[user] + 1) * k1 + pair_owner) * m + cand)[regained]
-    gained = np.bincount(slot, minlength=k1 * k1 * m).reshape(k1, k1, m)[:, 1:, :]
+    base, gained = _captures(pairs.cand, pairs.user, pairs.d2, owner, fallback, e1, e2, k, m)
 
     load = base.sum(axis=0)[None, :] - base[1:] + gained.sum(axis=0)
     newly = base[0][None, :] + gained[0]
