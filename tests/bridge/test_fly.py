@@ -278,6 +278,7 @@ def test_launch_climbs_to_the_altitude_and_refused_commands_raise_by_name():
 
 def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsys):
     """``fly --record``: each vehicle's states, the QoS and the plans at crowd time, as the outputs say."""
+    from foxglove_readback import conform, decode
     from mcap.reader import make_reader
 
     vehicles, urls = _vehicles(2, ("udpin",), {i: {"speed_m_s": 25.0} for i in (1, 2)})
@@ -294,7 +295,7 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     schemas: dict[str, str] = {}
     with path.open("rb") as stream:
         for schema, channel, message in make_reader(stream).iter_messages(log_time_order=True):
-            topics.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
+            topics.setdefault(channel.topic, []).append((message.log_time, decode(schema, message.data)))
             schemas[channel.topic] = schema.name
     uavs = {f"/uav/{i}/state": "uav_swarm.UavState" for i in (0, 1)}
     uavs |= {f"/uav/{i}/location": "foxglove.LocationFix" for i in (0, 1)}
@@ -318,3 +319,6 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     assert plans and all(log_ns % 1_000_000_000 == 0 for log_ns, _ in plans)  # every replan_every_s = 1 s
     assert [ns for ns, _ in topics["/plan/targets"]] == [ns for ns, _ in plans]
     assert len(topics["/scene"]) == len(qos) + 1  # the area and obstacles first, then the swarm each record
+    for topic, name in schemas.items():  # Foxglove's types as Foxglove publishes them
+        if name.startswith("foxglove."):
+            assert all(conform(message, name) == [] for _, message in topics[topic]), topic
