@@ -74,8 +74,8 @@ def read_back(path: Path) -> dict[str, Any]:
         topics: dict[str, dict[str, Any]] = {}
         for schema, channel, message in reader.iter_messages(log_time_order=True):
             topic = topics.setdefault(channel.topic, {
-                "schema": schema.name, "schema_encoding": schema.encoding, "encoding": channel.message_encoding,
-                "schema_data": schema.data, "log_ns": [], "publish_ns": [], "messages": []})
+                "schema": schema.name, "schema_encoding": schema.encoding, "schema_data": schema.data,
+                "encoding": channel.message_encoding, "log_ns": [], "publish_ns": [], "messages": []})
             topic["log_ns"].append(message.log_time)
             topic["publish_ns"].append(message.publish_time)
             topic["messages"].append(decode(schema, message.data))

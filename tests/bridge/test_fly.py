@@ -6,7 +6,6 @@ telemetry goes through a real Zenoh session to a subscriber connected over ``tcp
 
 from __future__ import annotations
 
-import json
 import threading
 import time
 from pathlib import Path
