@@ -60,6 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--live", metavar="[HOST:]PORT",
         help="stream the flight to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
              "address; HOST defaults to 127.0.0.1 (this machine only); works with --record")
+    add("--live-wait-s", type=float, metavar="SECONDS",
+        help="with --live: wait at most this long for a Foxglove client before the first step (default: 0)")
     parser.set_defaults(func=run)
 
 
@@ -85,10 +87,10 @@ def run(args: argparse.Namespace) -> int:
     from typed_config import ConfigError
     from uav_swarm.runs.fly import fly
     from uav_swarm.runs.fly_config import load_fly_config
-    from uav_swarm.runs.live_view import parse_live_view
+    from uav_swarm.runs.live_view import live_view_option
 
     try:
-        live = None if args.live is None else parse_live_view(args.live)
+        live = live_view_option(args.live, args.live_wait_s)
         config = load_fly_config(args.config, _overrides(args))
     except ConfigError as exc:
         print(f"uav-swarm fly: {exc}", file=sys.stderr)

@@ -56,6 +56,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--live", metavar="[HOST:]PORT",
         help="stream the flown run to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
              "address; HOST defaults to 127.0.0.1 (this machine only); works with --record")
+    add("--live-wait-s", type=float, metavar="SECONDS",
+        help="with --live: wait at most this long for a Foxglove client before the first step (default: 0)")
     add("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -103,12 +105,12 @@ def run(args: argparse.Namespace) -> int:
     from bridge.telemetry_config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
-    from uav_swarm.runs.live_view import parse_live_view
+    from uav_swarm.runs.live_view import live_view_option
     from uav_swarm.runs.simulate import simulate
     from uav_swarm.runs.simulate_config import load_simulate_config
 
     try:
-        live = None if args.live is None else parse_live_view(args.live)
+        live = live_view_option(args.live, args.live_wait_s)
         config = load_simulate_config(args.config, _overrides(args))
         result = simulate(config, args.out, progress=not args.quiet, record=args.record, live=live)
     except (ConfigError, CheckpointError) as exc:

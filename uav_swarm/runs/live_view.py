@@ -30,7 +30,7 @@ from typing import Any
 
 from typed_config import ConfigError
 
-__all__ = ["DEFAULT_HOST", "LiveView", "parse_live_view", "LiveListener"]
+__all__ = ["DEFAULT_HOST", "LiveView", "parse_live_view", "live_view_option", "LiveListener"]
 
 logger = logging.getLogger(__name__)
 
@@ -93,6 +93,19 @@ def parse_live_view(text: str, wait_for_client_s: float = 0.0) -> LiveView:
     if not _valid_host(host):
         raise ConfigError(f"live = {text!r}: host {host!r} is neither an IP address nor a host name")
     return LiveView(host=host, port=port, wait_for_client_s=wait_s)
+
+
+def live_view_option(live: str | None, wait_for_client_s: float | None = None) -> LiveView | None:
+    """The ``--live`` and ``--live-wait-s`` options as a :class:`LiveView`; None without ``--live``.
+
+    Raises:
+        ConfigError: As :func:`parse_live_view`, or naming ``live_wait_s`` given without ``live``.
+    """
+    if live is None:
+        if wait_for_client_s is not None:
+            raise ConfigError(f"live_wait_s = {wait_for_client_s}: waits for a live client, give --live too")
+        return None
+    return parse_live_view(live, 0.0 if wait_for_client_s is None else wait_for_client_s)
 
 
 def _valid_host(host: str) -> bool:

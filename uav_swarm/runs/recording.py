@@ -74,7 +74,7 @@ if TYPE_CHECKING:
     from bridge.geo import Home
 
 __all__ = ["SceneInfo", "RunRecorder", "open_recorder", "check_recording_path", "RUN_METADATA",
-           "LIVE_BACKLOG_MESSAGES"]
+           "LIVE_BACKLOG_MESSAGES", "LIVE_STOP_WAIT_S"]
 
 logger = logging.getLogger(__name__)
 
@@ -83,6 +83,9 @@ RUN_METADATA = "uav_swarm.run"
 
 LIVE_BACKLOG_MESSAGES = 256
 """Messages queued per live client; past that the server drops the oldest: the client lags, the run not."""
+
+LIVE_STOP_WAIT_S = 5.0
+"""At the end, how long the live view's clients get to take what is queued for them."""
 
 _SCENE = "/scene"
 _PAYLOADS = {"uav_swarm.UavState": UavState, "uav_swarm.Plan": Plan, "uav_swarm.Qos": Qos}
@@ -273,7 +276,7 @@ def open_recorder(scene: SceneInfo, *, record: str | Path | None = None, live: L
         live_context = foxglove.Context() if live is not None else None
         recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context)
         if live is not None:
-            stack.callback(_start_live(live, live_context, recorder, command).stop)  # type: ignore[arg-type]
+            stack.callback(_stop_live, _start_live(live, live_context, recorder, command))  # type: ignore[arg-type]
         yield recorder
     if record is not None:
         logger.info("recorded %d messages on %d topics in %s", sum(recorder.counts.values()),
@@ -303,6 +306,20 @@ def _start_live(live: LiveView, context: foxglove.Context, recorder: RunRecorder
         if not listener.viewer.wait(live.wait_for_client_s):
             logger.warning("no live client after %.1f s: running anyway", live.wait_for_client_s)
     return server
+
+
+def _stop_live(server: Any) -> None:
+    """Stop the server, waiting at most :data:`LIVE_STOP_WAIT_S` for its clients to take the end.
+
+    The SDK's ``stop`` waits until every client has been sent what it queued, which a client that
+    stopped reading never lets happen: past the wait, the server is left to the end of the process.
+    """
+    stopping = threading.Thread(target=server.stop, name="live-view-stop", daemon=True)
+    stopping.start()
+    stopping.join(LIVE_STOP_WAIT_S)
+    if stopping.is_alive():
+        logger.warning("a live client did not take the end of the stream in %.0f s (stopped reading?): "
+                       "not waiting for it", LIVE_STOP_WAIT_S)
 
 
 def check_recording_path(path: str | Path) -> Path:
