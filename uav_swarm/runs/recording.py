@@ -74,7 +74,7 @@ if TYPE_CHECKING:
     from bridge.geo import Home
 
 __all__ = ["SceneInfo", "RunRecorder", "open_recorder", "check_recording_path", "RUN_METADATA",
-           "LIVE_BACKLOG_MESSAGES", "LIVE_STOP_WAIT_S"]
+           "LIVE_BACKLOG_MESSAGES", "LIVE_STOP_WAIT_S", "RUN_TOPICS"]
 
 logger = logging.getLogger(__name__)
 
@@ -233,9 +233,12 @@ def _typed(kind: Callable[..., Any]) -> Callable[[str, foxglove.Context], Any]:
 
 _scene_channel = _typed(SceneUpdateChannel)
 _JSON_CHANNELS = {name: _json_channel(name) for name in _PAYLOADS}
-_RUN_CHANNELS = {_SCENE: _scene_channel, "/pedestrians": _typed(PointCloudChannel),
-                 "/tf": _typed(FrameTransformsChannel), "/plan": _JSON_CHANNELS["uav_swarm.Plan"],
-                 "/plan/targets": _typed(PosesInFrameChannel), "/qos": _JSON_CHANNELS["uav_swarm.Qos"]}
+_RUN_CHANNELS: dict[str, Callable[[str, foxglove.Context], Any]] = {
+    _SCENE: _scene_channel, "/pedestrians": _typed(PointCloudChannel), "/tf": _typed(FrameTransformsChannel),
+    "/plan": _JSON_CHANNELS["uav_swarm.Plan"], "/plan/targets": _typed(PosesInFrameChannel),
+    "/qos": _JSON_CHANNELS["uav_swarm.Qos"]}
+RUN_TOPICS = tuple(_RUN_CHANNELS)
+"""The topics every run has (the per-UAV ``/uav/<id>/...`` ones come with the UAVs)."""
 
 
 @contextmanager
