@@ -61,8 +61,25 @@ def test_live_options():
     assert not LiveView("0.0.0.0", 9000).is_loopback and LiveView("localhost", 1).is_loopback
     with pytest.raises(ConfigError, match="live_wait_s = 3.0: .*give --live"):
         live_view_option(None, 3.0)
+    with pytest.raises(ConfigError, match="live_speed = 2.0: .*give --live"):
+        live_view_option(None, None, 2.0)
     with pytest.raises(ConfigError, match="live_wait_s = -1"):
         live_view_option("8765", -1)
+    with pytest.raises(ConfigError, match="live_speed = 0"):
+        live_view_option("8765", 0, 0)
+
+
+def test_a_run_streamed_at_a_speed_keeps_its_pace(tmp_path):
+    """``--live-speed 4``: 2 s of run time take at least 0.5 s of wall-clock time (it waits on the clock)."""
+    import time
+
+    scene = SceneInfo(width_m=100.0, height_m=80.0, coverage_radius_m=30.0)
+    qos = Qos(stamp_s=0.0, seq=0, source="sim", qos_s1=0.5, qos_s2=0.4, mean_throughput_mbps=2.0, n_users=1)
+    with open_recorder(scene, live=LiveView("127.0.0.1", free_tcp_port(), speed=4.0)) as recorder:
+        start_s = time.monotonic()
+        for step in range(21):
+            recorder.step(0.1 * step, [], qos, np.zeros((1, 2)), np.zeros(1, bool))
+        assert time.monotonic() - start_s >= 2.0 / 4.0
 
 
 @pytest.mark.parametrize("live", ["99999", "busy"])

@@ -8,9 +8,9 @@ message again, and tells whoever waits for a first viewer; it never raises into 
 
 Examples:
     >>> parse_live_view("8765")
-    LiveView(host='127.0.0.1', port=8765, wait_for_client_s=0.0)
-    >>> parse_live_view("[::1]:9000", wait_for_client_s=30)
-    LiveView(host='::1', port=9000, wait_for_client_s=30.0)
+    LiveView(host='127.0.0.1', port=8765, wait_for_client_s=0.0, speed=None)
+    >>> parse_live_view("[::1]:9000", wait_for_client_s=30, speed=1)
+    LiveView(host='::1', port=9000, wait_for_client_s=30.0, speed=1.0)
     >>> parse_live_view("0.0.0.0:99999")
     Traceback (most recent call last):
     ...
@@ -50,11 +50,14 @@ class LiveView:
         port: TCP port, 0 for any free port (the one taken is logged).
         wait_for_client_s: Before its first step, the run waits at most this long for a client to
             subscribe to the scene (0: it starts at once). Once it runs, it never waits on a client.
+        speed: Run seconds per wall-clock second while streaming (``simulate``: 1 is the crowd's own pace,
+            to watch); None: as fast as the run computes.
     """
 
     host: str
     port: int
     wait_for_client_s: float = 0.0
+    speed: float | None = None
 
     @property
     def is_loopback(self) -> bool:
@@ -67,16 +70,19 @@ class LiveView:
             return False
 
 
-def parse_live_view(text: str, wait_for_client_s: float = 0.0) -> LiveView:
+def parse_live_view(text: str, wait_for_client_s: float = 0.0, speed: float | None = None) -> LiveView:
     """``PORT``, ``HOST:PORT`` or ``[IPv6]:PORT`` as a :class:`LiveView` (host default 127.0.0.1).
 
     Raises:
         ConfigError: Naming ``live`` and the text: no port, a port outside 0..65535, or a host that is
-            neither an IP address nor a host name; naming ``live_wait_s`` when it is negative or not finite.
+            neither an IP address nor a host name; naming ``live_wait_s`` when it is negative or not finite,
+            ``live_speed`` when it is not a positive finite number.
     """
     wait_s = float(wait_for_client_s)
     if not 0.0 <= wait_s < float("inf"):
         raise ConfigError(f"live_wait_s = {wait_for_client_s}: give the seconds to wait for a viewer, >= 0")
+    if speed is not None and not 0.0 < float(speed) < float("inf"):
+        raise ConfigError(f"live_speed = {speed}: give run seconds per wall-clock second, > 0")
     value = text.strip()
     host, port_text = DEFAULT_HOST, value
     if ":" in value:
@@ -92,20 +98,24 @@ def parse_live_view(text: str, wait_for_client_s: float = 0.0) -> LiveView:
         raise ConfigError(f"live = {text!r}: the port must be 0..65535 (0: any free port)")
     if not _valid_host(host):
         raise ConfigError(f"live = {text!r}: host {host!r} is neither an IP address nor a host name")
-    return LiveView(host=host, port=port, wait_for_client_s=wait_s)
+    return LiveView(host=host, port=port, wait_for_client_s=wait_s,
+                    speed=None if speed is None else float(speed))
 
 
-def live_view_option(live: str | None, wait_for_client_s: float | None = None) -> LiveView | None:
-    """The ``--live`` and ``--live-wait-s`` options as a :class:`LiveView`; None without ``--live``.
+def live_view_option(live: str | None, wait_for_client_s: float | None = None,
+                     speed: float | None = None) -> LiveView | None:
+    """The ``--live``, ``--live-wait-s`` and ``--live-speed`` options as a :class:`LiveView`, or None.
 
     Raises:
-        ConfigError: As :func:`parse_live_view`, or naming ``live_wait_s`` given without ``live``.
+        ConfigError: As :func:`parse_live_view`, or naming ``live_wait_s`` or ``live_speed`` given
+            without ``live``.
     """
     if live is None:
-        if wait_for_client_s is not None:
-            raise ConfigError(f"live_wait_s = {wait_for_client_s}: waits for a live client, give --live too")
+        for name, value in (("live_wait_s", wait_for_client_s), ("live_speed", speed)):
+            if value is not None:
+                raise ConfigError(f"{name} = {value}: it is for the live view, give --live too")
         return None
-    return parse_live_view(live, 0.0 if wait_for_client_s is None else wait_for_client_s)
+    return parse_live_view(live, 0.0 if wait_for_client_s is None else wait_for_client_s, speed)
 
 
 def _valid_host(host: str) -> bool:

@@ -125,11 +125,15 @@ class RunRecorder:
         scene: The run's area and coverage radius.
         contexts: One SDK context per sink group: the file's and/or the live view's.
         live: The live view's context (one of ``contexts``), or None.
+        speed: Keep the run at this many run seconds per wall-clock second (each step waits for the
+            clock, never for a client); None: no pace.
     """
 
     def __init__(self, scene: SceneInfo, contexts: Sequence[foxglove.Context],
-                 live: foxglove.Context | None = None) -> None:
+                 live: foxglove.Context | None = None, speed: float | None = None) -> None:
         self.scene = scene
+        self._speed = speed
+        self._start_wall_s: float | None = None
         self._contexts = list(contexts)
         self._live = None if live is None else self._contexts.index(live)
         self._channels: dict[str, list[Any]] = {}
@@ -165,6 +169,13 @@ class RunRecorder:
         self._obstacles_m = np.asarray(obstacles_m, np.float64).reshape(-1, 4).copy()
         update = fox.static_scene(self.scene.width_m, self.scene.height_m, self._obstacles_m, time_s)
         self._log(_SCENE, _scene_channel, time_s, update)
+
+    def _keep_pace(self, time_s: float) -> None:
+        if self._speed is None:
+            return
+        if self._start_wall_s is None:
+            self._start_wall_s = time.monotonic() - time_s / self._speed
+        time.sleep(max(0.0, self._start_wall_s + time_s / self._speed - time.monotonic()))
 
     def advertise(self) -> None:
         """Create the channels every run has (scene, crowd, frames, plans, QoS) before their first message."""
@@ -203,6 +214,7 @@ class RunRecorder:
         """
         from bridge.geo import enu_to_geodetic
 
+        self._keep_pace(time_s)
         placed: dict[int, tuple[fox.Vec3, fox.Vec3 | None]] = {}  # position and target of each UAV with a fix
         for state in states:
             self._log_json(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, encode_payload(state))
@@ -277,7 +289,8 @@ def open_recorder(scene: SceneInfo, *, record: str | Path | None = None, live: L
                 "time": "log times are run time: nanoseconds from the start of the run",
                 "config": json.dumps(config or {}, sort_keys=True)})
         live_context = foxglove.Context() if live is not None else None
-        recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context)
+        recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context,
+                               speed=None if live is None else live.speed)
         if live is not None:
             stack.callback(_stop_live, _start_live(live, live_context, recorder, command))  # type: ignore[arg-type]
         yield recorder
