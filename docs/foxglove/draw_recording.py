@@ -79,14 +79,16 @@ def draw(scene: dict[str, Any], out: Path) -> None:
     for leg in swarm["targets"].lines:
         for segment in _points(leg).reshape(-1, 2, 2):
             ax.plot(segment[:, 0], segment[:, 1], color="#e6730d", lw=1.0)
-    targets = np.array([(c.pose.position.x, c.pose.position.y) for c in swarm["targets"].cubes]).reshape(-1, 2)
+    targets = np.array([(c.pose.position.x, c.pose.position.y) for c in swarm["targets"].cubes])
+    targets = targets.reshape(-1, 2)
     ax.scatter(*targets.T, marker="s", s=22, color="#e6730d", label="target")
     uavs = np.array([(s.pose.position.x, s.pose.position.y) for s in swarm["uavs"].spheres]).reshape(-1, 2)
     ax.scatter(*uavs.T, s=40, color="#1a59d9", edgecolor="white", lw=0.8, label="UAV (disc: coverage)")
     ax.set_aspect("equal")
     ax.set_xlabel("East (m)")
     ax.set_ylabel("North (m)")
-    ax.set_title(f"map frame at t = {scene['time_ns'] / 1e9:.1f} s: {int(served.sum())} of {len(served)} served")
+    ax.set_title(f"map frame at t = {scene['time_ns'] / 1e9:.1f} s: "
+                 f"{int(served.sum())} of {len(served)} pedestrians served")
     ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
     fig.tight_layout()
     fig.savefig(out)
@@ -95,7 +97,8 @@ def draw(scene: dict[str, Any], out: Path) -> None:
 
 def main() -> None:
     """Read the arguments, draw the picture."""
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("recording", type=Path)
     parser.add_argument("out", type=Path)
     parser.add_argument("--time-s", type=float, help="run time to draw (default: the last recorded step)")
