@@ -6,6 +6,7 @@ telemetry goes through a real Zenoh session to a subscriber connected over ``tcp
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from pathlib import Path
@@ -275,8 +276,9 @@ def test_launch_climbs_to_the_altitude_and_refused_commands_raise_by_name():
         _close(vehicles)
 
 
-def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsys):
-    """``fly --record``: each vehicle's states, the QoS and the plans at crowd time, as the outputs say."""
+def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsys, caplog):
+    """``fly --record --live``: each vehicle's states, the QoS and the plans at crowd time, as the outputs
+    say; the live view listens on loopback meanwhile."""
     from foxglove_readback import conform, decode
     from mcap.reader import make_reader
 
@@ -285,11 +287,13 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     try:
         argv = ["fly", "--bridge-config", str(_bridge_toml(tmp_path / "bridge.toml", urls)), "--out",
                 str(tmp_path / "out"), "--duration-s", "4", "--speedup", "2", "--no-telemetry",
-                "--record", str(path)]
+                "--record", str(path), "--live", "127.0.0.1:0"]
+        caplog.set_level(logging.INFO, logger="uav_swarm.runs.recording")
         assert main(argv) == 0
     finally:
         _close(vehicles)
     assert f"recorded the flight in {path}" in capsys.readouterr().out
+    assert "live view on ws://127.0.0.1:" in caplog.text
     topics: dict[str, list] = {}
     schemas: dict[str, str] = {}
     with path.open("rb") as stream:
