@@ -5,9 +5,12 @@ seed 0, replanning every 10 steps, every step streamed) for ``--duration-s`` sim
 ``--rounds`` times each way, alternating (so that a changing machine load hits all alike):
 
 - ``plain``: no live view, no recording;
-- ``live``: the SDK's WebSocket server on 127.0.0.1 and one client in another process that speaks the
-  Foxglove protocol, subscribes to every channel as it is advertised and reads everything;
-- ``stalled``: the same client, which subscribes to everything and then reads nothing.
+- ``layout``: the SDK's WebSocket server on 127.0.0.1 and one client in another process that speaks the
+  Foxglove protocol and subscribes to what the committed layout shows (``/scene``, ``/pedestrians``,
+  ``/tf``, ``/qos``, ``/plan``: what the Foxglove app asks for with it), reading everything;
+- ``all``: the same client subscribed to every channel as it is advertised (the per-UAV states and
+  fixes too), reading everything;
+- ``stalled``: the client subscribed to everything that then reads nothing.
 
 The run starts once the client has subscribed to the scene (``wait_for_client_s``; not timed). Printed:
 the median wall time of each, the ratios to ``plain``, what the reading client received, and how long
@@ -35,9 +38,12 @@ from uav_swarm.runs.recording import SceneInfo, open_recorder
 from uav_swarm.runs.simulate import run_sequence
 from uav_swarm.runs.simulate_config import SimulateConfig
 
+LAYOUT_TOPICS = ("/scene", "/pedestrians", "/tf", "/qos", "/plan")
 
-def _client(port: int, read: bool, results: multiprocessing.Queue) -> None:
-    """A Foxglove-protocol client: subscribe to every channel advertised; read all (or nothing)."""
+
+def _client(port: int, kind: str, results: multiprocessing.Queue) -> None:
+    """A Foxglove-protocol client: subscribe (to the layout's topics or all); read all (or nothing)."""
+    read = kind != "stalled"
     from websockets.exceptions import ConnectionClosed
     from websockets.sync.client import connect
 
@@ -59,8 +65,9 @@ def _client(port: int, read: bool, results: multiprocessing.Queue) -> None:
             if isinstance(frame, str):
                 op = json.loads(frame)
                 if op["op"] == "advertise":
+                    wanted = [c for c in op["channels"] if kind != "layout" or c["topic"] in LAYOUT_TOPICS]
                     subscriptions = [{"id": subscribed + i, "channelId": c["id"]}
-                                     for i, c in enumerate(op["channels"], start=1)]
+                                     for i, c in enumerate(wanted, start=1)]
                     subscribed += len(subscriptions)
                     ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
                     if not read and any(c["topic"] == "/scene" for c in op["channels"]):
@@ -72,13 +79,13 @@ def _client(port: int, read: bool, results: multiprocessing.Queue) -> None:
         results.put((messages, size))
 
 
-def _timed_live(config: SimulateConfig, planner, scene: SceneInfo, read: bool) -> tuple[float, float, tuple]:
+def _timed_live(config: SimulateConfig, planner, scene: SceneInfo, kind: str) -> tuple[float, float, tuple]:
     """Run time, server stop time, and (messages received, bytes received, messages logged)."""
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     results: multiprocessing.Queue = multiprocessing.Queue()
-    client = multiprocessing.Process(target=_client, args=(port, read, results), daemon=True)
+    client = multiprocessing.Process(target=_client, args=(port, kind, results), daemon=True)
     client.start()
     live = LiveView("127.0.0.1", port, wait_for_client_s=120.0)
     with open_recorder(scene, live=live, command="benchmark") as recorder:
@@ -87,7 +94,7 @@ def _timed_live(config: SimulateConfig, planner, scene: SceneInfo, read: bool) -
         run_s = time.perf_counter() - start_s
         stop_from_s = time.perf_counter()
     stop_s = time.perf_counter() - stop_from_s
-    received = results.get(timeout=120) if read else (0, 0)
+    received = results.get(timeout=120) if kind != "stalled" else (0, 0)
     client.kill()
     client.join()
     return run_s, stop_s, (*received, sum(recorder.counts.values()))
@@ -104,18 +111,17 @@ def main() -> None:
     planner = make_planner("learned", config.n_uavs, config.task, config=config.planning)
     scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
                       coverage_radius_m=config.task.radio.coverage_radius_m)
-    times: dict[str, list[float]] = {"plain": [], "live": [], "stalled": []}
-    stops: dict[str, list[float]] = {"live": [], "stalled": []}
-    received = (0, 0, 0)
+    times: dict[str, list[float]] = {"plain": [], "layout": [], "all": [], "stalled": []}
+    stops: dict[str, list[float]] = {"layout": [], "all": [], "stalled": []}
+    received: dict[str, tuple] = {}
     for _ in range(args.rounds):
         start_s = time.perf_counter()
         run = run_sequence(config, planner, "learned")
         times["plain"].append(time.perf_counter() - start_s)
-        for kind in ("live", "stalled"):
-            run_s, stop_s, got = _timed_live(config, planner, scene, read=kind == "live")
+        for kind in stops:
+            run_s, stop_s, received[kind] = _timed_live(config, planner, scene, kind)
             times[kind].append(run_s)
             stops[kind].append(stop_s)
-            received = got if kind == "live" else received
     median = {kind: float(np.median(t)) for kind, t in times.items()}
     print(f"python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPUs, load average "
           f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}")
@@ -125,9 +131,11 @@ def main() -> None:
         ratio = "" if kind == "plain" else f"  ratio to plain {median[kind] / median['plain']:.3f}"
         print(f"{kind:<8}: {median[kind]:6.2f} s (median; runs {', '.join(f'{t:.2f}' for t in times[kind])})"
               f"{ratio}")
-    print(f"reading client: received {received[0]} of the {received[2]} messages logged, "
-          f"{received[1] / 1e6:.1f} MB (last round; the server drops the oldest when it lags)")
-    print(f"server stop: at most {max(stops['live']):.2f} s with the reading client, "
+    for kind in ("layout", "all"):
+        got, size, logged = received[kind]
+        print(f"{kind} client: received {got} of the {logged} messages logged for it, {size / 1e6:.1f} MB "
+              f"(last round; the server drops the oldest when a client lags)")
+    print(f"server stop: at most {max(stops['all']):.2f} s with a reading client, "
           f"{max(stops['stalled']):.2f} s with the stalled one")
 
 

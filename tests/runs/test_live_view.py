@@ -134,14 +134,14 @@ def test_simulate_streams_the_scene_the_crowd_and_the_qos_to_a_live_client(tmp_p
     assert all(conform(m, "foxglove.PointCloud") == [] for _, m in by_topic["/pedestrians"])
 
 
-def test_a_client_that_comes_late_gets_the_static_scene_at_once_and_its_leaving_is_logged(caplog):
-    port = free_tcp_port()
+def test_a_client_that_comes_late_gets_the_static_scene_at_once_and_its_leaving_is_logged(tmp_path, caplog):
+    port, path = free_tcp_port(), tmp_path / "run.mcap"
     scene = SceneInfo(width_m=100.0, height_m=80.0, coverage_radius_m=30.0)
     state = UavState(stamp_s=0.0, seq=0, source="sim", uav_id=0, position_enu_m=(50.0, 40.0, 30.0),
                      velocity_enu_m_s=(0.0, 0.0, 0.0), target_enu_m=(60.0, 40.0, 30.0))
     qos = Qos(stamp_s=0.0, seq=0, source="sim", qos_s1=0.5, qos_s2=0.4, mean_throughput_mbps=2.0, n_users=2)
     caplog.set_level(logging.INFO, logger="uav_swarm.runs")
-    with open_recorder(scene, live=LiveView("127.0.0.1", port)) as recorder:
+    with open_recorder(scene, record=path, live=LiveView("127.0.0.1", port)) as recorder:
         recorder.static_scene(OBSTACLES)
         for step in range(1, 6):  # the run goes on: five steps before anyone watches
             recorder.step(0.1 * step, [state], qos, np.array([[10.0, 20.0], [90.0, 70.0]]), np.array([1, 0]))
@@ -156,7 +156,8 @@ def test_a_client_that_comes_late_gets_the_static_scene_at_once_and_its_leaving_
     walls = [(p["x"], p["y"]) for p in entities["obstacles"]["lines"][0]["points"]]
     np.testing.assert_array_equal(np.reshape(walls, (-1, 4)), OBSTACLES)
     assert conform(message, "foxglove.SceneUpdate") == []
-    assert recorder.counts["/scene"] == 6  # the re-send is for the live client only
+    in_file = read_back(path)["topics"]["/scene"]["messages"]
+    assert recorder.counts["/scene"] == 6 == len(in_file)  # the re-send went to the live client only
     logs = caplog.text
     assert f"live view on ws://127.0.0.1:{port}" in logs and "subscribed (first topic /scene)" in logs
     assert "left (disconnected, or unsubscribed from every topic)" in logs

@@ -60,6 +60,10 @@ _DISC = Color(r=0.10, g=0.35, b=0.85, a=0.15)
 _WALL, _OUTLINE = Color(r=0.25, g=0.25, b=0.25, a=1.0), Color(r=0.55, g=0.55, b=0.55, a=1.0)
 _UAV_SIZE_M, _TARGET_SIZE_M, _DISC_HEIGHT_M = 3.0, 2.0, 0.1
 _COVERED_FIELDS = ("x", "y", "z", "covered")
+_UNROTATED = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+_FOREVER = Duration(0, 0)  # an entity's lifetime: kept until replaced
+_UAV_BOX = Vector3(x=_UAV_SIZE_M, y=_UAV_SIZE_M, z=_UAV_SIZE_M)
+_TARGET_BOX = Vector3(x=_TARGET_SIZE_M, y=_TARGET_SIZE_M, z=_TARGET_SIZE_M)
 
 
 def uav_frame(uav_id: int) -> str:
@@ -75,18 +79,17 @@ def stamp(time_s: float) -> Timestamp:
 
 def pose(x_m: float, y_m: float, z_m: float) -> Pose:
     """A pose at a position, not rotated."""
-    return Pose(position=Vector3(x=float(x_m), y=float(y_m), z=float(z_m)),
-                orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0))
+    return Pose(position=Vector3(x=float(x_m), y=float(y_m), z=float(z_m)), orientation=_UNROTATED)
 
 
 def _point(x_m: float, y_m: float, z_m: float) -> Point3:
     return Point3(x=float(x_m), y=float(y_m), z=float(z_m))
 
 
-def _entity(entity_id: str, time_s: float, **primitives: list) -> SceneEntity:
+def _entity(entity_id: str, t: Timestamp, **primitives: list) -> SceneEntity:
     """A :data:`MAP_FRAME` entity kept until replaced (lifetime 0)."""
-    return SceneEntity(timestamp=stamp(time_s), frame_id=MAP_FRAME, id=entity_id, lifetime=Duration(0, 0),
-                       frame_locked=False, **primitives)
+    return SceneEntity(timestamp=t, frame_id=MAP_FRAME, id=entity_id, lifetime=_FOREVER, frame_locked=False,
+                       **primitives)
 
 
 def static_scene(width_m: float, height_m: float, obstacles_m: np.ndarray,
@@ -100,8 +103,9 @@ def static_scene(width_m: float, height_m: float, obstacles_m: np.ndarray,
     walls = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=pose(0.0, 0.0, 0.0), thickness=1.0,
                           color=_WALL, points=[_point(x, y, 0.0) for x1, y1, x2, y2 in segments
                                                for x, y in ((x1, y1), (x2, y2))])
-    return SceneUpdate(entities=[_entity("area", time_s, lines=[outline]),
-                                 _entity("obstacles", time_s, lines=[walls] if len(segments) else [])])
+    t = stamp(time_s)
+    return SceneUpdate(entities=[_entity("area", t, lines=[outline]),
+                                 _entity("obstacles", t, lines=[walls] if len(segments) else [])])
 
 
 def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]],
@@ -113,19 +117,17 @@ def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]],
         placed: Position and target (or None) of each UAV with a position fix.
         coverage_radius_m: Radius of a disc on the ground.
     """
-    size = Vector3(x=_UAV_SIZE_M, y=_UAV_SIZE_M, z=_UAV_SIZE_M)
-    uavs = [SpherePrimitive(pose=pose(*position), size=size, color=_UAV) for position, _ in placed]
-    d = 2.0 * coverage_radius_m
-    discs = [CylinderPrimitive(pose=pose(x, y, _DISC_HEIGHT_M / 2), size=Vector3(x=d, y=d, z=_DISC_HEIGHT_M),
-                               bottom_scale=1.0, top_scale=1.0, color=_DISC) for (x, y, _), _ in placed]
+    uavs = [SpherePrimitive(pose=pose(*position), size=_UAV_BOX, color=_UAV) for position, _ in placed]
+    disc = Vector3(x=2.0 * coverage_radius_m, y=2.0 * coverage_radius_m, z=_DISC_HEIGHT_M)
+    discs = [CylinderPrimitive(pose=pose(x, y, _DISC_HEIGHT_M / 2), size=disc, bottom_scale=1.0,
+                               top_scale=1.0, color=_DISC) for (x, y, _), _ in placed]
     aimed = [(position, target) for position, target in placed if target is not None]
-    marker = Vector3(x=_TARGET_SIZE_M, y=_TARGET_SIZE_M, z=_TARGET_SIZE_M)
-    targets = [CubePrimitive(pose=pose(*target), size=marker, color=_TARGET) for _, target in aimed]
+    targets = [CubePrimitive(pose=pose(*target), size=_TARGET_BOX, color=_TARGET) for _, target in aimed]
     legs = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=pose(0.0, 0.0, 0.0), thickness=0.3,
                          color=_TARGET, points=[_point(*p) for pair in aimed for p in pair])
-    return SceneUpdate(entities=[_entity("uavs", time_s, spheres=uavs),
-                                 _entity("coverage", time_s, cylinders=discs),
-                                 _entity("targets", time_s, cubes=targets, lines=[legs] if aimed else [])])
+    t = stamp(time_s)
+    return SceneUpdate(entities=[_entity("uavs", t, spheres=uavs), _entity("coverage", t, cylinders=discs),
+                                 _entity("targets", t, cubes=targets, lines=[legs] if aimed else [])])
 
 
 def crowd_cloud(time_s: float, users_m: np.ndarray, covered: np.ndarray) -> PointCloud:
@@ -145,8 +147,7 @@ def frame_transforms(time_s: float, positions_m: dict[int, Vec3]) -> FrameTransf
     t = stamp(time_s)
     return FrameTransforms(transforms=[
         FrameTransform(timestamp=t, parent_frame_id=MAP_FRAME, child_frame_id=uav_frame(uav_id),
-                       translation=Vector3(x=float(x), y=float(y), z=float(z)),
-                       rotation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0))
+                       translation=Vector3(x=float(x), y=float(y), z=float(z)), rotation=_UNROTATED)
         for uav_id, (x, y, z) in positions_m.items()])
 
 

@@ -151,24 +151,39 @@ class RunRecorder:
             return self._channels[topic]
 
     def _log(self, topic: str, make: Callable[[str, foxglove.Context], Any], time_s: float,
-             message: Any) -> None:
+             build: Callable[[], Any]) -> None:
+        """Log ``build()`` on ``topic`` at ``time_s``; built only if a sink takes it (a file always does)."""
         if time_s < 0:
             raise ValueError(f"{topic}: time_s = {time_s} is negative: run times start at 0")
-        ns = round(time_s * 1e9)
-        for channel in self._channel_list(topic, make):
-            channel.log(message, log_time=ns)
         self._now_s = max(self._now_s, time_s)
+        channels = [channel for channel in self._channel_list(topic, make) if channel.has_sinks()]
+        if not channels:  # only a live view, and no client subscribes to the topic
+            return
+        message, ns = build(), round(time_s * 1e9)
+        for channel in channels:
+            channel.log(message, log_time=ns)
         self.counts[topic] += 1
 
-    def _log_json(self, topic: str, schema: str, time_s: float, payload: bytes) -> None:
-        self._log(topic, _JSON_CHANNELS[schema], time_s, payload)
+    def _log_json(self, topic: str, schema: str, time_s: float, payload: Any) -> None:
+        """Log a telemetry payload (``Plan``, ``Qos``, ``UavState``) as the JSON that Zenoh carries."""
+        self._log(topic, _JSON_CHANNELS[schema], time_s, lambda: encode_payload(payload))
 
     # -- what a run records --------------------------------------------------------------------
     def static_scene(self, obstacles_m: np.ndarray, time_s: float = 0.0) -> None:
         """The area's outline and the obstacle segments ``(M, 4)`` (``x1, y1, x2, y2``), kept all run."""
         self._obstacles_m = np.asarray(obstacles_m, np.float64).reshape(-1, 4).copy()
         update = fox.static_scene(self.scene.width_m, self.scene.height_m, self._obstacles_m, time_s)
-        self._log(_SCENE, _scene_channel, time_s, update)
+        self._log(_SCENE, _scene_channel, time_s, lambda: update)
+
+    def _fixes_from_home(self, positions_m: dict[int, fox.Vec3]) -> dict[int, tuple[float, float, float]]:
+        """WGS84 positions of local ones around the scene's home (none without a home), in one call."""
+        from bridge.geo import enu_to_geodetic_many
+
+        if self.scene.home is None or not positions_m:
+            return {}
+        geodetic = enu_to_geodetic_many(self.scene.home, np.array(list(positions_m.values())))
+        return {uav_id: (float(lat), float(lon), float(alt))
+                for uav_id, (lat, lon, alt) in zip(positions_m, geodetic, strict=True)}
 
     def _keep_pace(self, time_s: float) -> None:
         if self._speed is None:
@@ -192,13 +207,13 @@ class RunRecorder:
 
     def plan(self, time_s: float, plan: Plan) -> None:
         """A plan: its telemetry payload on ``/plan`` and its targets on ``/plan/targets``."""
-        self._log_json("/plan", "uav_swarm.Plan", time_s, encode_payload(plan))
+        self._log_json("/plan", "uav_swarm.Plan", time_s, plan)
         self._log("/plan/targets", _RUN_CHANNELS["/plan/targets"], time_s,
-                  fox.poses_in_frame(time_s, [t.target_enu_m for t in plan.targets]))
+                  lambda: fox.poses_in_frame(time_s, [t.target_enu_m for t in plan.targets]))
 
     def qos(self, time_s: float, qos: Qos) -> None:
         """The QoS at ``time_s`` on ``/qos``."""
-        self._log_json("/qos", "uav_swarm.Qos", time_s, encode_payload(qos))
+        self._log_json("/qos", "uav_swarm.Qos", time_s, qos)
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
              covered: np.ndarray) -> None:
@@ -212,30 +227,29 @@ class RunRecorder:
             pedestrians_m: ``(N, 2)`` crowd positions.
             covered: ``(N,)`` True for a user a UAV serves.
         """
-        from bridge.geo import enu_to_geodetic
-
         self._keep_pace(time_s)
         placed: dict[int, tuple[fox.Vec3, fox.Vec3 | None]] = {}  # position and target of each UAV with a fix
+        fixes: dict[int, tuple[float, float, float]] = {}  # WGS84 position of each, when known
         for state in states:
-            self._log_json(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, encode_payload(state))
+            self._log_json(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, state)
             if state.position_enu_m is None:  # no position fix: its state says so, nothing to draw
                 continue
             placed[state.uav_id] = (state.position_enu_m, state.target_enu_m)
-            fix = state.position_wgs84
-            if fix is None and self.scene.home is not None:
-                lat, lon, alt = enu_to_geodetic(self.scene.home, *state.position_enu_m)
-            elif fix is not None:
-                lat, lon, alt = fix.lat_deg, fix.lon_deg, fix.alt_m
-            else:
-                continue
-            self._log(f"/uav/{state.uav_id}/location", _typed(LocationFixChannel), time_s,
-                      fox.location_fix(time_s, state.uav_id, lat, lon, alt))
+            if state.position_wgs84 is not None:
+                fixes[state.uav_id] = (state.position_wgs84.lat_deg, state.position_wgs84.lon_deg,
+                                       state.position_wgs84.alt_m)
+        wanted = {i: position for i, (position, _) in placed.items()
+                  if any(c.has_sinks() for c in self._channel_list(f"/uav/{i}/location", _LOCATION_CHANNEL))}
+        fixes |= self._fixes_from_home({i: position for i, position in wanted.items() if i not in fixes})
+        for uav_id, fix in fixes.items():
+            self._log(f"/uav/{uav_id}/location", _LOCATION_CHANNEL, time_s,
+                      lambda uav_id=uav_id, fix=fix: fox.location_fix(time_s, uav_id, *fix))
         self._log("/tf", _RUN_CHANNELS["/tf"], time_s,
-                  fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
+                  lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
         self._log(_SCENE, _scene_channel, time_s,
-                  fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m))
+                  lambda: fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m))
         self._log("/pedestrians", _RUN_CHANNELS["/pedestrians"], time_s,
-                  fox.crowd_cloud(time_s, pedestrians_m, covered))
+                  lambda: fox.crowd_cloud(time_s, pedestrians_m, covered))
         self.qos(time_s, qos)
 
 
@@ -244,6 +258,7 @@ def _typed(kind: Callable[..., Any]) -> Callable[[str, foxglove.Context], Any]:
 
 
 _scene_channel = _typed(SceneUpdateChannel)
+_LOCATION_CHANNEL = _typed(LocationFixChannel)
 _JSON_CHANNELS = {name: _json_channel(name) for name in _PAYLOADS}
 _RUN_CHANNELS: dict[str, Callable[[str, foxglove.Context], Any]] = {
     _SCENE: _scene_channel, "/pedestrians": _typed(PointCloudChannel), "/tf": _typed(FrameTransformsChannel),
