@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from uav_swarm.planning.planner import make_planner
-from uav_swarm.runs.recording import SceneInfo, open_recording
+from uav_swarm.runs.recording import SceneInfo, open_recorder
 from uav_swarm.runs.simulate import run_sequence
 from uav_swarm.runs.simulate_config import SimulateConfig
 
@@ -45,7 +45,7 @@ def main() -> None:
             run = run_sequence(config, planner, "learned")
             plain_s.append(time.perf_counter() - start_s)
             start_s = time.perf_counter()
-            with open_recording(path, scene, command="benchmark") as recorder:
+            with open_recorder(scene, record=path, command="benchmark") as recorder:
                 run_sequence(config, planner, "learned", recorder=recorder)
             recorded_s.append(time.perf_counter() - start_s)
         size_mb = path.stat().st_size / 1e6

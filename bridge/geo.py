@@ -14,12 +14,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pymap3d
 import pymap3d.vincenty
 
 from typed_config import Config, param
 
-__all__ = ["Home", "enu_to_geodetic", "geodetic_to_enu", "ground_distance_m"]
+__all__ = ["Home", "enu_to_geodetic", "enu_to_geodetic_many", "geodetic_to_enu", "ground_distance_m"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,21 @@ def enu_to_geodetic(home: Home, x_m: float, y_m: float, z_m: float) -> tuple[flo
         x_m, y_m, z_m, home.lat_deg, home.lon_deg, home.alt_m, deg=True
     )
     return float(lat_deg), float(lon_deg), float(alt_m)
+
+
+def enu_to_geodetic_many(home: Home, points_m: np.ndarray) -> np.ndarray:
+    """:func:`enu_to_geodetic` of ``(N, 3)`` East-North-Up points in one call: ``(N, 3)`` lat, lon, alt.
+
+    Examples:
+        >>> home = Home()
+        >>> many = enu_to_geodetic_many(home, np.array([[100.0, 0.0, 10.0], [0.0, -50.0, 0.0]]))
+        >>> bool(np.all(many[0] == enu_to_geodetic(home, 100.0, 0.0, 10.0)))
+        True
+    """
+    points = np.asarray(points_m, np.float64).reshape(-1, 3)
+    lat_deg, lon_deg, alt_m = pymap3d.enu2geodetic(points[:, 0], points[:, 1], points[:, 2], home.lat_deg,
+                                                   home.lon_deg, home.alt_m, deg=True)
+    return np.column_stack([lat_deg, lon_deg, alt_m]).reshape(-1, 3)
 
 
 def geodetic_to_enu(home: Home, lat_deg: float, lon_deg: float, alt_m: float) -> tuple[float, float, float]:

@@ -6,7 +6,7 @@ telemetry goes through a real Zenoh session to a subscriber connected over ``tcp
 
 from __future__ import annotations
 
-import json
+import logging
 import threading
 import time
 from pathlib import Path
@@ -276,8 +276,10 @@ def test_launch_climbs_to_the_altitude_and_refused_commands_raise_by_name():
         _close(vehicles)
 
 
-def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsys):
-    """``fly --record``: each vehicle's states, the QoS and the plans at crowd time, as the outputs say."""
+def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsys, caplog):
+    """``fly --record --live``: each vehicle's states, the QoS and the plans at crowd time, as the outputs
+    say; the live view listens on loopback meanwhile."""
+    from foxglove_readback import conform, decode
     from mcap.reader import make_reader
 
     vehicles, urls = _vehicles(2, ("udpin",), {i: {"speed_m_s": 25.0} for i in (1, 2)})
@@ -285,16 +287,18 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     try:
         argv = ["fly", "--bridge-config", str(_bridge_toml(tmp_path / "bridge.toml", urls)), "--out",
                 str(tmp_path / "out"), "--duration-s", "4", "--speedup", "2", "--no-telemetry",
-                "--record", str(path)]
+                "--record", str(path), "--live", "127.0.0.1:0"]
+        caplog.set_level(logging.INFO, logger="uav_swarm.runs.recording")
         assert main(argv) == 0
     finally:
         _close(vehicles)
     assert f"recorded the flight in {path}" in capsys.readouterr().out
+    assert "live view on ws://127.0.0.1:" in caplog.text
     topics: dict[str, list] = {}
     schemas: dict[str, str] = {}
     with path.open("rb") as stream:
         for schema, channel, message in make_reader(stream).iter_messages(log_time_order=True):
-            topics.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
+            topics.setdefault(channel.topic, []).append((message.log_time, decode(schema, message.data)))
             schemas[channel.topic] = schema.name
     uavs = {f"/uav/{i}/state": "uav_swarm.UavState" for i in (0, 1)}
     uavs |= {f"/uav/{i}/location": "foxglove.LocationFix" for i in (0, 1)}
@@ -318,3 +322,6 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     assert plans and all(log_ns % 1_000_000_000 == 0 for log_ns, _ in plans)  # every replan_every_s = 1 s
     assert [ns for ns, _ in topics["/plan/targets"]] == [ns for ns, _ in plans]
     assert len(topics["/scene"]) == len(qos) + 1  # the area and obstacles first, then the swarm each record
+    for topic, name in schemas.items():  # Foxglove's types as Foxglove publishes them
+        if name.startswith("foxglove."):
+            assert all(conform(message, name) == [] for _, message in topics[topic]), topic

@@ -1,24 +1,28 @@
-"""``simulate --record``: the MCAP file read back with the ``mcap`` reader equals the run."""
+"""``simulate --record``: the MCAP file read back with the ``mcap`` reader equals the run.
+
+Foxglove's messages are decoded with protobuf's own decoder from the descriptors in the file and
+checked against Foxglove's published JSON Schemas (``tests/foxglove_readback.py``); the project's
+JSON channels against the JSON Schema the file declares for them.
+"""
 
 from __future__ import annotations
 
 import base64
 import doctest
 import json
-from pathlib import Path
 
 import jsonschema
 import numpy as np
 import pytest
 from conftest import SMALL_WIFI_TASK
-from mcap.reader import make_reader
+from foxglove_readback import PUBLISHED, conform, read_back
 
 from bridge.geo import Home
 from bridge.telemetry_schema import Qos, UavState
 from typed_config import ConfigError
 from uav_swarm.cli import main
-from uav_swarm.runs import foxglove_messages, recording
-from uav_swarm.runs.recording import RUN_METADATA, SceneInfo, open_recording
+from uav_swarm.runs import foxglove_scene, live_view, recording
+from uav_swarm.runs.recording import RUN_METADATA, SceneInfo, open_recorder
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
 
@@ -28,24 +32,6 @@ SCHEMA_OF = {"/scene": "foxglove.SceneUpdate", "/pedestrians": "foxglove.PointCl
              "/plan/targets": "foxglove.PosesInFrame", "/qos": "uav_swarm.Qos"}
 SCHEMA_OF |= {f"/uav/{i}/state": "uav_swarm.UavState" for i in range(N_UAVS)}
 SCHEMA_OF |= {f"/uav/{i}/location": "foxglove.LocationFix" for i in range(N_UAVS)}
-
-
-def read_back(path: Path) -> dict:
-    """Everything in the file, by topic: schemas, encodings, log times and decoded messages."""
-    with path.open("rb") as stream:
-        reader = make_reader(stream)
-        summary = reader.get_summary()
-        metadata = {m.name: m.metadata for m in reader.iter_metadata()}
-        topics: dict[str, dict] = {}
-        for schema, channel, message in reader.iter_messages(log_time_order=True):
-            topic = topics.setdefault(channel.topic, {
-                "schema": schema.name, "schema_encoding": schema.encoding,
-                "encoding": channel.message_encoding, "json_schema": json.loads(schema.data),
-                "log_ns": [], "publish_ns": [], "messages": []})
-            topic["log_ns"].append(message.log_time)
-            topic["publish_ns"].append(message.publish_time)
-            topic["messages"].append(json.loads(message.data))
-    return {"summary": summary, "metadata": metadata, "topics": topics}
 
 
 @pytest.fixture(scope="module")
@@ -60,14 +46,40 @@ def recorded(tmp_path_factory):
     return config, result, read_back(out / "replay" / "run.mcap")
 
 
-def test_channels_carry_foxglove_and_telemetry_schemas_as_json(recorded):
-    _, result, data = recorded
+def test_foxglove_channels_conform_to_the_published_schemas(recorded):
+    _, _, data = recorded
     topics = data["topics"]
     assert {topic: t["schema"] for topic, t in topics.items()} == SCHEMA_OF
-    assert all(t["encoding"] == "json" and t["schema_encoding"] == "jsonschema" for t in topics.values())
-    for t in topics.values():  # every message is valid under the schema its channel declares
+    checked = 0
+    for topic, t in topics.items():
+        if not t["schema"].startswith("foxglove."):
+            continue
+        assert t["schema"] in PUBLISHED
+        assert (t["encoding"], t["schema_encoding"]) == ("protobuf", "protobuf"), topic
         for message in t["messages"]:
-            jsonschema.validate(message, t["json_schema"])
+            assert conform(message, t["schema"]) == [], topic
+            checked += 1
+    assert checked == sum(len(t["messages"]) for t in topics.values() if t["schema"].startswith("foxglove."))
+    assert checked > 0
+
+
+def test_a_message_off_the_published_schema_is_caught():
+    scene = {"deletions": [], "entities": [{"id": "uavs", "frame_id": "map", "colour": "blue"}]}
+    assert any("colour: not in the published schema" in w for w in conform(scene, "foxglove.SceneUpdate"))
+    fix = {"timestamp": {"sec": 0, "nsec": 0}, "frame_id": "uav_0", "latitude": "47.1", "longitude": 8.5,
+           "altitude": 0.0, "position_covariance": [0.0] * 9, "position_covariance_type": 0}
+    assert any("is not of type 'number'" in w for w in conform(fix, "foxglove.LocationFix"))
+
+
+def test_telemetry_channels_carry_the_zenoh_payloads_as_json(recorded):
+    _, result, data = recorded
+    for topic, t in data["topics"].items():
+        if t["schema"].startswith("uav_swarm."):
+            assert (t["encoding"], t["schema_encoding"]) == ("json", "jsonschema"), topic
+            json_schema = json.loads(t["schema_data"])
+            assert json_schema["title"] == t["schema"]
+            for message in t["messages"]:
+                jsonschema.validate(message, json_schema)
     assert result.summary["recording"].endswith("run.mcap")
     run_info = data["metadata"][RUN_METADATA]
     assert run_info["command"] == "simulate" and json.loads(run_info["config"])["seed"] == 0
@@ -109,6 +121,7 @@ def test_recorded_values_equal_the_run(recorded):
     np.testing.assert_array_equal(last_targets, run.final_targets_m)
     cloud = topics["/pedestrians"]["messages"][-1]
     points = np.frombuffer(base64.b64decode(cloud["data"]), "<f4").reshape(-1, cloud["point_stride"] // 4)
+    assert [f["type"] for f in cloud["fields"]] == [7] * 4  # foxglove.NumericType FLOAT32
     assert len(points) == run.n_pedestrians
     assert [f["name"] for f in cloud["fields"]] == ["x", "y", "z", "covered"]
     if (config.n_steps - 1) % RECORD_EVERY == 0:  # the last step is recorded: the crowd at the end
@@ -136,7 +149,7 @@ def test_a_vehicle_without_a_fix_is_recorded_on_its_state_channel_only(tmp_path)
               UavState(**header, uav_id=1, fix=False, position_enu_m=None, velocity_enu_m_s=None)]
     qos = Qos(**header, qos_s1=0.5, qos_s2=0.0, mean_throughput_mbps=1.0, n_users=2)
     scene = SceneInfo(width_m=100.0, height_m=100.0, coverage_radius_m=30.0, home=Home())
-    with open_recording(path, scene) as rec:
+    with open_recorder(scene, record=path) as rec:
         rec.step(0.5, states, qos, np.array([[10.0, 20.0], [90.0, 90.0]]), np.array([True, False]))
     topics = read_back(path)["topics"]
     assert "/uav/1/location" not in topics and topics["/uav/1/state"]["messages"][0]["fix"] is False
@@ -153,7 +166,7 @@ def test_a_run_that_fails_leaves_no_file(tmp_path):
     path = tmp_path / "run.mcap"
     qos = Qos(stamp_s=0.0, seq=0, source="sim", qos_s1=0.5, qos_s2=0.5, mean_throughput_mbps=1.0, n_users=2)
     scene = SceneInfo(width_m=10.0, height_m=10.0, coverage_radius_m=5.0)
-    with pytest.raises(RuntimeError, match="stopped"), open_recording(path, scene) as rec:
+    with pytest.raises(RuntimeError, match="stopped"), open_recorder(scene, record=path) as rec:
         rec.qos(0.0, qos)
         raise RuntimeError("stopped")
     assert list(tmp_path.iterdir()) == []  # neither the file nor its temporary
@@ -178,6 +191,6 @@ def test_the_command_records_with_record(tmp_path, capsys):
     assert len(topics["/qos"]["messages"]) == 10 and len(topics["/uav/1/state"]["messages"]) == 10
 
 
-@pytest.mark.parametrize("module", [recording, foxglove_messages], ids=lambda m: m.__name__)
+@pytest.mark.parametrize("module", [recording, foxglove_scene, live_view], ids=lambda m: m.__name__)
 def test_module_doctests(module):
     assert doctest.testmod(module).failed == 0

@@ -8,7 +8,7 @@ flies (``--mode guided``: MAV_CMD_DO_REPOSITION; ``--mode mission``: a new missi
 At the end (``--duration-s`` of crowd time, Ctrl-C or SIGTERM) every vehicle is sent RTL
 (``--end land``: LAND). Vehicle states, plans and QoS go out over Zenoh (tcp/127.0.0.1:7447).
 Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json; ``--record flight.mcap``
-also records the flight for Foxglove.
+also records the flight for Foxglove, and ``--live 8765`` streams it to Foxglove while it flies.
 
 Examples:
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
@@ -57,6 +57,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
     add("--record", type=Path, metavar="FLIGHT.mcap",
         help="record the flight (scene, vehicle states, plans, QoS) as MCAP for Foxglove")
+    add("--live", metavar="[HOST:]PORT",
+        help="stream the flight to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
+             "address; HOST defaults to 127.0.0.1 (this machine only); works with --record")
+    add("--live-wait-s", type=float, metavar="SECONDS",
+        help="with --live: wait at most this long for a Foxglove client before the first step (default: 0)")
     parser.set_defaults(func=run)
 
 
@@ -82,8 +87,10 @@ def run(args: argparse.Namespace) -> int:
     from typed_config import ConfigError
     from uav_swarm.runs.fly import fly
     from uav_swarm.runs.fly_config import load_fly_config
+    from uav_swarm.runs.live_view import live_view_option
 
     try:
+        live = live_view_option(args.live, args.live_wait_s)
         config = load_fly_config(args.config, _overrides(args))
     except ConfigError as exc:
         print(f"uav-swarm fly: {exc}", file=sys.stderr)
@@ -91,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        result = fly(config, args.out, stop_event=stop, record=args.record)
+        result = fly(config, args.out, stop_event=stop, record=args.record, live=live)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm fly: {exc}", file=sys.stderr)
         return 2

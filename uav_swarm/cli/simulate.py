@@ -12,9 +12,11 @@ Examples:
   uav-swarm simulate --out out/sim --checkpoint runs/s1/train/best.pt --config sim.toml
   uav-swarm simulate --out out/sim --bridge-config configs/bridge/px4_sitl_10.toml   # upload the missions
   uav-swarm simulate --out out/sim --record out/sim/run.mcap   # open it in Foxglove
+  uav-swarm simulate --out out/sim --live 8765 --live-wait-s 120 --live-speed 1   # watch it in Foxglove
 
-Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint or telemetry
-endpoint (e.g. "tcp/127.0.0.1:7447 is in use"), found before the first step and before any output.
+Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint, telemetry
+endpoint (e.g. "tcp/127.0.0.1:7447 is in use") or live view address, found before the first step and
+before any output.
 """
 
 from __future__ import annotations
@@ -51,6 +53,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--no-gif", action="store_true", help="do not write scene.gif")
     add("--record", type=Path, metavar="RUN.mcap",
         help="record the flown run (scene, UAV states, plans, QoS) as MCAP for Foxglove")
+    add("--live", metavar="[HOST:]PORT",
+        help="stream the flown run to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
+             "address; HOST defaults to 127.0.0.1 (this machine only); works with --record")
+    add("--live-wait-s", type=float, metavar="SECONDS",
+        help="with --live: wait at most this long for a Foxglove client before the first step (default: 0)")
+    add("--live-speed", type=float, metavar="X",
+        help="with --live: run X simulated seconds per wall-clock second, to watch (1: the crowd's pace; "
+             "default: as fast as it computes)")
     add("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -108,12 +118,14 @@ def run(args: argparse.Namespace) -> int:
     from bridge.telemetry_config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
+    from uav_swarm.runs.live_view import live_view_option
     from uav_swarm.runs.simulate import simulate
     from uav_swarm.runs.simulate_config import load_simulate_config
 
     try:
+        live = live_view_option(args.live, args.live_wait_s, args.live_speed)
         config = load_simulate_config(args.config, _overrides(args))
-        result = simulate(config, args.out, progress=not args.quiet, record=args.record)
+        result = simulate(config, args.out, progress=not args.quiet, record=args.record, live=live)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm simulate: {exc}", file=sys.stderr)
         return 2

@@ -5,6 +5,7 @@
   closed-loop guided flight through :mod:`bridge.fleet`.
 - :mod:`~uav_swarm.runs.records`: what a run records (the types the plots and the animation draw).
 - :mod:`~uav_swarm.runs.plots`, :mod:`~uav_swarm.runs.animation`: QoS figures, CSV and the scene GIF.
-- :mod:`~uav_swarm.runs.recording`, :mod:`~uav_swarm.runs.foxglove_messages`: ``--record``, a run as an
-  MCAP file with Foxglove's message schemas, for replay.
+- :mod:`~uav_swarm.runs.recording`, :mod:`~uav_swarm.runs.foxglove_scene`, :mod:`~uav_swarm.runs.live_view`:
+  ``--record`` and ``--live``, a run in Foxglove's message types through the Foxglove SDK, as an MCAP
+  file for replay and/or streamed to the Foxglove app while it runs (the only modules that import the SDK).
 """

@@ -24,7 +24,8 @@ Telemetry (Zenoh, loopback by default): each vehicle's state on ``uav_swarm/<swa
 The loop itself is :class:`uav_swarm.runs.flight_loop.Flight`. Outputs in ``out_dir``: ``qos.png``,
 ``timeseries.csv`` (QoS over time), ``track.csv`` (each
 vehicle's measured track and target) and ``summary.json`` (events, failures, QoS, the config);
-with ``record``, an MCAP file of the flight at crowd time (:mod:`uav_swarm.runs.recording`).
+with ``record``, an MCAP file of the flight at crowd time, and with ``live``, the same messages streamed
+to Foxglove as they happen (:mod:`uav_swarm.runs.recording`).
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from uav_swarm.runs.service import flight_figures
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
+    from uav_swarm.runs.live_view import LiveView
 
 __all__ = ["FlightResult", "fly", "load_flight_bridge"]
 
@@ -98,7 +100,7 @@ def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
 
 
 def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event | None = None,
-        record: str | Path | None = None) -> FlightResult:
+        record: str | Path | None = None, live: LiveView | None = None) -> FlightResult:
     """Fly the vehicles of ``config.bridge_config`` under the planner and write the outputs.
 
     Args:
@@ -107,9 +109,11 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         stop_event: Set it (e.g. from a signal handler) to end the flight early; it still ends safely.
         record: Also record the flight into this MCAP file (plans; every ``record_every_s`` the
             scene, the vehicles' measured states and the QoS).
+        live: Also stream the flight to Foxglove from a WebSocket server listening here.
 
     Raises:
-        typed_config.ConfigError: Invalid bridge config, no vehicles, or ``record`` not a .mcap file.
+        typed_config.ConfigError: Invalid bridge config, no vehicles, ``record`` not a .mcap file, or the
+            live view cannot listen on ``live``.
         bridge.errors.GeofenceError: The area at the cruise altitude is outside the geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
         bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened.
@@ -119,7 +123,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     from bridge.telemetry import SwarmPublisher
     from learning.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure
-    from uav_swarm.runs.recording import SceneInfo, check_recording_path, maybe_recording
+    from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
 
     out_dir = Path(out_dir)
     bridge = load_flight_bridge(config)
@@ -138,7 +142,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     error: BaseException | None = None
     try:
         with (Fleet(bridge) as fleet,
-              maybe_recording(record, scene, command="fly", config=config.to_dict()) as recorder):
+              open_recorder(scene, record=record, live=live, command="fly",
+                            config=config.to_dict()) as recorder):
             flight = Flight(config, bridge, fleet, publisher, planner, recorder)
             watcher = None
             if stop_event is not None:

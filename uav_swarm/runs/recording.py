@@ -1,9 +1,12 @@
-"""Record a run (``simulate --record``, ``fly --record``) as an MCAP file that Foxglove replays.
+"""Record a run (``--record FILE.mcap``) and show it live (``--live [HOST:]PORT``), through the Foxglove SDK.
 
-One file per run, JSON messages (MCAP message encoding ``json``, schema encoding ``jsonschema``).
-Every message's log time (and publish time) is the **run time** of what it shows, in nanoseconds
-from the start of the run: simulated seconds for ``simulate``, crowd seconds for ``fly``; the wall
-clock time of the start is in the ``uav_swarm.run`` metadata record. The channels:
+The one place that turns a step of ``simulate`` or ``fly`` into messages. The loops call the
+recorder once per recorded step and per plan; it logs each message on ``foxglove-sdk`` channels whose
+sinks are an MCAP file and/or the SDK's WebSocket server, and never waits on a client (a slow client's
+oldest queued messages are dropped by the server). Every message's log time is the **run time** of
+what it shows, in nanoseconds from the start of the run: simulated seconds for ``simulate``, crowd
+seconds for ``fly``; the wall clock time of the start is in the ``uav_swarm.run`` metadata record.
+The channels (Foxglove's own types are protobuf; the project's are JSON):
 
 - ``/scene`` (``foxglove.SceneUpdate``): at the start, the area's outline (entity ``area``) and the
   obstacles (``obstacles``); every recorded step, the UAVs (``uavs``), their coverage discs
@@ -11,14 +14,16 @@ clock time of the start is in the ``uav_swarm.run`` metadata record. The channel
 - ``/pedestrians`` (``foxglove.PointCloud``): every recorded step, the crowd; field ``covered`` is 1
   for a user a UAV serves, else 0;
 - ``/tf`` (``foxglove.FrameTransforms``): every recorded step, ``map`` -> ``uav_<id>``;
-- ``/uav/<id>/state`` (``uav_swarm.UavState``): every recorded step, each UAV's telemetry state;
+- ``/uav/<id>/state`` (``uav_swarm.UavState``, JSON): every recorded step, each UAV's telemetry state;
 - ``/uav/<id>/location`` (``foxglove.LocationFix``): with it, when its WGS84 position is known;
-- ``/plan`` (``uav_swarm.Plan``) and ``/plan/targets`` (``foxglove.PosesInFrame``): every plan;
-- ``/qos`` (``uav_swarm.Qos``): every recorded step.
+- ``/plan`` (``uav_swarm.Plan``, JSON) and ``/plan/targets`` (``foxglove.PosesInFrame``): every plan;
+- ``/qos`` (``uav_swarm.Qos``, JSON): every recorded step.
 
 The ``uav_swarm.*`` channels carry exactly the JSON that telemetry publishes over Zenoh; their
 schemas are generated from the payload types. The file is written beside its final path and
 renamed when the run ends (:func:`learning.files.atomic_path`): a run that fails leaves no file.
+The live view has its own SDK context, so that a client subscribing to ``/scene`` late gets the
+static scene again at once without a second copy in the file.
 
 Examples:
     >>> import tempfile
@@ -26,7 +31,7 @@ Examples:
     >>> from bridge.telemetry_schema import Qos
     >>> path = Path(tempfile.mkdtemp()) / "run.mcap"
     >>> scene = SceneInfo(width_m=100.0, height_m=80.0, coverage_radius_m=30.0)
-    >>> with open_recording(path, scene) as recorder:
+    >>> with open_recorder(scene, record=path) as recorder:
     ...     recorder.qos(0.1, Qos(stamp_s=0.0, seq=0, source="sim", qos_s1=0.5, qos_s2=0.25,
     ...                           mean_throughput_mbps=3.0, n_users=4))
     >>> with path.open("rb") as f:
@@ -38,40 +43,52 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 import time
 from collections import Counter
-from collections.abc import Iterator, Sequence
-from contextlib import AbstractContextManager, contextmanager, nullcontext
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import foxglove
 import msgspec
 import numpy as np
-from mcap.writer import CompressionType, Writer
+from foxglove.channels import (
+    FrameTransformsChannel,
+    LocationFixChannel,
+    PointCloudChannel,
+    PosesInFrameChannel,
+    SceneUpdateChannel,
+)
+from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
 from bridge.telemetry_schema import Plan, Qos, UavState, encode_payload
 from learning.files import atomic_path
 from typed_config import ConfigError
-from uav_swarm.runs import foxglove_messages as fox
+from uav_swarm.runs import foxglove_scene as fox
+from uav_swarm.runs.live_view import LiveListener, LiveView
 
 if TYPE_CHECKING:
     from bridge.geo import Home
 
-Vec3 = tuple[float, float, float]
-
-__all__ = ["SceneInfo", "RunRecorder", "open_recording", "maybe_recording", "check_recording_path",
-           "RUN_METADATA"]
+__all__ = ["SceneInfo", "RunRecorder", "open_recorder", "check_recording_path", "RUN_METADATA",
+           "LIVE_BACKLOG_MESSAGES", "LIVE_STOP_WAIT_S", "RUN_TOPICS"]
 
 logger = logging.getLogger(__name__)
 
 RUN_METADATA = "uav_swarm.run"
 """Name of the metadata record that describes the run (command, start time, config)."""
 
-_UAV, _TARGET = fox.color(0.10, 0.35, 0.85), fox.color(0.90, 0.45, 0.05)
-_DISC = fox.color(0.10, 0.35, 0.85, 0.15)
-_WALL, _OUTLINE = fox.color(0.25, 0.25, 0.25), fox.color(0.55, 0.55, 0.55)
-_UAV_SIZE_M, _TARGET_SIZE_M = 3.0, 2.0
+LIVE_BACKLOG_MESSAGES = 256
+"""Messages queued per live client; past that the server drops the oldest: the client lags, the run not."""
+
+LIVE_STOP_WAIT_S = 5.0
+"""At the end, how long the live view's clients get to take what is queued for them."""
+
+_SCENE = "/scene"
+_PAYLOADS = {"uav_swarm.UavState": UavState, "uav_swarm.Plan": Plan, "uav_swarm.Qos": Qos}
 
 
 @dataclass(frozen=True)
@@ -91,71 +108,112 @@ class SceneInfo:
     home: Home | None = None
 
 
-class RunRecorder:
-    """Writes a run's messages into an open MCAP writer (see the module docstring for the channels).
+def _json_channel(name: str) -> Callable[[str, foxglove.Context], foxglove.Channel]:
+    """A maker of JSON channels of the telemetry payload ``name`` (its JSON Schema from the payload type)."""
+    data = json.dumps({"title": name, **msgspec.json.schema(_PAYLOADS[name])}, sort_keys=True).encode()
+    schema = foxglove.Schema(name=name, encoding="jsonschema", data=data)
+    return lambda topic, context: foxglove.Channel(topic, schema=schema, message_encoding="json",
+                                                   context=context)
 
-    Use :func:`open_recording`, which also finishes the file and renames it into place.
+
+class RunRecorder:
+    """Logs a run's messages to its sinks (see the module docstring for the channels).
+
+    Use :func:`open_recorder`, which opens the sinks, and finishes and renames the file.
+
+    Args:
+        scene: The run's area and coverage radius.
+        contexts: One SDK context per sink group: the file's and/or the live view's.
+        live: The live view's context (one of ``contexts``), or None.
+        speed: Keep the run at this many run seconds per wall-clock second (each step waits for the
+            clock, never for a client); None: no pace.
     """
 
-    def __init__(self, writer: Writer, scene: SceneInfo) -> None:
-        self._writer = writer
+    def __init__(self, scene: SceneInfo, contexts: Sequence[foxglove.Context],
+                 live: foxglove.Context | None = None, speed: float | None = None) -> None:
         self.scene = scene
-        self._schemas: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
+        self._speed = speed
+        self._start_wall_s: float | None = None
+        self._contexts = list(contexts)
+        self._live = None if live is None else self._contexts.index(live)
+        self._channels: dict[str, list[Any]] = {}
+        self._lock = threading.Lock()  # the live server's thread re-sends the static scene
+        self._obstacles_m: np.ndarray | None = None
+        self._now_s = 0.0
         self.counts: Counter[str] = Counter()
-        """Messages written, by topic."""
+        """Messages logged, by topic."""
 
     # -- channels ------------------------------------------------------------------------------
-    def _schema_id(self, name: str) -> int:
-        if name not in self._schemas:
-            if name in fox.SCHEMAS:
-                schema = fox.SCHEMAS[name]
-            else:
-                payload = {"uav_swarm.UavState": UavState, "uav_swarm.Plan": Plan, "uav_swarm.Qos": Qos}[name]
-                schema = {"title": name, **msgspec.json.schema(payload)}
-            data = json.dumps(schema, sort_keys=True).encode()
-            self._schemas[name] = self._writer.register_schema(name=name, encoding="jsonschema", data=data)
-        return self._schemas[name]
+    def _channel_list(self, topic: str, make: Callable[[str, foxglove.Context], Any]) -> list[Any]:
+        with self._lock:
+            if topic not in self._channels:
+                self._channels[topic] = [make(topic, context) for context in self._contexts]
+            return self._channels[topic]
 
-    def _write(self, topic: str, schema: str, time_s: float, data: bytes) -> None:
+    def _log(self, topic: str, make: Callable[[str, foxglove.Context], Any], time_s: float,
+             build: Callable[[], Any]) -> None:
+        """Log ``build()`` on ``topic`` at ``time_s``; built only if a sink takes it (a file always does)."""
         if time_s < 0:
             raise ValueError(f"{topic}: time_s = {time_s} is negative: run times start at 0")
-        if topic not in self._channels:
-            self._channels[topic] = self._writer.register_channel(
-                topic=topic, message_encoding="json", schema_id=self._schema_id(schema))
-        ns = round(time_s * 1e9)
-        self._writer.add_message(self._channels[topic], log_time=ns, publish_time=ns, data=data,
-                                 sequence=self.counts[topic])
+        self._now_s = max(self._now_s, time_s)
+        channels = [channel for channel in self._channel_list(topic, make) if channel.has_sinks()]
+        if not channels:  # only a live view, and no client subscribes to the topic
+            return
+        message, ns = build(), round(time_s * 1e9)
+        for channel in channels:
+            channel.log(message, log_time=ns)
         self.counts[topic] += 1
 
-    def _write_json(self, topic: str, schema: str, time_s: float, message: dict[str, Any]) -> None:
-        self._write(topic, schema, time_s, json.dumps(message, separators=(",", ":")).encode())
+    def _log_json(self, topic: str, schema: str, time_s: float, payload: Any) -> None:
+        """Log a telemetry payload (``Plan``, ``Qos``, ``UavState``) as the JSON that Zenoh carries."""
+        self._log(topic, _JSON_CHANNELS[schema], time_s, lambda: encode_payload(payload))
 
     # -- what a run records --------------------------------------------------------------------
     def static_scene(self, obstacles_m: np.ndarray, time_s: float = 0.0) -> None:
         """The area's outline and the obstacle segments ``(M, 4)`` (``x1, y1, x2, y2``), kept all run."""
-        w, h = self.scene.width_m, self.scene.height_m
-        outline = {"type": fox.LINE_LOOP, "pose": fox.pose(0.0, 0.0, 0.0), "thickness": 0.5,
-                   "scale_invariant": False, "color": _OUTLINE, "colors": [], "indices": [],
-                   "points": [fox.pose(x, y, 0.0)["position"] for x, y in ((0, 0), (w, 0), (w, h), (0, h))]}
-        segments = np.asarray(obstacles_m, np.float64).reshape(-1, 4)
-        walls = {"type": fox.LINE_LIST, "pose": fox.pose(0.0, 0.0, 0.0), "thickness": 1.0,
-                 "scale_invariant": False, "color": _WALL, "colors": [], "indices": [],
-                 "points": [fox.pose(x, y, 0.0)["position"] for x1, y1, x2, y2 in segments
-                            for x, y in ((x1, y1), (x2, y2))]}
-        entities = [fox.scene_entity("area", time_s, lines=[outline]),
-                    fox.scene_entity("obstacles", time_s, lines=[walls] if len(segments) else [])]
-        self._write_json("/scene", "foxglove.SceneUpdate", time_s, {"deletions": [], "entities": entities})
+        self._obstacles_m = np.asarray(obstacles_m, np.float64).reshape(-1, 4).copy()
+        update = fox.static_scene(self.scene.width_m, self.scene.height_m, self._obstacles_m, time_s)
+        self._log(_SCENE, _scene_channel, time_s, lambda: update)
+
+    def _fixes_from_home(self, positions_m: dict[int, fox.Vec3]) -> dict[int, tuple[float, float, float]]:
+        """WGS84 positions of local ones around the scene's home (none without a home), in one call."""
+        from bridge.geo import enu_to_geodetic_many
+
+        if self.scene.home is None or not positions_m:
+            return {}
+        geodetic = enu_to_geodetic_many(self.scene.home, np.array(list(positions_m.values())))
+        return {uav_id: (float(lat), float(lon), float(alt))
+                for uav_id, (lat, lon, alt) in zip(positions_m, geodetic, strict=True)}
+
+    def _keep_pace(self, time_s: float) -> None:
+        if self._speed is None:
+            return
+        if self._start_wall_s is None:
+            self._start_wall_s = time.monotonic() - time_s / self._speed
+        time.sleep(max(0.0, self._start_wall_s + time_s / self._speed - time.monotonic()))
+
+    def advertise(self) -> None:
+        """Create the channels every run has (scene, crowd, frames, plans, QoS) before their first message."""
+        for topic, make in _RUN_CHANNELS.items():
+            self._channel_list(topic, make)
+
+    def resend_static_scene(self, topic: str = _SCENE) -> None:
+        """Log the static scene again on the live view only (a client has just subscribed to ``topic``)."""
+        if topic != _SCENE or self._live is None or self._obstacles_m is None:
+            return
+        now_s = self._now_s
+        update = fox.static_scene(self.scene.width_m, self.scene.height_m, self._obstacles_m, now_s)
+        self._channel_list(_SCENE, _scene_channel)[self._live].log(update, log_time=round(now_s * 1e9))
 
     def plan(self, time_s: float, plan: Plan) -> None:
         """A plan: its telemetry payload on ``/plan`` and its targets on ``/plan/targets``."""
-        self._write("/plan", "uav_swarm.Plan", time_s, encode_payload(plan))
-        self._write_json("/plan/targets", "foxglove.PosesInFrame", time_s,
-                         fox.poses_in_frame(time_s, [t.target_enu_m for t in plan.targets]))
+        self._log_json("/plan", "uav_swarm.Plan", time_s, plan)
+        self._log("/plan/targets", _RUN_CHANNELS["/plan/targets"], time_s,
+                  lambda: fox.poses_in_frame(time_s, [t.target_enu_m for t in plan.targets]))
 
     def qos(self, time_s: float, qos: Qos) -> None:
         """The QoS at ``time_s`` on ``/qos``."""
-        self._write("/qos", "uav_swarm.Qos", time_s, encode_payload(qos))
+        self._log_json("/qos", "uav_swarm.Qos", time_s, qos)
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
              covered: np.ndarray) -> None:
@@ -169,79 +227,130 @@ class RunRecorder:
             pedestrians_m: ``(N, 2)`` crowd positions.
             covered: ``(N,)`` True for a user a UAV serves.
         """
-        from bridge.geo import enu_to_geodetic
-
-        placed: dict[int, tuple[Vec3, Vec3 | None]] = {}  # position and target of each UAV with a fix
+        self._keep_pace(time_s)
+        placed: dict[int, tuple[fox.Vec3, fox.Vec3 | None]] = {}  # position and target of each UAV with a fix
+        fixes: dict[int, tuple[float, float, float]] = {}  # WGS84 position of each, when known
         for state in states:
-            self._write(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, encode_payload(state))
+            self._log_json(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, state)
             if state.position_enu_m is None:  # no position fix: its state says so, nothing to draw
                 continue
             placed[state.uav_id] = (state.position_enu_m, state.target_enu_m)
-            fix = state.position_wgs84
-            if fix is None and self.scene.home is not None:
-                lat, lon, alt = enu_to_geodetic(self.scene.home, *state.position_enu_m)
-            elif fix is not None:
-                lat, lon, alt = fix.lat_deg, fix.lon_deg, fix.alt_m
-            else:
-                continue
-            self._write_json(f"/uav/{state.uav_id}/location", "foxglove.LocationFix", time_s,
-                             fox.location_fix(time_s, state.uav_id, lat, lon, alt))
-        self._write_json("/tf", "foxglove.FrameTransforms", time_s,
-                         fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
-        self._write_json("/scene", "foxglove.SceneUpdate", time_s,
-                         {"deletions": [], "entities": self._swarm_entities(time_s, list(placed.values()))})
-        users = np.asarray(pedestrians_m, np.float64).reshape(-1, 2)
-        points = np.column_stack([users, np.zeros(len(users))])
-        self._write_json("/pedestrians", "foxglove.PointCloud", time_s,
-                         fox.point_cloud(time_s, points, {"covered": np.asarray(covered, np.float32)}))
+            if state.position_wgs84 is not None:
+                fixes[state.uav_id] = (state.position_wgs84.lat_deg, state.position_wgs84.lon_deg,
+                                       state.position_wgs84.alt_m)
+        wanted = {i: position for i, (position, _) in placed.items()
+                  if any(c.has_sinks() for c in self._channel_list(f"/uav/{i}/location", _LOCATION_CHANNEL))}
+        fixes |= self._fixes_from_home({i: position for i, position in wanted.items() if i not in fixes})
+        for uav_id, fix in fixes.items():
+            self._log(f"/uav/{uav_id}/location", _LOCATION_CHANNEL, time_s,
+                      lambda uav_id=uav_id, fix=fix: fox.location_fix(time_s, uav_id, *fix))
+        self._log("/tf", _RUN_CHANNELS["/tf"], time_s,
+                  lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
+        self._log(_SCENE, _scene_channel, time_s,
+                  lambda: fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m))
+        self._log("/pedestrians", _RUN_CHANNELS["/pedestrians"], time_s,
+                  lambda: fox.crowd_cloud(time_s, pedestrians_m, covered))
         self.qos(time_s, qos)
 
-    def _swarm_entities(self, time_s: float, placed: list[tuple[Vec3, Vec3 | None]]) -> list[dict[str, Any]]:
-        """The UAVs, their coverage discs and their targets (``placed``: position and target of each)."""
-        size = {"x": _UAV_SIZE_M, "y": _UAV_SIZE_M, "z": _UAV_SIZE_M}
-        uavs = [{"pose": fox.pose(*position), "size": size, "color": _UAV} for position, _ in placed]
-        radius = self.scene.coverage_radius_m
-        discs = [{"pose": fox.pose(x, y, 0.05), "size": {"x": 2 * radius, "y": 2 * radius, "z": 0.1},
-                  "bottom_scale": 1.0, "top_scale": 1.0, "color": _DISC} for (x, y, _), _ in placed]
-        aimed = [(position, target) for position, target in placed if target is not None]
-        marker = {"x": _TARGET_SIZE_M, "y": _TARGET_SIZE_M, "z": _TARGET_SIZE_M}
-        targets = [{"pose": fox.pose(*target), "size": marker, "color": _TARGET} for _, target in aimed]
-        legs = {"type": fox.LINE_LIST, "pose": fox.pose(0.0, 0.0, 0.0), "thickness": 0.3,
-                "scale_invariant": False, "color": _TARGET, "colors": [], "indices": [],
-                "points": [fox.pose(*p)["position"] for pair in aimed for p in pair]}
-        return [fox.scene_entity("uavs", time_s, spheres=uavs),
-                fox.scene_entity("coverage", time_s, cylinders=discs),
-                fox.scene_entity("targets", time_s, cubes=targets, lines=[legs] if aimed else [])]
+
+def _typed(kind: Callable[..., Any]) -> Callable[[str, foxglove.Context], Any]:
+    return lambda topic, context: kind(topic, context=context)
+
+
+_scene_channel = _typed(SceneUpdateChannel)
+_LOCATION_CHANNEL = _typed(LocationFixChannel)
+_JSON_CHANNELS = {name: _json_channel(name) for name in _PAYLOADS}
+_RUN_CHANNELS: dict[str, Callable[[str, foxglove.Context], Any]] = {
+    _SCENE: _scene_channel, "/pedestrians": _typed(PointCloudChannel), "/tf": _typed(FrameTransformsChannel),
+    "/plan": _JSON_CHANNELS["uav_swarm.Plan"], "/plan/targets": _typed(PosesInFrameChannel),
+    "/qos": _JSON_CHANNELS["uav_swarm.Qos"]}
+RUN_TOPICS = tuple(_RUN_CHANNELS)
+"""The topics every run has (the per-UAV ``/uav/<id>/...`` ones come with the UAVs)."""
 
 
 @contextmanager
-def open_recording(path: str | Path, scene: SceneInfo, *, command: str = "",
-                   config: dict[str, Any] | None = None) -> Iterator[RunRecorder]:
-    """A recorder writing to ``path`` (MCAP, zstd chunks), renamed into place when the block ends.
+def open_recorder(scene: SceneInfo, *, record: str | Path | None = None, live: LiveView | None = None,
+                  command: str = "", config: dict[str, Any] | None = None) -> Iterator[RunRecorder | None]:
+    """A recorder to an MCAP file (``record``) and/or a live view (``live``); None when neither is asked.
+
+    The file (zstd chunks) is renamed into place when the block ends; the live server stops then.
 
     Args:
-        path: The ``.mcap`` file to write (its folder is created).
-        scene: The run's area, altitude, coverage radius and home.
-        command: The command that records (``simulate`` or ``fly``), for the metadata.
+        scene: The run's area, coverage radius and home.
+        record: The ``.mcap`` file to write (its folder is created).
+        live: Where the live view's WebSocket server listens.
+        command: The command that records (``simulate`` or ``fly``), for the metadata and the server name.
         config: The run's resolved config, for the metadata.
 
     Raises:
-        ConfigError: ``path`` does not end in ``.mcap`` or names a folder.
+        ConfigError: ``record`` does not end in ``.mcap`` or names a folder; the live view cannot listen
+            on ``live`` (port in use, host not of this machine).
     """
-    path = check_recording_path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp, tmp.open("wb") as stream:
-        writer = Writer(stream, compression=CompressionType.ZSTD)
-        writer.start(profile="", library="uav_swarm")
-        writer.add_metadata(RUN_METADATA, {
-            "command": command, "start_unix_s": f"{time.time():.3f}",
-            "time": "log times are run time: nanoseconds from the start of the run",
-            "config": json.dumps(config or {}, sort_keys=True)})
-        recorder = RunRecorder(writer, scene)
+    if record is None and live is None:
+        yield None
+        return
+    with ExitStack() as stack:
+        contexts: list[foxglove.Context] = []
+        if record is not None:
+            path = check_recording_path(record)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            contexts.append(foxglove.Context())
+            tmp = stack.enter_context(atomic_path(path))
+            options = MCAPWriteOptions(compression=MCAPCompression.Zstd, profile="")
+            writer = stack.enter_context(foxglove.open_mcap(tmp, context=contexts[-1],
+                                                            writer_options=options))
+            writer.write_metadata(RUN_METADATA, {
+                "command": command, "start_unix_s": f"{time.time():.3f}",
+                "time": "log times are run time: nanoseconds from the start of the run",
+                "config": json.dumps(config or {}, sort_keys=True)})
+        live_context = foxglove.Context() if live is not None else None
+        recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context,
+                               speed=None if live is None else live.speed)
+        if live is not None:
+            stack.callback(_stop_live, _start_live(live, live_context, recorder, command))  # type: ignore[arg-type]
         yield recorder
-        writer.finish()
+    if record is not None:
         logger.info("recorded %d messages on %d topics in %s", sum(recorder.counts.values()),
-                    len(recorder.counts), path)
+                    len(recorder.counts), record)
+
+
+def _start_live(live: LiveView, context: foxglove.Context, recorder: RunRecorder,
+                command: str) -> Any:
+    """Start the SDK's WebSocket server on ``live`` for ``context``; a client's late ``/scene`` is re-sent."""
+    listener = LiveListener([_SCENE], recorder.resend_static_scene)
+    recorder.advertise()  # a client can subscribe to every run-wide channel before the first step
+    try:
+        server = foxglove.start_server(name=f"uav-swarm {command}".strip(), host=live.host, port=live.port,
+                                       context=context, server_listener=listener,
+                                       message_backlog_size=LIVE_BACKLOG_MESSAGES)
+    except RuntimeError as exc:
+        raise ConfigError(f"live = {live.host}:{live.port}: the live view cannot listen there: "
+                          f"{exc}") from exc
+    host = f"[{live.host}]" if ":" in live.host else live.host
+    logger.info("live view on ws://%s:%d (Foxglove: Open connection, Foxglove WebSocket)", host, server.port)
+    if not live.is_loopback:
+        logger.warning("the live view listens on %s: anyone who reaches this machine on port %d can watch "
+                       "the run (no password, no encryption)", live.host, server.port)
+    if live.wait_for_client_s > 0:
+        logger.info("waiting at most %.0f s for a live client to subscribe to %s", live.wait_for_client_s,
+                    _SCENE)
+        if not listener.viewer.wait(live.wait_for_client_s):
+            logger.warning("no live client after %.1f s: running anyway", live.wait_for_client_s)
+    return server
+
+
+def _stop_live(server: Any) -> None:
+    """Stop the server, waiting at most :data:`LIVE_STOP_WAIT_S` for its clients to take the end.
+
+    The SDK's ``stop`` waits until every client has been sent what it queued, which a client that
+    stopped reading never lets happen: past the wait, the server is left to the end of the process.
+    """
+    stopping = threading.Thread(target=server.stop, name="live-view-stop", daemon=True)
+    stopping.start()
+    stopping.join(LIVE_STOP_WAIT_S)
+    if stopping.is_alive():
+        logger.warning("a live client did not take the end of the stream in %.0f s (stopped reading?): "
+                       "not waiting for it", LIVE_STOP_WAIT_S)
 
 
 def check_recording_path(path: str | Path) -> Path:
@@ -254,11 +363,3 @@ def check_recording_path(path: str | Path) -> Path:
     if path.suffix != ".mcap" or path.is_dir():
         raise ConfigError(f"record = {str(path)!r}: give a .mcap file to write the recording to")
     return path
-
-
-def maybe_recording(path: str | Path | None, scene: SceneInfo, *, command: str = "",
-                    config: dict[str, Any] | None = None) -> AbstractContextManager[RunRecorder | None]:
-    """:func:`open_recording` when ``path`` is given, else a block that yields ``None`` (nothing recorded)."""
-    if path is None:
-        return nullcontext()
-    return open_recording(path, scene, command=command, config=config)

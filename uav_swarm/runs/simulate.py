@@ -45,6 +45,7 @@ if TYPE_CHECKING:
     from bridge.config import BridgeConfig
     from bridge.telemetry import SwarmPublisher
     from bridge.telemetry_schema import Plan, Qos, UavState
+    from uav_swarm.runs.live_view import LiveView
     from uav_swarm.runs.recording import RunRecorder
 
 __all__ = ["SimulationResult", "run_sequence", "simulate", "summarise_run"]
@@ -301,11 +302,11 @@ def _upload(bridge: BridgeConfig, plans: dict[int, list[tuple]]) -> None:
 
 
 def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = True,
-             record: str | Path | None = None) -> SimulationResult:
+             record: str | Path | None = None, live: LiveView | None = None) -> SimulationResult:
     """Run the main job and write its outputs (see the module docstring).
 
     Everything that can fail on bad input (planner kind, checkpoint, bridge config, telemetry
-    session, recording path) is checked before the first step.
+    session, recording path, live view address) is checked before the first step.
 
     Args:
         config: The sequence, the planners and the outputs.
@@ -313,9 +314,11 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
         progress: Show a progress bar.
         record: Also record the flown planner's run into this MCAP file
             (:mod:`uav_swarm.runs.recording`, every ``telemetry_every`` steps and every plan).
+        live: Also stream the flown planner's run to Foxglove from a WebSocket server listening here.
 
     Raises:
-        typed_config.ConfigError: Invalid bridge config, too few vehicles, or ``record`` not a .mcap file.
+        typed_config.ConfigError: Invalid bridge config, too few vehicles, ``record`` not a .mcap file,
+            or the live view cannot listen on ``live``.
         bridge.errors.GeofenceError: The area at the flight altitude is not inside the bridge's geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
         bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened, e.g. a
@@ -326,7 +329,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     from bridge.telemetry import SwarmPublisher
     from learning.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
-    from uav_swarm.runs.recording import SceneInfo, check_recording_path, maybe_recording
+    from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
 
     out_dir = Path(out_dir)
     bridge = _load_bridge(config)
@@ -348,8 +351,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                           coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
         for kind, planner in planners.items():
             flown = kind == config.planner
-            with maybe_recording(record if flown else None, scene, command="simulate",
-                                 config=config.to_dict()) as recorder:
+            with open_recorder(scene, record=record if flown else None, live=live if flown else None,
+                               command="simulate", config=config.to_dict()) as recorder:
                 runs[kind] = run_sequence(config, planner, kind, publisher=publisher if flown else None,
                                           recorder=recorder, frame_every=frame_every if flown else 0,
                                           progress=progress)

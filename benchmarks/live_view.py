@@ -1,0 +1,143 @@
+"""What ``simulate --live`` costs: wall time of the flown run without a live view and with one client.
+
+The learned planner (the shipped checkpoint) flies the default sequence (``SimulateConfig()``: 10 UAVs,
+seed 0, replanning every 10 steps, every step streamed) for ``--duration-s`` simulated seconds,
+``--rounds`` times each way, alternating (so that a changing machine load hits all alike):
+
+- ``plain``: no live view, no recording;
+- ``layout``: the SDK's WebSocket server on 127.0.0.1 and one client in another process that speaks the
+  Foxglove protocol and subscribes to what the committed layout shows (``/scene``, ``/pedestrians``,
+  ``/tf``, ``/qos``, ``/plan``: what the Foxglove app asks for with it), reading everything;
+- ``all``: the same client subscribed to every channel as it is advertised (the per-UAV states and
+  fixes too), reading everything;
+- ``stalled``: the client subscribed to everything that then reads nothing.
+
+The run starts once the client has subscribed to the scene (``wait_for_client_s``; not timed). Printed:
+the median wall time of each, the ratios to ``plain``, what the reading client received, and how long
+the server took to stop.
+
+Usage: python benchmarks/live_view.py [--duration-s 60] [--rounds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import os
+import platform
+import socket
+import struct
+import time
+
+import numpy as np
+
+from uav_swarm.planning.planner import make_planner
+from uav_swarm.runs.live_view import LiveView
+from uav_swarm.runs.recording import SceneInfo, open_recorder
+from uav_swarm.runs.simulate import run_sequence
+from uav_swarm.runs.simulate_config import SimulateConfig
+
+LAYOUT_TOPICS = ("/scene", "/pedestrians", "/tf", "/qos", "/plan")
+
+
+def _client(port: int, kind: str, results: multiprocessing.Queue) -> None:
+    """A Foxglove-protocol client: subscribe (to the layout's topics or all); read all (or nothing)."""
+    read = kind != "stalled"
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect
+
+    for _ in range(600):
+        sock = socket.socket()
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096 if not read else 1 << 20)
+        try:
+            sock.connect(("127.0.0.1", port))
+            break
+        except ConnectionRefusedError:
+            sock.close()
+            time.sleep(0.1)
+    ws = connect(f"ws://127.0.0.1:{port}", sock=sock, subprotocols=["foxglove.sdk.v1"], max_size=None,
+                 compression=None, proxy=None, ping_interval=None, legacy=True)
+    messages, size, subscribed = 0, 0, 0
+    try:
+        while True:
+            frame = ws.recv()
+            if isinstance(frame, str):
+                op = json.loads(frame)
+                if op["op"] == "advertise":
+                    wanted = [c for c in op["channels"] if kind != "layout" or c["topic"] in LAYOUT_TOPICS]
+                    subscriptions = [{"id": subscribed + i, "channelId": c["id"]}
+                                     for i, c in enumerate(wanted, start=1)]
+                    subscribed += len(subscriptions)
+                    ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
+                    if not read and any(c["topic"] == "/scene" for c in op["channels"]):
+                        time.sleep(3600)  # reads nothing more: the buffers fill, then the server drops
+                continue
+            assert struct.unpack_from("<B", frame)[0] == 1
+            messages, size = messages + 1, size + len(frame)
+    except ConnectionClosed:
+        results.put((messages, size))
+
+
+def _timed_live(config: SimulateConfig, planner, scene: SceneInfo, kind: str) -> tuple[float, float, tuple]:
+    """Run time, server stop time, and (messages received, bytes received, messages logged)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    results: multiprocessing.Queue = multiprocessing.Queue()
+    client = multiprocessing.Process(target=_client, args=(port, kind, results), daemon=True)
+    client.start()
+    live = LiveView("127.0.0.1", port, wait_for_client_s=120.0)
+    with open_recorder(scene, live=live, command="benchmark") as recorder:
+        start_s = time.perf_counter()
+        run_sequence(config, planner, "learned", recorder=recorder)
+        run_s = time.perf_counter() - start_s
+        stop_from_s = time.perf_counter()
+    stop_s = time.perf_counter() - stop_from_s
+    received = results.get(timeout=120) if kind != "stalled" else (0, 0)
+    client.kill()
+    client.join()
+    return run_s, stop_s, (*received, sum(recorder.counts.values()))
+
+
+def main() -> None:
+    """Run the comparison and print it."""
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--duration-s", type=float, default=60.0, help="simulated seconds per run")
+    parser.add_argument("--rounds", type=int, default=3, help="runs of each kind")
+    args = parser.parse_args()
+    config = SimulateConfig.from_dict({"duration_s": args.duration_s})
+    planner = make_planner("learned", config.n_uavs, config.task, config=config.planning)
+    scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
+                      coverage_radius_m=config.task.radio.coverage_radius_m)
+    times: dict[str, list[float]] = {"plain": [], "layout": [], "all": [], "stalled": []}
+    stops: dict[str, list[float]] = {"layout": [], "all": [], "stalled": []}
+    received: dict[str, tuple] = {}
+    for _ in range(args.rounds):
+        start_s = time.perf_counter()
+        run = run_sequence(config, planner, "learned")
+        times["plain"].append(time.perf_counter() - start_s)
+        for kind in stops:
+            run_s, stop_s, received[kind] = _timed_live(config, planner, scene, kind)
+            times[kind].append(run_s)
+            stops[kind].append(stop_s)
+    median = {kind: float(np.median(t)) for kind, t in times.items()}
+    print(f"python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPUs, load average "
+          f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+    print(f"{config.n_uavs} UAVs, {run.n_pedestrians} pedestrians, {args.duration_s:g} s simulated "
+          f"({config.n_steps} steps, all streamed), {args.rounds} rounds")
+    for kind in times:
+        ratio = "" if kind == "plain" else f"  ratio to plain {median[kind] / median['plain']:.3f}"
+        print(f"{kind:<8}: {median[kind]:6.2f} s (median; runs {', '.join(f'{t:.2f}' for t in times[kind])})"
+              f"{ratio}")
+    for kind in ("layout", "all"):
+        got, size, logged = received[kind]
+        print(f"{kind} client: received {got} of the {logged} messages logged for it, {size / 1e6:.1f} MB "
+              f"(last round; the server drops the oldest when a client lags)")
+    print(f"server stop: at most {max(stops['all']):.2f} s with a reading client, "
+          f"{max(stops['stalled']):.2f} s with the stalled one")
+
+
+if __name__ == "__main__":
+    main()
