@@ -90,7 +90,7 @@ def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioCon
                          f"and {uavs.shape}")
     n_worlds, n_users, _ = users.shape
     n_uavs = uavs.shape[1]
-    if getattr(config, "station_limit", None) is not None:  # admission control: the snapshot function
+    if config.max_stations is not None:  # admission control: the snapshot function
         pairs = [evaluate_coverage(u, k, config) for u, k in zip(users, uavs, strict=True)]
         return (np.array([c.qos_s1 for c in pairs], dtype=np.float64),
                 np.array([c.qos_s2 for c in pairs], dtype=np.float64))
