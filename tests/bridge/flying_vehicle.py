@@ -19,7 +19,7 @@ import time
 from sim_vehicle import SimVehicle, m
 
 from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
-from bridge.mission import DEG_E7
+from bridge.missions.items import DEG_E7
 
 __all__ = ["FlyingVehicle", "GUIDED", "AUTO", "RTL", "LAND"]
 

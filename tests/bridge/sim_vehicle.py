@@ -37,8 +37,8 @@ import time
 
 from ardupilot_storage import stored_by_ardupilot
 
-from bridge.mavlink import use_mavlink2
-from bridge.mission import DEG_E7, MissionItem
+from bridge.link.mavlink import use_mavlink2
+from bridge.missions.items import DEG_E7, MissionItem
 
 mavutil = use_mavlink2()
 m = mavutil.mavlink

@@ -11,10 +11,10 @@ from sim_vehicle import SimVehicle, endpoint_pair
 
 from bridge import errors
 from bridge.config import BridgeConfig, ProtocolConfig, VehicleEndpoint
-from bridge.fleet import Fleet, FleetError
+from bridge.flight.fleet import Fleet, FleetError
 from bridge.geo import Home
-from bridge.mission import DEG_E7, MissionConfig, MissionItem, build_mission
-from bridge.mission_compare import compare_missions
+from bridge.missions.compare import compare_missions
+from bridge.missions.items import DEG_E7, MissionConfig, MissionItem, build_mission
 from uav_swarm.cli import main
 
 CMAC = Home(lat_deg=-35.363262, lon_deg=149.165237, alt_m=584.0)  # ArduPilot SITL's default home

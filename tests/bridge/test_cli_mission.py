@@ -6,7 +6,7 @@ from lossy_relay import free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import SimVehicle, endpoint_pair
 
-from bridge.mission_files import load_plan, load_wpl
+from bridge.missions.files import load_plan, load_wpl
 from uav_swarm.cli import main
 
 

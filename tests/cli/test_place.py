@@ -11,7 +11,7 @@ import pytest
 import shapely
 
 from bridge.geo import Home, geodetic_to_enu
-from bridge.mission_files import load_plan
+from bridge.missions.files import load_plan
 from uav_swarm.cli import main
 from uav_swarm.missions.monitoring.footprint import read_footprint
 from uav_swarm.missions.monitoring.outline import Outline

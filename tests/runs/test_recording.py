@@ -14,7 +14,7 @@ from conftest import SMALL_WIFI_TASK
 from mcap.reader import make_reader
 
 from bridge.geo import Home
-from bridge.telemetry_schema import Qos, UavState
+from bridge.telemetry.schema import Qos, UavState
 from typed_config import ConfigError
 from uav_swarm.cli import main
 from uav_swarm.runs import foxglove_messages, recording

@@ -140,7 +140,7 @@ def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
 
 def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: ANN001 - BridgeConfig
     """Refuse, before any network wait, plans for vehicles the config lacks or outside the fence."""
-    from bridge.mission import build_mission
+    from bridge.missions.items import build_mission
 
     _check_ids(plans, config)
     for sid, points in plans.items():
@@ -206,7 +206,7 @@ def _report(action: str, errors: dict[int, BaseException]) -> int:
 
 def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]]:  # noqa: ANN001 - Fleet
     """The vehicles that answer (each within its own discovery time), and the others' errors."""
-    from bridge.fleet import FleetError
+    from bridge.flight.fleet import FleetError
 
     try:
         fleet.wait_for_vehicles(ids)
@@ -218,8 +218,8 @@ def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]
 def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
     from pymavlink.dialects.v20 import common as mavlink
 
-    from bridge.mission import build_mission
-    from bridge.mission_files import save_mission
+    from bridge.missions.files import save_mission
+    from bridge.missions.items import build_mission
 
     plans = _plans(args)
     if not plans or args.out_dir is None:
@@ -244,7 +244,7 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
 
 def _plan_builder(points: list[list[float]], config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
     """Build a plan's mission around the home the fleet gives (the config's or the vehicle's own)."""
-    from bridge.mission import build_mission
+    from bridge.missions.items import build_mission
 
     mission, fence = config.mission, config.geofence
     return lambda sid, autopilot, home: build_mission(points, home, mission, fence, autopilot)
@@ -254,7 +254,7 @@ def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, M
     """Load a mission file (absolute positions: its own home, or the config's for WPL) for its vehicle."""
     from pymavlink.dialects.v20 import common as mavlink
 
-    from bridge.mission_files import load_mission
+    from bridge.missions.files import load_mission
 
     def build(sid: int, autopilot: int, _home: object):  # noqa: ANN202 - Mission
         mission = load_mission(path, config.home, autopilot)
@@ -270,7 +270,7 @@ def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, M
 
 
 def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet, FleetError
+    from bridge.flight.fleet import Fleet, FleetError
 
     plans = _plans(args)
     if bool(plans) == (args.from_dir is not None):
@@ -299,8 +299,8 @@ def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
 
 
 def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet, FleetError
-    from bridge.mission_files import save_mission
+    from bridge.flight.fleet import Fleet, FleetError
+    from bridge.missions.files import save_mission
 
     if args.out_dir is None:
         raise ValueError("download needs --out-dir")
@@ -320,7 +320,7 @@ def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - Bridge
 
 
 def _clear(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet, FleetError
+    from bridge.flight.fleet import Fleet, FleetError
 
     _check_ids(args.vehicle, config)
     with Fleet(config) as fleet:

@@ -50,7 +50,7 @@ import msgspec
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
-from bridge.telemetry_schema import Plan, Qos, UavState, encode_payload
+from bridge.telemetry.schema import Plan, Qos, UavState, encode_payload
 from learning.files import atomic_path
 from typed_config import ConfigError
 from uav_swarm.runs import foxglove_messages as fox

@@ -1,6 +1,6 @@
 """A fleet of up to 10 vehicles: discovery, concurrent mission uploads, state, replanning.
 
-Vehicles that share a connection string share one :class:`~bridge.mavlink.MavlinkLink`;
+Vehicles that share a connection string share one :class:`~bridge.link.mavlink.MavlinkLink`;
 each vehicle's transfers run in their own thread, so uploads to every vehicle proceed
 at once. Each vehicle is on its own: one that cannot be reached, stays silent or fails
 is reported by name (:class:`FleetError`) while every other one gets its mission
@@ -18,31 +18,20 @@ Example (the planner's path from ENU targets to flying vehicles)::
 from __future__ import annotations
 
 import logging
-import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TypeVar
 
-from bridge.commands import reposition
-from bridge.config import BridgeConfig
-from bridge.errors import (
-    BridgeError,
-    MissionResultError,
-    MissionRunningError,
-    PlanError,
-    VehicleUnreachableError,
-)
+from bridge.errors import BridgeError, MissionResultError, MissionRunningError, PlanError
+from bridge.flight.readiness import request_message
+from bridge.flight.vehicle_home import ReportedHome, check_home_offset
+from bridge.flight.vehicles import FleetError, FleetVehicles
 from bridge.geo import Home
-from bridge.mavlink import LinkReader, MavlinkLink, use_mavlink2
-from bridge.mission import ARDUPILOT, Mission, MissionItem, build_mission
-from bridge.mission_protocol import MissionClient
-from bridge.mission_upload import upload_concurrently
-from bridge.readiness import request_message, wait_ready
-from bridge.signing import SigningKey, load_signing_key
-from bridge.vehicle_home import HomeWatcher, ReportedHome, check_home_offset
-from bridge.vehicle_state import VehicleState, VehicleStateTracker
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleState
+from bridge.missions.items import ARDUPILOT, Mission, MissionItem, build_mission
+from bridge.missions.protocol import MissionClient
+from bridge.missions.upload import upload_concurrently
 
 __all__ = ["Fleet", "FleetError", "Delivery", "MissionBuilder"]
 
@@ -57,25 +46,6 @@ _CLEAR_HINT = (
 )
 
 log = logging.getLogger(__name__)
-
-T = TypeVar("T")
-
-
-class FleetError(BridgeError):
-    """One or more vehicles failed an operation; ``errors`` maps system id to its named exception.
-
-    Attributes:
-        errors: The failure of each vehicle that failed.
-        results: The result of each vehicle that succeeded.
-    """
-
-    def __init__(
-        self, operation: str, errors: Mapping[int, BaseException], results: Mapping[int, object]
-    ) -> None:
-        self.errors = dict(errors)
-        self.results = dict(results)
-        lines = "; ".join(f"{type(exc).__name__}: {exc}" for _, exc in sorted(self.errors.items()))
-        super().__init__(f"{operation} failed on {len(self.errors)} vehicle(s): {lines}")
 
 
 @dataclass(frozen=True)
@@ -95,101 +65,16 @@ class Delivery:
     verify_s: float | None
 
 
-class Fleet:
-    """The vehicles of a :class:`BridgeConfig`, reached over their configured connections.
+class Fleet(FleetVehicles):
+    """The vehicles of a :class:`BridgeConfig` and their missions (:class:`FleetVehicles` for the rest).
 
     Args:
         config: Home, mission shape, geofence, protocol timing, signing and endpoints.
         signing_key: Overrides the key named by ``config.signing`` (``None``: load it from there).
     """
 
-    def __init__(self, config: BridgeConfig, signing_key: SigningKey | None = None) -> None:
-        self.config = config
-        key = signing_key if signing_key is not None else load_signing_key(config.signing)
-        self.tracker = VehicleStateTracker(config.home)
-        self._homes = HomeWatcher()
-        self._autopilots: dict[int, int] = {}
-        self._pool = ThreadPoolExecutor(max_workers=max(1, len(config.vehicles)), thread_name_prefix="fleet")
-        self._reader = LinkReader("fleet mavlink reader")
-        self._links: dict[str, MavlinkLink] = {}
-        self._link_of: dict[int, MavlinkLink] = {}
-        self._link_errors: dict[int, VehicleUnreachableError] = {}
-        try:
-            self._open_links(key)
-        except BaseException:
-            self.close()
-            raise
-
-    def _open_links(self, key: SigningKey | None) -> None:
-        """Open every connection at once; one that cannot be opened fails only its vehicles."""
-        use_mavlink2()  # once, before the threads
-
-        def open_link(url: str) -> MavlinkLink:
-            link = MavlinkLink(
-                url,
-                source_system=self.config.source_system,
-                source_component=self.config.source_component,
-                signing_key=key,
-                signing_link_id=self.config.signing.link_id,
-                allow_unsigned=self.config.signing.allow_unsigned,
-                reader=self._reader,
-            )
-            link.add_listener(self.tracker.update, VehicleStateTracker.MESSAGE_TYPES)
-            link.add_listener(self._homes.update, HomeWatcher.MESSAGE_TYPES)
-            return link
-
-        urls = dict.fromkeys(v.url for v in self.config.vehicles)
-        futures = {url: self._pool.submit(open_link, url) for url in urls}
-        failures: dict[str, OSError] = {}
-        unexpected: BaseException | None = None
-        for url, future in futures.items():
-            try:
-                self._links[url] = future.result()
-            except OSError as exc:  # refused TCP connection, port in use, unknown host
-                failures[url] = exc
-            except BaseException as exc:
-                unexpected = unexpected or exc
-        if unexpected is not None:
-            raise unexpected
-        for vehicle in self.config.vehicles:
-            if vehicle.url in failures:
-                error = VehicleUnreachableError(vehicle.system_id, vehicle.url, failures[vehicle.url])
-                log.warning("%s", error)
-                self._link_errors[vehicle.system_id] = error
-            else:
-                self._link_of[vehicle.system_id] = self._links[vehicle.url]
-
-    @property
-    def system_ids(self) -> tuple[int, ...]:
-        """The configured vehicles' system ids (reachable or not)."""
-        return tuple(v.system_id for v in self.config.vehicles)
-
-    def close(self) -> None:
-        """Close every connection."""
-        self._pool.shutdown(wait=True)
-        for link in self._links.values():
-            link.close()
-        self._links.clear()
-        self._reader.close()
-
     def __enter__(self) -> Fleet:
         return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def link(self, system_id: int) -> MavlinkLink:
-        """The connection reaching one vehicle (shared with the vehicles on the same connection string).
-
-        Raises:
-            KeyError: ``system_id`` is not a configured vehicle.
-            VehicleUnreachableError: Its connection could not be opened.
-        """
-        if system_id in self._link_errors:
-            raise self._link_errors[system_id]
-        if system_id not in self._link_of:
-            raise KeyError(f"vehicle {system_id} is not configured; configured: {sorted(self.system_ids)}")
-        return self._link_of[system_id]
 
     def client(self, system_id: int) -> MissionClient:
         """The mission protocol client of one vehicle.
@@ -199,82 +84,6 @@ class Fleet:
             VehicleUnreachableError: Its connection could not be opened.
         """
         return MissionClient(self.link(system_id), system_id, self.config.protocol)
-
-    def _configured(self, system_id: int) -> None:
-        """Raise KeyError naming the configured ids unless ``system_id`` is one of them."""
-        if system_id not in self.system_ids:
-            raise KeyError(f"vehicle {system_id} is not configured; configured: {sorted(self.system_ids)}")
-
-    def wait_for_vehicles(
-        self, system_ids: Sequence[int] | None = None, timeout_s: float | None = None
-    ) -> dict[int, int]:
-        """Wait for a HEARTBEAT of each vehicle, all at once; returns each one's ``MAV_AUTOPILOT_*``.
-
-        Raises:
-            FleetError: Holding a :class:`HeartbeatTimeoutError` (or :class:`VehicleUnreachableError`)
-                per absent vehicle, and the autopilots of the others in ``results``.
-        """
-        ids = list(system_ids or self.system_ids)
-        timeout_s = self.config.protocol.heartbeat_timeout_s if timeout_s is None else timeout_s
-        return self._each("discovery", ids, lambda sid: self._discover(sid, timeout_s))
-
-    def _discover(self, system_id: int, timeout_s: float) -> int:
-        """The vehicle's ``MAV_AUTOPILOT_*`` from its first HEARTBEAT, waiting at most ``timeout_s``.
-
-        On that first heartbeat the vehicle is asked once for the messages the mission commands'
-        decisions depend on, HOME_POSITION and MISSION_CURRENT (:func:`~bridge.readiness.request_message`:
-        ArduPilot streams neither on a new link until asked).
-        """
-        if system_id not in self._autopilots:
-            link = self.link(system_id)
-            self._autopilots[system_id] = link.wait_heartbeat(system_id, timeout_s).autopilot
-            m = link.mavlink
-            for message_id in (m.MAVLINK_MSG_ID_HOME_POSITION, m.MAVLINK_MSG_ID_MISSION_CURRENT):
-                request_message(link, system_id, message_id)
-        return self._autopilots[system_id]
-
-    def autopilot(self, system_id: int) -> int:
-        """The vehicle's ``MAV_AUTOPILOT_*``, waiting for its heartbeat if needed."""
-        if system_id not in self._autopilots:
-            self.wait_for_vehicles([system_id])
-        return self._autopilots[system_id]
-
-    def _fix_stands_in(self, system_id: int) -> bool:
-        """True unless the vehicle is ArduPilot, which has a fix long before its home (HOME_POSITION)."""
-        state = self.tracker.state(system_id)
-        autopilot = self._autopilots.get(system_id, state.autopilot if state is not None else None)
-        return autopilot != ARDUPILOT
-
-    def vehicle_home(self, system_id: int) -> ReportedHome:
-        """The vehicle's own home: its HOME_POSITION (asked for) or, not ArduPilot, its first position fix.
-
-        Waits at most ``protocol.home_timeout_s``, saying every few seconds what it waits for.
-
-        Raises:
-            HomeUnknownError: Neither arrived in time (naming the vehicle and what it said).
-        """
-        return wait_ready(self.link(system_id), self.tracker, self._homes, system_id,
-                          timeout_s=self.config.protocol.home_timeout_s, protocol=self.config.protocol,
-                          need_fix=False, fix_stands_in=self._fix_stands_in(system_id))
-
-    def wait_ready(self, system_id: int, timeout_s: float, position_rate_hz: float = 0.0,
-                   cancel: threading.Event | None = None) -> ReportedHome:
-        """Wait until the vehicle can be flown: a position fix and its home, both heard from now on.
-
-        The home is refused beyond ``max_home_offset_m`` from ``[home]`` (0: not checked). Every few
-        seconds the wait says what it waits for and what the vehicle said (STATUSTEXT). Setting
-        ``cancel`` stops the wait (:class:`BridgeError`).
-
-        Raises:
-            HomeUnknownError: Not ready within ``timeout_s`` (naming what was missing).
-            HomeMismatchError: Naming both positions and the distance.
-        """
-        reported = wait_ready(self.link(system_id), self.tracker, self._homes, system_id, timeout_s=timeout_s,
-                              protocol=self.config.protocol, fix_stands_in=self._fix_stands_in(system_id),
-                              fresh=True, position_rate_hz=position_rate_hz, cancel=cancel)
-        if self.config.max_home_offset_m > 0:
-            check_home_offset(system_id, self.config.home, reported, self.config.max_home_offset_m)
-        return reported
 
     def build_missions(self, plans_m: Mapping[int, Sequence[Sequence[float]]]) -> dict[int, Mission]:
         """Missions from ENU plans (``{system_id: [(x_m, y_m[, z_m]), ...]}``, the last point the target).
@@ -298,7 +107,7 @@ class Fleet:
             ValueError: A malformed plan.
         """
         for sid, points in plans_m.items():
-            self._configured(sid)
+            self.configured(sid)
             self._build(sid, 0, self.config.home, points)
 
     def _build(
@@ -321,7 +130,7 @@ class Fleet:
             HeartbeatTimeoutError: The vehicle is silent.
         """
         protocol = self.config.protocol
-        self._discover(system_id, protocol.heartbeat_timeout_s)
+        self.discover(system_id, protocol.heartbeat_timeout_s)
         deadline_s = time.monotonic() + protocol.handshake_timeout_s
         state = self.tracker.state(system_id)
         while state is None or state.armed is None:  # its heartbeat is not folded into the state yet
@@ -353,25 +162,6 @@ class Fleet:
             raise MissionRunningError(system_id, operation, str(state.mode), state.mission_seq_current)
         return state
 
-    def _each(self, operation: str, system_ids: Sequence[int], work: Callable[[int], T]) -> dict[int, T]:
-        results: dict[int, T] = {}
-        errors: dict[int, BaseException] = {}
-        if len(system_ids) == 1:  # no thread hand-off for a single vehicle
-            try:
-                results[system_ids[0]] = work(system_ids[0])
-            except BridgeError as exc:
-                errors[system_ids[0]] = exc
-        else:
-            futures = {sid: self._pool.submit(work, sid) for sid in system_ids}
-            for sid, future in futures.items():
-                try:
-                    results[sid] = future.result()
-                except BridgeError as exc:
-                    errors[sid] = exc
-        if errors:
-            raise FleetError(operation, errors, results)
-        return results
-
     def upload(
         self,
         missions: Mapping[int, Mission | Sequence[MissionItem]],
@@ -383,13 +173,13 @@ class Fleet:
         """Upload ready-made missions as they are (no home check); returns each vehicle's seconds.
 
         Without ``verify`` every upload runs from the calling thread (see
-        :func:`~bridge.mission_upload.upload_concurrently`) and the time is the upload's;
+        :func:`~bridge.missions.upload.upload_concurrently`) and the time is the upload's;
         with it, one thread per vehicle uploads, downloads and compares, and the time is both.
 
         Args:
             missions: Mission (or its items) per system id.
             verify: Download each mission back and compare it with what was sent.
-            strict: Compare exactly (see :func:`~bridge.mission_compare.compare_missions`).
+            strict: Compare exactly (see :func:`~bridge.missions.compare.compare_missions`).
             force: Replace a mission the vehicle is flying (otherwise :class:`MissionRunningError`).
 
         Raises:
@@ -398,7 +188,7 @@ class Fleet:
         """
         items = {sid: m.items if isinstance(m, Mission) else tuple(m) for sid, m in missions.items()}
         for sid in items:
-            self._configured(sid)
+            self.configured(sid)
         if not verify:  # all from this thread, requests answered on the reader thread
             links: dict[int, MavlinkLink] = {}
             refused: dict[int, BridgeError] = {}
@@ -421,7 +211,7 @@ class Fleet:
             self.client(sid).upload_verified(items[sid], strict=strict, vehicle_home=home)
             return time.monotonic() - start_s
 
-        return self._each("upload", list(items), work)
+        return self.each("upload", list(items), work)
 
     def upload_plans(
         self,
@@ -479,12 +269,12 @@ class Fleet:
             FleetError: ``errors`` per failed vehicle, ``results`` a :class:`Delivery` per other one.
         """
         for sid in builders:
-            self._configured(sid)
+            self.configured(sid)
         config, protocol = self.config, self.config.protocol
         ask_home = config.home_source == "vehicle" or config.max_home_offset_m > 0
 
         def work(sid: int) -> Delivery:
-            autopilot = self._discover(sid, protocol.heartbeat_timeout_s)
+            autopilot = self.discover(sid, protocol.heartbeat_timeout_s)
             reported = self.vehicle_home(sid) if ask_home else None
             home = reported.home if reported is not None and config.home_source == "vehicle" else config.home
             try:
@@ -505,7 +295,7 @@ class Fleet:
             client.upload(mission.items)
             return Delivery(mission, reported, time.monotonic() - start_s, None)
 
-        return self._each("upload", list(builders), work)
+        return self.each("upload", list(builders), work)
 
     def download(self, system_ids: Sequence[int] | None = None) -> dict[int, Mission]:
         """Download the missions of some (default: all) vehicles concurrently."""
@@ -514,7 +304,7 @@ class Fleet:
             items = self.client(sid).download()
             return Mission(home=self.config.home, items=items, autopilot=self._autopilots.get(sid, 0))
 
-        return self._each("download", list(system_ids or self.system_ids), work)
+        return self.each("download", list(system_ids or self.system_ids), work)
 
     def clear(self, system_ids: Sequence[int] | None = None, *, force: bool = False) -> None:
         """Clear the missions of some (default: all) vehicles concurrently.
@@ -537,25 +327,5 @@ class Fleet:
                     exc.add_detail(_CLEAR_HINT)
                 raise
 
-        self._each("clear", list(system_ids or self.system_ids), work)
+        self.each("clear", list(system_ids or self.system_ids), work)
 
-    def reposition(self, system_id: int, x_m: float, y_m: float, z_m: float, speed_m_s: float = -1.0) -> None:
-        """Guided replanning: send one vehicle to an ENU point now (``MAV_CMD_DO_REPOSITION``)."""
-        reposition(
-            self.link(system_id),
-            system_id,
-            self.config.home,
-            self.config.geofence,
-            x_m,
-            y_m,
-            z_m,
-            speed_m_s=speed_m_s,
-            protocol=self.config.protocol,
-        )
-
-    def states(self) -> dict[int, VehicleState]:
-        """Latest state of every vehicle heard so far, by system id.
-
-        To be told of every update instead, ``fleet.tracker.add_listener(callback)``.
-        """
-        return self.tracker.states()

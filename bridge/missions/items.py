@@ -26,7 +26,7 @@ is lower, so a mission never descends after take-off unless the user's own point
 The user numbers points as ``waypoint 1 .. k`` (intermediate, in order) and ``target``
 (the last); refusals use those names.
 
-Verification of a mission read back is :mod:`bridge.mission_compare`.
+Verification of a mission read back is :mod:`bridge.missions.compare`.
 """
 
 from __future__ import annotations

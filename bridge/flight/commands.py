@@ -16,8 +16,8 @@ from bridge.config import ProtocolConfig
 from bridge.errors import CommandRejectedError, CommandTimeoutError
 from bridge.geo import Home, enu_to_geodetic
 from bridge.geofence import GeofenceConfig, check_geofence
-from bridge.mavlink import MavlinkLink
-from bridge.mission import DEG_E7
+from bridge.link.mavlink import MavlinkLink
+from bridge.missions.items import DEG_E7
 
 __all__ = ["command_int", "command_long", "reposition"]
 

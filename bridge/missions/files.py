@@ -24,7 +24,7 @@ from pathlib import Path
 from pymavlink.dialects.v20 import common as mavlink
 
 from bridge.geo import Home
-from bridge.mission import DEG_E7, Mission, MissionItem, home_placeholder, mark_current
+from bridge.missions.items import DEG_E7, Mission, MissionItem, home_placeholder, mark_current
 
 __all__ = [
     "save_plan",

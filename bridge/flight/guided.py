@@ -25,11 +25,11 @@ from typing import Literal
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from bridge.commands import command_long
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, CommandRejectedError
-from bridge.mavlink import MavlinkLink
-from bridge.vehicle_state import VehicleState, VehicleStateTracker
+from bridge.flight.commands import command_long
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleState, VehicleStateTracker
 from typed_config import Config, param
 
 __all__ = [
