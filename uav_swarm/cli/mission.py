@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "parse_target"]
+__all__ = ["register", "run", "parse_target", "read_plans"]
 
 _AUTOPILOTS = {
     "generic": "MAV_AUTOPILOT_GENERIC",
@@ -88,7 +89,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add(
         "--force",
         action="store_true",
-        help="upload/clear: replace or clear a mission a vehicle is flying (armed, AUTO, past item 0)",
+        help="upload/clear: replace or clear a mission a vehicle is flying (armed in AUTO / AUTO.MISSION)",
     )
     parser.set_defaults(func=run)
 
@@ -113,12 +114,47 @@ def parse_target(text: str, option: str = "--target") -> tuple[int, list[float]]
     return sid, values
 
 
+_JSON_TYPES = {dict: "object", list: "array", str: "string", int: "number", float: "number",
+               bool: "boolean", type(None): "null"}
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def read_plans(path: Path) -> dict[int, list[list[float]]]:
+    """The plans of a ``--plans`` file: JSON ``{"ID": [[x_m, y_m(, z_m)], ...]}``, ``ID`` 1-255.
+
+    Raises:
+        ValueError: Not JSON, not an object, a key that is no vehicle id, or a plan that is not a
+            non-empty list of 2 or 3 finite numbers each (the message names the file and the entry).
+    """
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"--plans {path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
+    expected = '{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]} with one key per vehicle id'
+    if not isinstance(data, dict):
+        raise ValueError(f"--plans {path}: a JSON {_JSON_TYPES.get(type(data), 'value')}; expected an object "
+                         f"{expected}")
+    plans: dict[int, list[list[float]]] = {}
+    for key, points in data.items():
+        if not key.strip().isdigit() or not 1 <= int(key) <= 255:
+            raise ValueError(f"--plans {path}: key {key!r} is not a vehicle id (1-255); expected {expected}")
+        valid = isinstance(points, list) and points and all(
+            isinstance(p, list) and len(p) in (2, 3) and all(_is_number(v) for v in p) for p in points)
+        if not valid:
+            raise ValueError(f"--plans {path}: vehicle {key}: {json.dumps(points)[:80]} is not a list "
+                             "of points [x_m, y_m] or [x_m, y_m, z_m] (finite numbers, at least the target)")
+        plans[int(key)] = [[float(v) for v in p] for p in points]
+    return plans
+
+
 def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
     """Each vehicle's plan: its ``--waypoint`` points in order, then its one ``--target`` (or ``--plans``)."""
     plans: dict[int, list[list[float]]] = {}
     if args.plans is not None:
-        data = json.loads(args.plans.read_text(encoding="utf-8"))
-        plans.update({int(sid): [list(map(float, p)) for p in points] for sid, points in data.items()})
+        plans.update(read_plans(args.plans))
     targets: dict[int, list[float]] = {}
     for text in args.target:
         system_id, point = parse_target(text)
@@ -224,6 +260,7 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
     plans = _plans(args)
     if not plans or args.out_dir is None:
         raise ValueError("export needs --target or --plans, and --out-dir")
+    _check_ids(plans, config)  # a mission for a vehicle the config does not list is refused, not written
     missions = {
         sid: build_mission(
             points,
