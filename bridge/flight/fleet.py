@@ -29,7 +29,7 @@ from bridge.flight.vehicles import FleetError, FleetVehicles
 from bridge.geo import Home
 from bridge.link.mavlink import MavlinkLink
 from bridge.link.vehicle_state import VehicleState
-from bridge.missions.items import ARDUPILOT, Mission, MissionItem, build_mission
+from bridge.missions.items import Mission, MissionItem, build_mission
 from bridge.missions.protocol import MissionClient
 from bridge.missions.upload import upload_concurrently
 
@@ -38,12 +38,7 @@ __all__ = ["Fleet", "FleetError", "Delivery", "MissionBuilder"]
 MissionBuilder = Callable[[int, int, Home], Mission]
 """``build(system_id, autopilot, home)``: a vehicle's mission around ``home``, as its autopilot wants it."""
 
-_AUTO_MODES = frozenset({"AUTO", "MISSION"})  # ArduPilot's and PX4's mission-flying modes
 _MISSION_CURRENT_ASKS = 3  # MAV_CMD_REQUEST_MESSAGE tries, one per handshake timeout
-_CLEAR_HINT = (
-    "ArduPilot refuses (MAV_MISSION_ERROR) to clear the mission it is flying in AUTO: switch the "
-    "vehicle to another mode (e.g. LOITER or GUIDED) first"
-)
 
 log = logging.getLogger(__name__)
 
@@ -119,12 +114,15 @@ class Fleet(FleetVehicles):
             raise type(exc)(f"vehicle {system_id}: {exc}") from None
 
     def _flying_mission(self, system_id: int) -> VehicleState | None:
-        """The vehicle's state when it flies its mission (armed, AUTO, past item 0), else ``None``.
+        """The vehicle's state when it flies its mission, else ``None``.
 
-        Waits for its HEARTBEAT first (a state not heard yet is not "not flying"). Armed in AUTO,
-        its mission item is asked for (``MAV_CMD_REQUEST_MESSAGE`` MISSION_CURRENT: ArduPilot does
-        not stream it on a new link) once per handshake timeout, three times; still unknown, the
-        vehicle is taken as flying (fail closed: its state then has ``mission_seq_current`` None).
+        Flying its mission is being armed in its autopilot's mission mode (ArduPilot AUTO, PX4
+        AUTO.MISSION: :attr:`~bridge.autopilots.Conventions.mission_mode_names`) at any item, its
+        take-off included (PX4's take-off is item 0, ArduPilot's item 1). Waits for its HEARTBEAT
+        first (a state not heard yet is not "not flying"). Armed in that mode, its mission item is
+        asked for (``MAV_CMD_REQUEST_MESSAGE`` MISSION_CURRENT: ArduPilot does not stream it on a new
+        link) once per handshake timeout, three times, to name it in the refusal; still unknown, the
+        state has ``mission_seq_current`` None.
 
         Raises:
             HeartbeatTimeoutError: The vehicle is silent.
@@ -138,7 +136,7 @@ class Fleet(FleetVehicles):
                 return None
             time.sleep(0.02)
             state = self.tracker.state(system_id)
-        if not state.armed or state.mode not in _AUTO_MODES:
+        if not state.armed or state.mode not in self.conventions(system_id).mission_mode_names:
             return None
         link = self.link(system_id)
         for _ in range(_MISSION_CURRENT_ASKS):
@@ -150,10 +148,9 @@ class Fleet(FleetVehicles):
                 time.sleep(0.02)
                 state = self.tracker.state(system_id) or state
         if state.mission_seq_current is None:
-            log.warning("vehicle %d: armed in %s and no MISSION_CURRENT after asking %d times: taken as "
-                        "flying its mission", system_id, state.mode, _MISSION_CURRENT_ASKS)
-            return state
-        return state if state.mission_seq_current > 0 else None
+            log.warning("vehicle %d: armed in %s and no MISSION_CURRENT after asking %d times: flying its "
+                        "mission at an unknown item", system_id, state.mode, _MISSION_CURRENT_ASKS)
+        return state
 
     def _refuse_if_flying(self, system_id: int, operation: str, force: bool) -> VehicleState | None:
         """Raise :class:`MissionRunningError` when the vehicle flies its mission, unless ``force``."""
@@ -207,7 +204,7 @@ class Fleet(FleetVehicles):
         def work(sid: int) -> float:
             start_s = time.monotonic()
             self._refuse_if_flying(sid, "replace", force)
-            home = self._autopilots.get(sid) == ARDUPILOT
+            home = self.conventions(sid).home_item
             self.client(sid).upload_verified(items[sid], strict=strict, vehicle_home=home)
             return time.monotonic() - start_s
 
@@ -288,8 +285,8 @@ class Fleet(FleetVehicles):
             self._refuse_if_flying(sid, "replace", force)
             client = self.client(sid)
             if verify:
-                ardupilot = autopilot == ARDUPILOT
-                times = client.upload_verified(mission.items, strict=strict, vehicle_home=ardupilot)
+                home_item = self.conventions(sid).home_item
+                times = client.upload_verified(mission.items, strict=strict, vehicle_home=home_item)
                 return Delivery(mission, reported, times.upload_s, times.verify_s)
             start_s = time.monotonic()
             client.upload(mission.items)
@@ -324,7 +321,7 @@ class Fleet(FleetVehicles):
                 self.client(sid).clear()
             except MissionResultError as exc:
                 if flying is not None:
-                    exc.add_detail(_CLEAR_HINT)
+                    exc.add_detail(self.conventions(sid).clear_hint)
                 raise
 
         self.each("clear", list(system_ids or self.system_ids), work)

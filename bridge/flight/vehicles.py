@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
+from bridge.autopilots import Conventions, conventions_for
 from bridge.config import BridgeConfig
 from bridge.errors import BridgeError, VehicleUnreachableError
 from bridge.flight.commands import reposition
@@ -23,7 +24,6 @@ from bridge.flight.vehicle_home import HomeWatcher, ReportedHome, check_home_off
 from bridge.link.mavlink import LinkReader, MavlinkLink, use_mavlink2
 from bridge.link.signing import SigningKey, load_signing_key
 from bridge.link.vehicle_state import VehicleState, VehicleStateTracker
-from bridge.missions.items import ARDUPILOT
 
 __all__ = ["FleetVehicles", "FleetError"]
 
@@ -187,11 +187,29 @@ class FleetVehicles:
             self.wait_for_vehicles([system_id])
         return self._autopilots[system_id]
 
+    def conventions(self, system_id: int) -> Conventions:
+        """The vehicle's autopilot conventions, from its HEARTBEAT (``GENERIC`` while unheard)."""
+        state = self.tracker.state(system_id)
+        heard = state.autopilot if state is not None else None
+        return conventions_for(self._autopilots.get(system_id, heard))
+
     def _fix_stands_in(self, system_id: int) -> bool:
         """True unless the vehicle is ArduPilot, which has a fix long before its home (HOME_POSITION)."""
+        return self.conventions(system_id).fix_stands_in
+
+    def home_alt_m(self, system_id: int) -> float | None:
+        """The vehicle's own home altitude above mean sea level: its HOME_POSITION, else from its position.
+
+        Its last GLOBAL_POSITION_INT gives it too (altitude less the height above its home); ``None``
+        when neither was heard.
+        """
+        home = self._homes.home(system_id)
+        if home is not None:
+            return home.alt_m
         state = self.tracker.state(system_id)
-        autopilot = self._autopilots.get(system_id, state.autopilot if state is not None else None)
-        return autopilot != ARDUPILOT
+        if state is None or state.alt_m is None or state.relative_alt_m is None:
+            return None
+        return state.alt_m - state.relative_alt_m
 
     def vehicle_home(self, system_id: int) -> ReportedHome:
         """The vehicle's own home: its HOME_POSITION (asked for) or, not ArduPilot, its first position fix.
@@ -249,7 +267,11 @@ class FleetVehicles:
         return results
 
     def reposition(self, system_id: int, x_m: float, y_m: float, z_m: float, speed_m_s: float = -1.0) -> None:
-        """Guided replanning: send one vehicle to an ENU point now (``MAV_CMD_DO_REPOSITION``)."""
+        """Guided replanning: send one vehicle to an ENU point now (``MAV_CMD_DO_REPOSITION``).
+
+        ``z_m`` is the height above the vehicle's own home; the altitude frame is its autopilot's
+        (:func:`~bridge.flight.commands.reposition`).
+        """
         reposition(
             self.link(system_id),
             system_id,
@@ -260,6 +282,8 @@ class FleetVehicles:
             z_m,
             speed_m_s=speed_m_s,
             protocol=self.config.protocol,
+            conventions=self.conventions(system_id),
+            home_alt_m=self.home_alt_m(system_id),
         )
 
     def states(self) -> dict[int, VehicleState]:

@@ -211,7 +211,7 @@ def test_a_mission_being_flown_is_neither_cleared_nor_replaced_without_force(tmp
     clear = ["mission", "clear", "--config", str(config)]
     try:
         assert main(upload) == 0
-        vehicles[0].current_seq = 2  # armed, AUTO, flying item 2
+        vehicles[0].custom_mode, vehicles[0].current_seq = 3, 2  # armed, AUTO, flying item 2
         assert main(clear) == 2
         assert "MissionRunningError: vehicle 1: is flying its mission (armed, mode AUTO, at item 2)" in (
             capsys.readouterr().err

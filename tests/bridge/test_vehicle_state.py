@@ -36,6 +36,7 @@ def test_state_ingest_gives_typed_state_with_enu_position():
             vehicle_url,
             6,
             autopilot=mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            custom_mode=3,  # AUTO
             lat_deg=lat_deg,
             lon_deg=lon_deg,
             alt_m=alt_m,

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bridge.errors import BridgeError
-from bridge.flight.guided import ARDUPILOT, AUTO_MODE, end_flight, launch, set_mode
+from bridge.flight.guided import end_flight, launch, set_mode
 from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.records import QosTrace
@@ -149,14 +149,14 @@ class Flight:
         vehicle.job = self._pool.submit(self._launch_one, vehicle)
 
     def _launch_one(self, vehicle: _Vehicle) -> None:
-        state = self._state(vehicle)
-        autopilot = state.autopilot if state is not None and state.autopilot is not None else 0
+        autopilot = self.fleet.conventions(vehicle.system_id).autopilot  # from its HEARTBEAT
         try:
             flight = self.config.flight  # a fix and its home first, checked before anything that moves it
-            self.fleet.wait_ready(vehicle.system_id, flight.ready_timeout_s, flight.stream_rate_hz,
-                                  cancel=self._stop)
+            home = self.fleet.wait_ready(vehicle.system_id, flight.ready_timeout_s, flight.stream_rate_hz,
+                                         cancel=self._stop)
             launch(self.fleet.link(vehicle.system_id), self.fleet.tracker, vehicle.system_id, autopilot,
-                   self.alt_m, self.config.flight, self.bridge.protocol, cancel=self._stop)
+                   self.alt_m, self.config.flight, self.bridge.protocol, cancel=self._stop,
+                   home_alt_m=home.home.alt_m)
         except BridgeError as exc:
             if vehicle.status == "lost" or self._stop.is_set():  # taken back when heard / the flight ends
                 return
@@ -286,17 +286,16 @@ class Flight:
         from bridge.missions.items import build_mission
 
         sid = vehicle.system_id
-        state = self._state(vehicle)
-        autopilot = state.autopilot if state is not None and state.autopilot is not None else 0
+        conventions = self.fleet.conventions(sid)
         shape = self.bridge.mission.replace(takeoff_alt_m=self.alt_m, cruise_alt_m=self.alt_m)
-        mission = build_mission([target], self.bridge.home, shape, self.bridge.geofence, autopilot)
+        mission = build_mission([target], self.bridge.home, shape, self.bridge.geofence,
+                                conventions.autopilot)
         client = self.fleet.client(sid)
         client.upload(mission.items)
         first_waypoint = next(i.seq for i in mission.items if i.command == NAV_WAYPOINT and i.seq > 0)
         client.set_current(first_waypoint)
         if not vehicle.in_auto:
-            set_mode(self.fleet.link(sid), sid, AUTO_MODE.get(autopilot, AUTO_MODE[ARDUPILOT]),
-                     self.bridge.protocol)
+            set_mode(self.fleet.link(sid), sid, conventions.mission_mode, self.bridge.protocol)
             vehicle.in_auto = True
 
     # -- loop ----------------------------------------------------------------------------------
