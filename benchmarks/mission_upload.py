@@ -35,10 +35,10 @@ from mavsdk.plugins.mission_raw import MissionRaw
 from mavsdk.plugins.mission_raw_server import MissionRawServer
 
 from bridge.config import BridgeConfig, VehicleEndpoint
-from bridge.fleet import Fleet
+from bridge.flight.fleet import Fleet
 from bridge.geo import Home
 from bridge.geofence import GeofenceConfig
-from bridge.mission import MissionConfig, build_mission
+from bridge.missions.items import MissionConfig, build_mission
 
 N_FLEET = 10
 PLAN_M = [(20.0, 10.0), (60.0, -30.0), (-15.0, 45.0)]

@@ -26,10 +26,10 @@ from pathlib import Path
 from mission_upload import PLAN_M, free_udp_port, machine_line
 
 from bridge.config import BridgeConfig, VehicleEndpoint
-from bridge.fleet import Fleet, FleetError
+from bridge.flight.fleet import Fleet, FleetError
 from bridge.geo import Home
 from bridge.geofence import GeofenceConfig
-from bridge.mission import MissionConfig, build_mission
+from bridge.missions.items import MissionConfig, build_mission
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "bridge"))
 from lossy_relay import TO_VEHICLE  # noqa: E402 - a test helper, found through the path above

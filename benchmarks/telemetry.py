@@ -28,9 +28,9 @@ import numpy as np
 import zenoh
 
 from bridge.telemetry import SwarmPublisher, SwarmSubscriber
-from bridge.telemetry_config import TelemetryConfig, open_session
-from bridge.telemetry_keys import all_states_key, state_key
-from bridge.telemetry_schema import UavState
+from bridge.telemetry.config import TelemetryConfig, open_session
+from bridge.telemetry.keys import all_states_key, state_key
+from bridge.telemetry.schema import UavState
 
 SWARM = "bench"
 RAW_HEADER = struct.Struct("<dII")  # stamp_s, uav_id, seq

@@ -11,7 +11,7 @@ from typing import Any, Literal
 
 from bridge.geo import Home
 from bridge.geofence import GeofenceConfig
-from bridge.mission import MissionConfig
+from bridge.missions.items import MissionConfig
 from typed_config import Config, ConfigError, param
 
 __all__ = [

@@ -297,15 +297,16 @@ class HomeMismatchError(RefusedError, ValueError):
 
 
 class MissionRunningError(RefusedError):
-    """The vehicle flies its mission (armed, in AUTO, past item 0): clearing or replacing it needs force.
+    """The vehicle flies its mission (armed in its mission mode, any item): clearing or replacing needs force.
 
-    A vehicle armed in AUTO whose mission item could not be learned (``seq`` None) is taken as flying.
+    The mission mode is its autopilot's (ArduPilot AUTO, PX4 AUTO.MISSION); ``seq`` is None when
+    its mission item could not be learned.
     """
 
     def __init__(self, system_id: int, operation: str, mode: str, seq: int | None) -> None:
         self.system_id = system_id
         where = (f"at item {seq}" if seq is not None
-                 else "its mission item unknown: no MISSION_CURRENT after asking, so taken as flying")
+                 else "its mission item unknown: no MISSION_CURRENT after asking")
         super().__init__(
             f"vehicle {system_id}: is flying its mission (armed, mode {mode}, {where}); refusing to "
             f"{operation} it: a new or empty mission changes what it flies now. Nothing was sent. Switch "

@@ -1,15 +1,15 @@
 """How ArduPilot Copter stores a mission item and returns it on download (AP_Mission), for SimVehicle.
 
 Written from ArduPilot's behaviour, independently of the bridge's own comparison rules
-(``bridge.mission_compare``), so that the tests check one against the other.
+(``bridge.missions.compare``), so that the tests check one against the other.
 """
 
 from __future__ import annotations
 
 import math
 
-from bridge.mavlink import use_mavlink2
-from bridge.mission import MissionItem
+from bridge.link.mavlink import use_mavlink2
+from bridge.missions.items import MissionItem
 
 m = use_mavlink2().mavlink
 

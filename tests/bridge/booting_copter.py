@@ -25,7 +25,7 @@ import time
 from flying_vehicle import AUTO, GUIDED, FlyingVehicle
 from sim_vehicle import m
 
-from bridge.mission import DEG_E7
+from bridge.missions.items import DEG_E7
 
 __all__ = ["BootingCopter", "PREARM_TEXT"]
 

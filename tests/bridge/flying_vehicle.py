@@ -5,10 +5,11 @@ It answers as ArduPilot Copter does the commands ``uav-swarm fly`` sends: ``MAV_
 ``MAV_RESULT_FAILED`` during ``prearm_s`` after start, as pre-arm checks do), ``MAV_CMD_NAV_TAKEOFF``
 (only armed and in GUIDED), ``MAV_CMD_NAV_RETURN_TO_LAUNCH``, ``MAV_CMD_NAV_LAND``,
 ``MAV_CMD_SET_MESSAGE_INTERVAL`` for GLOBAL_POSITION_INT, and ``MAV_CMD_DO_REPOSITION`` (only
-airborne). Like ArduPilot on a new link it sends only HEARTBEAT until GLOBAL_POSITION_INT is asked
-for (``stream_until_asked``). It flies toward its target at ``speed_m_s`` horizontally and
-``climb_m_s`` vertically, through its mission in AUTO, home and down in RTL, down in LAND, and
-disarms on the ground.
+airborne; z above home in ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT``, above sea level in
+``MAV_FRAME_GLOBAL_INT``, as ArduPilot reads the frame). Like ArduPilot on a new link it sends only
+HEARTBEAT until GLOBAL_POSITION_INT is asked for (``stream_until_asked``). It flies toward its
+target at ``speed_m_s`` horizontally and ``climb_m_s`` vertically, through its mission in AUTO, home
+and down in RTL, down in LAND, and disarms on the ground.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import time
 from sim_vehicle import SimVehicle, m
 
 from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
-from bridge.mission import DEG_E7
+from bridge.missions.items import DEG_E7
 
 __all__ = ["FlyingVehicle", "GUIDED", "AUTO", "RTL", "LAND"]
 
@@ -40,11 +41,14 @@ class FlyingVehicle(SimVehicle):
         position_period_s: Period of its telemetry until asked otherwise.
         stream_until_asked: Send no GLOBAL_POSITION_INT before ``MAV_CMD_SET_MESSAGE_INTERVAL`` asks.
         personality: :class:`SimVehicle`'s mission server personality (``"ardupilot"``: as AP_Mission).
+        autopilot: The ``MAV_AUTOPILOT_*`` of its HEARTBEAT.
+        custom_mode: Its mode at start (on the ground, disarmed).
     """
 
     def __init__(self, url: str, system_id: int, *, home: Home | None = None, speed_m_s: float = 12.0,
                  climb_m_s: float = 8.0, prearm_s: float = 0.0, position_period_s: float = 0.2,
-                 stream_until_asked: bool = True, personality: str = "generic") -> None:
+                 stream_until_asked: bool = True, personality: str = "generic",
+                 autopilot: int = m.MAV_AUTOPILOT_ARDUPILOTMEGA, custom_mode: int = STABILIZE) -> None:
         self.url = url
         self.geo_home = home = home or Home()
         self.speed_m_s, self.climb_m_s = speed_m_s, climb_m_s
@@ -55,12 +59,12 @@ class FlyingVehicle(SimVehicle):
         self.target: tuple[float, float, float] | None = None
         self.commands: list[int] = []
         self.modes: list[int] = []
+        self.reposition_frames: list[int] = []
         self._ready_at_s = time.monotonic() + prearm_s
         self._last_step_s = time.monotonic()
-        super().__init__(url, system_id, autopilot=m.MAV_AUTOPILOT_ARDUPILOTMEGA, armed=False,
+        super().__init__(url, system_id, autopilot=autopilot, armed=False, custom_mode=custom_mode,
                          lat_deg=home.lat_deg, lon_deg=home.lon_deg, alt_m=home.alt_m,
                          telemetry_period_s=position_period_s, personality=personality)
-        self.custom_mode, self.armed = STABILIZE, False  # on the ground, disarmed
 
     # -- kinematics ----------------------------------------------------------------------------
     def _mission_target(self) -> tuple[float, float, float] | None:
@@ -170,7 +174,9 @@ class FlyingVehicle(SimVehicle):
             self._answer(msg, m.MAV_RESULT_FAILED)  # ArduPilot: not flying
             return
         x, y, _ = geodetic_to_enu(self.geo_home, msg.x / DEG_E7, msg.y / DEG_E7, self.geo_home.alt_m)
-        self.target = (x, y, msg.z)
+        self.reposition_frames.append(msg.frame)  # ArduPilot honours the frame: GLOBAL_INT is above sea level
+        height_m = msg.z - self.geo_home.alt_m if msg.frame == m.MAV_FRAME_GLOBAL_INT else msg.z
+        self.target = (x, y, height_m)
         self.reposition_target = (msg.x, msg.y, msg.z)
         self.custom_mode = GUIDED
         self._answer(msg, m.MAV_RESULT_ACCEPTED)

@@ -11,7 +11,7 @@ import threading
 from mavsdk import ComponentType, Configuration, Mavsdk, log_subscribe
 from mavsdk.plugins.mission_raw_server import MissionRawServer, MissionRawServerResult
 
-from bridge.mission import MissionItem
+from bridge.missions.items import MissionItem
 
 __all__ = ["MavsdkVehicle", "quiet_mavsdk_logs"]
 

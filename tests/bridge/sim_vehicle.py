@@ -21,6 +21,10 @@ with no position, NaN parameters 0, ``NAV_WAYPOINT``'s acceptance radius and yaw
 MISSION_CLEAR_ALL while armed in AUTO past item 0 is refused with ``MAV_MISSION_ERROR``,
 while a new upload then is accepted.
 
+It starts armed and holding in LOITER (``custom_mode``), not flying its mission: the bridge
+replaces and clears such a vehicle's mission; a test that sets AUTO (ArduPilot's mission mode)
+makes it a vehicle flying its mission.
+
 ``personality="px4"`` answers a MISSION_COUNT that arrives during an upload as PX4's
 MavlinkMissionManager does: before item 0 arrived it asks for item 0 again; after, it says
 "WPM: REJ. CMD: Busy" (STATUSTEXT) and ``MAV_MISSION_ERROR`` and goes on with the upload. It
@@ -37,8 +41,8 @@ import time
 
 from ardupilot_storage import stored_by_ardupilot
 
-from bridge.mavlink import use_mavlink2
-from bridge.mission import DEG_E7, MissionItem
+from bridge.link.mavlink import use_mavlink2
+from bridge.missions.items import DEG_E7, MissionItem
 
 mavutil = use_mavlink2()
 m = mavutil.mavlink
@@ -47,7 +51,7 @@ __all__ = ["SimVehicle", "endpoint_pair", "TRANSPORTS"]
 
 TRANSPORTS = ("udpin", "udpout", "tcp")
 PERSONALITIES = ("generic", "ardupilot", "px4")
-AUTO = 3  # ArduCopter custom mode AUTO
+AUTO, LOITER = 3, 5  # ArduCopter custom modes
 
 def endpoint_pair(transport: str, port: int) -> tuple[str, str]:
     """``(vehicle_url, ground_station_url)`` on 127.0.0.1 for the ground station's transport."""
@@ -79,6 +83,7 @@ class SimVehicle:
         max_items: int = 700,
         armed: bool = True,
         request_retries: int | None = None,
+        custom_mode: int = LOITER,
     ) -> None:
         if personality not in PERSONALITIES:
             raise ValueError(f"personality = {personality!r}: choose one of {PERSONALITIES}")
@@ -106,7 +111,7 @@ class SimVehicle:
         self.reached_seq: int | None = None
         self.uploads = 0
         self.reposition_target: tuple[int, int, float] | None = None
-        self.custom_mode = AUTO
+        self.custom_mode = custom_mode
         self._first_count_s: float | None = None
         self._rx: dict | None = None
         self._last_done_seq: int | None = None

@@ -22,9 +22,9 @@ import zenoh
 
 from bridge.geo import Home
 from bridge.telemetry import SwarmPublisher
-from bridge.telemetry_config import TelemetryConfig, open_session
-from bridge.telemetry_keys import plan_key, qos_key, state_key
-from bridge.telemetry_schema import ENCODING, Plan, PlanTarget, Qos, UavState
+from bridge.telemetry.config import TelemetryConfig, open_session
+from bridge.telemetry.keys import plan_key, qos_key, state_key
+from bridge.telemetry.schema import ENCODING, Plan, PlanTarget, Qos, UavState
 
 MALFORMED: tuple[tuple[str, bytes], ...] = (
     ("state", b"{not json"),

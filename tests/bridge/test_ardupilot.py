@@ -11,10 +11,10 @@ from sim_vehicle import SimVehicle, endpoint_pair
 
 from bridge import errors
 from bridge.config import BridgeConfig, ProtocolConfig, VehicleEndpoint
-from bridge.fleet import Fleet, FleetError
+from bridge.flight.fleet import Fleet, FleetError
 from bridge.geo import Home
-from bridge.mission import DEG_E7, MissionConfig, MissionItem, build_mission
-from bridge.mission_compare import compare_missions
+from bridge.missions.compare import compare_missions
+from bridge.missions.items import DEG_E7, MissionConfig, MissionItem, build_mission
 from uav_swarm.cli import main
 
 CMAC = Home(lat_deg=-35.363262, lon_deg=149.165237, alt_m=584.0)  # ArduPilot SITL's default home
@@ -211,7 +211,7 @@ def test_a_mission_being_flown_is_neither_cleared_nor_replaced_without_force(tmp
     clear = ["mission", "clear", "--config", str(config)]
     try:
         assert main(upload) == 0
-        vehicles[0].current_seq = 2  # armed, AUTO, flying item 2
+        vehicles[0].custom_mode, vehicles[0].current_seq = 3, 2  # armed, AUTO, flying item 2
         assert main(clear) == 2
         assert "MissionRunningError: vehicle 1: is flying its mission (armed, mode AUTO, at item 2)" in (
             capsys.readouterr().err

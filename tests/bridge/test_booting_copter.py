@@ -18,13 +18,13 @@ from lossy_relay import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import endpoint_pair
 
+from bridge.flight.readiness import request_streams
 from bridge.geo import Home, ground_distance_m
-from bridge.mavlink import MavlinkLink
-from bridge.readiness import request_streams
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleStateTracker
 from bridge.telemetry import SwarmSubscriber
-from bridge.telemetry_config import TelemetryConfig
-from bridge.telemetry_schema import Presence, UavState
-from bridge.vehicle_state import VehicleStateTracker
+from bridge.telemetry.config import TelemetryConfig
+from bridge.telemetry.schema import Presence, UavState
 from uav_swarm.cli import main
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config

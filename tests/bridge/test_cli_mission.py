@@ -6,7 +6,7 @@ from lossy_relay import free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import SimVehicle, endpoint_pair
 
-from bridge.mission_files import load_plan, load_wpl
+from bridge.missions.files import load_plan, load_wpl
 from uav_swarm.cli import main
 
 
@@ -152,3 +152,34 @@ def test_upload_refuses_bad_plans_before_waiting_for_any_vehicle(tmp_path, capsy
     assert main(["mission", "upload", "--config", str(config), "--target", target]) == 2
     assert time.monotonic() - start < 2.0
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    ('[[10, 20]]', "plans.json: a JSON array; expected an object {\"ID\": [[x_m, y_m]"),
+    ('{"1": [[10, 20]], "x": [[1, 2]]}', "plans.json: key 'x' is not a vehicle id (1-255)"),
+    ('{"1": [[10, "20"]]}', 'plans.json: vehicle 1: [[10, "20"]] is not a list of points'),
+    ('{"1": []}', "plans.json: vehicle 1: [] is not a list of points"),
+    ('{"1": [[10, 20]', "plans.json: not valid JSON"),
+    ('{"1": [[10, 20]], "7": [[5, 5]]}', "vehicle(s) [7] are not in the bridge config; configured"),
+], ids=["list", "key", "string-coordinate", "no-point", "truncated", "unknown-vehicle"])
+def test_export_refuses_a_malformed_plans_file_naming_it_and_writes_nothing(tmp_path, capsys, content,
+                                                                            message):
+    config = _config(tmp_path, {1: free_udp_port()})
+    plans = tmp_path / "plans.json"
+    plans.write_text(content)
+    out = tmp_path / "o"
+    argv = ["mission", "export", "--config", str(config), "--plans", str(plans), "--out-dir", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_export_refuses_a_target_for_a_vehicle_the_config_lacks(tmp_path, capsys):
+    config = _config(tmp_path, {1: free_udp_port(), 2: free_udp_port()})
+    out = tmp_path / "o"
+    assert main(["mission", "export", "--config", str(config), "--target", "1:5,5", "--target", "9:5,5",
+                 "--out-dir", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "vehicle(s) [9] are not in the bridge config; configured vehicle ids: [1, 2]" in err
+    assert not out.exists()

@@ -11,7 +11,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import SimVehicle
 
 from bridge.config import BridgeConfig, VehicleEndpoint
-from bridge.fleet import Fleet
+from bridge.flight.fleet import Fleet
 
 N_VEHICLES = 10
 

@@ -9,7 +9,7 @@ from sim_vehicle import TRANSPORTS, SimVehicle, endpoint_pair
 import typed_config
 from bridge import errors
 from bridge.config import BridgeConfig, ProtocolConfig, VehicleEndpoint
-from bridge.fleet import Fleet, FleetError
+from bridge.flight.fleet import Fleet, FleetError
 from bridge.geofence import GeofenceConfig
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs" / "bridge"

@@ -19,13 +19,13 @@ from sim_vehicle import endpoint_pair
 
 from bridge.config import ProtocolConfig
 from bridge.errors import CommandRejectedError
-from bridge.flight import FlightConfig, FlightError, launch
+from bridge.flight.guided import FlightConfig, FlightError, launch
 from bridge.geo import Home
-from bridge.mavlink import MavlinkLink
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleStateTracker
 from bridge.telemetry import SwarmSubscriber
-from bridge.telemetry_config import TelemetryConfig
-from bridge.telemetry_schema import Plan, Presence, Qos, UavState
-from bridge.vehicle_state import VehicleStateTracker
+from bridge.telemetry.config import TelemetryConfig
+from bridge.telemetry.schema import Plan, Presence, Qos, UavState
 from uav_swarm.cli import main
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
@@ -267,7 +267,7 @@ def test_launch_climbs_to_the_altitude_and_refused_commands_raise_by_name():
         state = tracker.state(1)
         assert state.armed and state.relative_alt_m >= 11.0 and vehicles[0].custom_mode == GUIDED
         assert vehicles[0].telemetry_period_s == pytest.approx(0.1)  # the position stream asked at 10 Hz
-        from bridge.flight import set_mode
+        from bridge.flight.guided import set_mode
 
         with pytest.raises(CommandRejectedError, match="vehicle 1 rejected MAV_CMD_DO_SET_MODE"):
             set_mode(link, 1, (99.0,), protocol)

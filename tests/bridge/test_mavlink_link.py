@@ -6,9 +6,9 @@ import types
 
 from lossy_relay import free_udp_port
 
-from bridge.mavlink import MavlinkLink, use_mavlink2
-from bridge.mavlink_frames import crc_function
-from bridge.signing import SigningKey
+from bridge.link.frames import crc_function
+from bridge.link.mavlink import MavlinkLink, use_mavlink2
+from bridge.link.signing import SigningKey
 
 mavutil = use_mavlink2()
 m = mavutil.mavlink

@@ -7,8 +7,8 @@ from mavsdk_vehicles import MavsdkVehicle, quiet_mavsdk_logs
 from pymavlink.dialects.v20 import common as mavlink
 
 from bridge.config import BridgeConfig, VehicleEndpoint
-from bridge.fleet import Fleet
-from bridge.mission import MissionConfig
+from bridge.flight.fleet import Fleet
+from bridge.missions.items import MissionConfig
 
 N_VEHICLES = 4
 

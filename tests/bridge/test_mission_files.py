@@ -9,8 +9,8 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from bridge.geo import Home
 from bridge.geofence import GeofenceConfig
-from bridge.mission import DEG_E7, MissionConfig, build_mission
-from bridge.mission_files import load_mission, load_plan, load_wpl, save_mission, save_plan, save_wpl
+from bridge.missions.files import load_mission, load_plan, load_wpl, save_mission, save_plan, save_wpl
+from bridge.missions.items import DEG_E7, MissionConfig, build_mission
 
 HOME = Home(lat_deg=-33.8567844, lon_deg=151.2152967, alt_m=12.345678)
 AUTOPILOTS = {"ardupilot": mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, "px4": mavlink.MAV_AUTOPILOT_PX4}

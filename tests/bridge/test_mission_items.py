@@ -7,7 +7,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from bridge.errors import GeofenceError
 from bridge.geo import Home, geodetic_to_enu
 from bridge.geofence import GeofenceConfig
-from bridge.mission import DEG_E7, MissionConfig, MissionItem, build_mission
+from bridge.missions.items import DEG_E7, MissionConfig, MissionItem, build_mission
 from typed_config import ConfigError
 
 HOME = Home(lat_deg=47.3977418, lon_deg=8.5455938, alt_m=488.0)
@@ -112,7 +112,7 @@ def test_one_altitude_model_never_descends_after_take_off_unasked(points, takeof
 
 def test_simulate_missions_fly_at_the_simulated_altitude(tmp_path):
     from bridge.config import BridgeConfig
-    from bridge.mission_files import load_plan
+    from bridge.missions.files import load_plan
     from uav_swarm.runs.simulate import _final_plans, _write_plan_files
 
     bridge = BridgeConfig()  # take-off 20 m by default

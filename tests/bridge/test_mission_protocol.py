@@ -6,14 +6,14 @@ from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import TRANSPORTS, SimVehicle, endpoint_pair
 
 from bridge import errors
-from bridge.commands import reposition
 from bridge.config import ProtocolConfig
+from bridge.flight.commands import reposition
 from bridge.geo import Home, enu_to_geodetic
 from bridge.geofence import GeofenceConfig
-from bridge.mavlink import MavlinkLink
-from bridge.mission import DEG_E7, MissionConfig, build_mission
-from bridge.mission_protocol import MissionClient
-from bridge.signing import SigningKey
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.signing import SigningKey
+from bridge.missions.items import DEG_E7, MissionConfig, build_mission
+from bridge.missions.protocol import MissionClient
 
 HOME = Home()
 FAST = ProtocolConfig(handshake_timeout_s=0.2, item_timeout_s=0.05, max_retries=2)

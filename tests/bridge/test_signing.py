@@ -4,7 +4,7 @@ import logging
 import pytest
 
 from bridge.config import SigningConfig
-from bridge.signing import SigningKey, load_signing_key
+from bridge.link.signing import SigningKey, load_signing_key
 from typed_config import ConfigError
 
 HEX = "00112233445566778899aabbccddeeff" * 2

@@ -24,8 +24,8 @@ from ports import free_tcp_port
 
 from bridge.geo import Home, enu_to_geodetic
 from bridge.telemetry import SwarmSubscriber
-from bridge.telemetry_config import TelemetryConfig
-from bridge.telemetry_schema import Plan, Presence, Qos, UavState
+from bridge.telemetry.config import TelemetryConfig
+from bridge.telemetry.schema import Plan, Presence, Qos, UavState
 from uav_swarm.cli import telemetry as telemetry_cli
 
 PEER = Path(__file__).with_name("telemetry_peer.py")

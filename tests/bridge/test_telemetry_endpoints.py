@@ -8,7 +8,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from bridge.telemetry_config import (
+from bridge.telemetry.config import (
     TelemetryConfig,
     TelemetryConnectionError,
     check_listen_endpoints,

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 import zenoh
 
-from bridge.telemetry_config import TelemetryConfig, zenoh_config
-from bridge.telemetry_keys import (
+from bridge.link.vehicle_state import VehicleState
+from bridge.telemetry.config import TelemetryConfig, zenoh_config
+from bridge.telemetry.keys import (
     alive_key,
     all_alive_key,
     payload_kind,
@@ -19,7 +20,7 @@ from bridge.telemetry_keys import (
     swarm_root,
     uav_id_from_key,
 )
-from bridge.telemetry_schema import (
+from bridge.telemetry.schema import (
     SCHEMA_VERSION,
     GeoPoint,
     Plan,
@@ -30,7 +31,6 @@ from bridge.telemetry_schema import (
     parse_payload,
     state_from_vehicle,
 )
-from bridge.vehicle_state import VehicleState
 from typed_config import ConfigError
 
 FULL_STATE = UavState(

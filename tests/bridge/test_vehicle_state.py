@@ -7,10 +7,10 @@ from sim_vehicle import SimVehicle, endpoint_pair
 
 from bridge.geo import Home, enu_to_geodetic
 from bridge.geofence import GeofenceConfig
-from bridge.mavlink import MavlinkLink
-from bridge.mission import MissionConfig, build_mission
-from bridge.mission_protocol import MissionClient
-from bridge.vehicle_state import VehicleState, VehicleStateTracker
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleState, VehicleStateTracker
+from bridge.missions.items import MissionConfig, build_mission
+from bridge.missions.protocol import MissionClient
 
 HOME = Home()
 
@@ -36,6 +36,7 @@ def test_state_ingest_gives_typed_state_with_enu_position():
             vehicle_url,
             6,
             autopilot=mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            custom_mode=3,  # AUTO
             lat_deg=lat_deg,
             lon_deg=lon_deg,
             alt_m=alt_m,

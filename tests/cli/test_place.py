@@ -11,7 +11,7 @@ import pytest
 import shapely
 
 from bridge.geo import Home, geodetic_to_enu
-from bridge.mission_files import load_plan
+from bridge.missions.files import load_plan
 from uav_swarm.cli import main
 from uav_swarm.missions.monitoring.footprint import read_footprint
 from uav_swarm.missions.monitoring.outline import Outline
@@ -180,6 +180,18 @@ def test_input_the_placement_cannot_take_exits_2_and_writes_nothing(tmp_path, ca
     assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out), *options]) == 2
     assert re.search(message, capsys.readouterr().err)
     assert not out.exists()
+
+
+def test_a_collinear_geojson_outline_is_named_degenerate_and_nothing_is_written(tmp_path, capsys):
+    """Three WGS84 vertices on one line: projected to metres they are a fraction of a millimetre off it."""
+    building = tmp_path / "line.geojson"
+    ring = [[8.5450, 47.3970], [8.5460, 47.3975], [8.5470, 47.3980], [8.5450, 47.3970]]
+    building.write_text(json.dumps({"type": "Polygon", "coordinates": [ring]}))
+    out = tmp_path / "out"
+    assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{building}: the outline encloses no area (degenerate: its vertices lie on one line" in err
+    assert "witness" not in err and not out.exists()
 
 
 def test_a_fence_refusal_writes_nothing(tmp_path, capsys):

@@ -16,10 +16,10 @@ from ports import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 
 from bridge.geo import Home
-from bridge.mission_files import load_plan
+from bridge.missions.files import load_plan
 from bridge.telemetry import SwarmSubscriber
-from bridge.telemetry_config import TelemetryConfig
-from bridge.telemetry_schema import Plan, Qos, UavState
+from bridge.telemetry.config import TelemetryConfig
+from bridge.telemetry.schema import Plan, Qos, UavState
 from uav_swarm.cli import main
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig

@@ -18,7 +18,7 @@ from conftest import SMALL_WIFI_TASK
 from foxglove_readback import PUBLISHED, conform, read_back
 
 from bridge.geo import Home
-from bridge.telemetry_schema import Qos, UavState
+from bridge.telemetry.schema import Qos, UavState
 from typed_config import ConfigError
 from uav_swarm.cli import main
 from uav_swarm.runs import foxglove_scene, live_view, recording

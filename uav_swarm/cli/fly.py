@@ -82,7 +82,7 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     """Validate, fly until the end or a stop signal, print the outcome per vehicle."""
     from bridge.errors import BridgeError
-    from bridge.telemetry_config import TelemetryConnectionError
+    from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
     from uav_swarm.runs.fly import fly

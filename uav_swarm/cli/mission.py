@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run", "parse_target"]
+__all__ = ["register", "run", "parse_target", "read_plans"]
 
 _AUTOPILOTS = {
     "generic": "MAV_AUTOPILOT_GENERIC",
@@ -88,7 +89,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add(
         "--force",
         action="store_true",
-        help="upload/clear: replace or clear a mission a vehicle is flying (armed, AUTO, past item 0)",
+        help="upload/clear: replace or clear a mission a vehicle is flying (armed in AUTO / AUTO.MISSION)",
     )
     parser.set_defaults(func=run)
 
@@ -113,12 +114,47 @@ def parse_target(text: str, option: str = "--target") -> tuple[int, list[float]]
     return sid, values
 
 
+_JSON_TYPES = {dict: "object", list: "array", str: "string", int: "number", float: "number",
+               bool: "boolean", type(None): "null"}
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def read_plans(path: Path) -> dict[int, list[list[float]]]:
+    """The plans of a ``--plans`` file: JSON ``{"ID": [[x_m, y_m(, z_m)], ...]}``, ``ID`` 1-255.
+
+    Raises:
+        ValueError: Not JSON, not an object, a key that is no vehicle id, or a plan that is not a
+            non-empty list of 2 or 3 finite numbers each (the message names the file and the entry).
+    """
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"--plans {path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
+    expected = '{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]} with one key per vehicle id'
+    if not isinstance(data, dict):
+        raise ValueError(f"--plans {path}: a JSON {_JSON_TYPES.get(type(data), 'value')}; expected an object "
+                         f"{expected}")
+    plans: dict[int, list[list[float]]] = {}
+    for key, points in data.items():
+        if not key.strip().isdigit() or not 1 <= int(key) <= 255:
+            raise ValueError(f"--plans {path}: key {key!r} is not a vehicle id (1-255); expected {expected}")
+        valid = isinstance(points, list) and points and all(
+            isinstance(p, list) and len(p) in (2, 3) and all(_is_number(v) for v in p) for p in points)
+        if not valid:
+            raise ValueError(f"--plans {path}: vehicle {key}: {json.dumps(points)[:80]} is not a list "
+                             "of points [x_m, y_m] or [x_m, y_m, z_m] (finite numbers, at least the target)")
+        plans[int(key)] = [[float(v) for v in p] for p in points]
+    return plans
+
+
 def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
     """Each vehicle's plan: its ``--waypoint`` points in order, then its one ``--target`` (or ``--plans``)."""
     plans: dict[int, list[list[float]]] = {}
     if args.plans is not None:
-        data = json.loads(args.plans.read_text(encoding="utf-8"))
-        plans.update({int(sid): [list(map(float, p)) for p in points] for sid, points in data.items()})
+        plans.update(read_plans(args.plans))
     targets: dict[int, list[float]] = {}
     for text in args.target:
         system_id, point = parse_target(text)
@@ -140,7 +176,7 @@ def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
 
 def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: ANN001 - BridgeConfig
     """Refuse, before any network wait, plans for vehicles the config lacks or outside the fence."""
-    from bridge.mission import build_mission
+    from bridge.missions.items import build_mission
 
     _check_ids(plans, config)
     for sid, points in plans.items():
@@ -206,7 +242,7 @@ def _report(action: str, errors: dict[int, BaseException]) -> int:
 
 def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]]:  # noqa: ANN001 - Fleet
     """The vehicles that answer (each within its own discovery time), and the others' errors."""
-    from bridge.fleet import FleetError
+    from bridge.flight.fleet import FleetError
 
     try:
         fleet.wait_for_vehicles(ids)
@@ -218,12 +254,13 @@ def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]
 def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
     from pymavlink.dialects.v20 import common as mavlink
 
-    from bridge.mission import build_mission
-    from bridge.mission_files import save_mission
+    from bridge.missions.files import save_mission
+    from bridge.missions.items import build_mission
 
     plans = _plans(args)
     if not plans or args.out_dir is None:
         raise ValueError("export needs --target or --plans, and --out-dir")
+    _check_ids(plans, config)  # a mission for a vehicle the config does not list is refused, not written
     missions = {
         sid: build_mission(
             points,
@@ -244,7 +281,7 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
 
 def _plan_builder(points: list[list[float]], config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
     """Build a plan's mission around the home the fleet gives (the config's or the vehicle's own)."""
-    from bridge.mission import build_mission
+    from bridge.missions.items import build_mission
 
     mission, fence = config.mission, config.geofence
     return lambda sid, autopilot, home: build_mission(points, home, mission, fence, autopilot)
@@ -254,7 +291,7 @@ def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, M
     """Load a mission file (absolute positions: its own home, or the config's for WPL) for its vehicle."""
     from pymavlink.dialects.v20 import common as mavlink
 
-    from bridge.mission_files import load_mission
+    from bridge.missions.files import load_mission
 
     def build(sid: int, autopilot: int, _home: object):  # noqa: ANN202 - Mission
         mission = load_mission(path, config.home, autopilot)
@@ -270,7 +307,7 @@ def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, M
 
 
 def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet, FleetError
+    from bridge.flight.fleet import Fleet, FleetError
 
     plans = _plans(args)
     if bool(plans) == (args.from_dir is not None):
@@ -299,8 +336,8 @@ def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
 
 
 def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet, FleetError
-    from bridge.mission_files import save_mission
+    from bridge.flight.fleet import Fleet, FleetError
+    from bridge.missions.files import save_mission
 
     if args.out_dir is None:
         raise ValueError("download needs --out-dir")
@@ -320,7 +357,7 @@ def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - Bridge
 
 
 def _clear(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
-    from bridge.fleet import Fleet, FleetError
+    from bridge.flight.fleet import Fleet, FleetError
 
     _check_ids(args.vehicle, config)
     with Fleet(config) as fleet:

@@ -168,7 +168,7 @@ def _missions(args: argparse.Namespace, footprint: Any, guards_m: np.ndarray) ->
     """One mission per guard, by vehicle id (checked against the fence before anything is written)."""
     from bridge.config import BridgeConfig
     from bridge.geo import geodetic_to_enu
-    from bridge.mission import build_mission
+    from bridge.missions.items import build_mission
     from typed_config import ConfigError, load_toml
 
     bridge = load_toml(BridgeConfig, args.bridge_config)
@@ -190,7 +190,7 @@ def _missions(args: argparse.Namespace, footprint: Any, guards_m: np.ndarray) ->
 def run(args: argparse.Namespace) -> int:
     """Place every building's guards and write the outputs; unplaceable input exits with code 2."""
     from bridge.errors import BridgeError
-    from bridge.mission_files import save_mission
+    from bridge.missions.files import save_mission
     from learning.checkpoint import CheckpointError
     from learning.files import write_json_atomic
     from typed_config import ConfigError

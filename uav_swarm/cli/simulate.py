@@ -115,7 +115,7 @@ def format_summary(summary: dict[str, Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     """Validate the configuration, run the job, print the summary table."""
     from bridge.errors import BridgeError
-    from bridge.telemetry_config import TelemetryConnectionError
+    from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
     from uav_swarm.runs.live_view import live_view_option

@@ -2,7 +2,7 @@
 
 By default both connect to the publishing side on ``tcp/127.0.0.1:7447`` as a peer, with
 multicast scouting off. ``--config FILE`` reads a ``[telemetry]`` table (the fields of
-:class:`bridge.telemetry_config.TelemetryConfig`): the keys it sets override these defaults, and
+:class:`bridge.telemetry.config.TelemetryConfig`): the keys it sets override these defaults, and
 command-line flags override both.
 ``--duration`` and ``--count`` bound a run (for scripts and tests).
 """
@@ -55,7 +55,7 @@ def _toml_table(path: Path, section: str) -> dict[str, Any]:
 
 def _config(args: argparse.Namespace) -> Any:
     """The subscriber's TelemetryConfig: watcher defaults, then the keys the TOML table sets, then flags."""
-    from bridge.telemetry_config import DEFAULT_ENDPOINT, TelemetryConfig
+    from bridge.telemetry.config import DEFAULT_ENDPOINT, TelemetryConfig
 
     data: dict[str, Any] = {"listen": [], "connect": [DEFAULT_ENDPOINT]}
     if args.config is not None:
@@ -69,7 +69,7 @@ def _config(args: argparse.Namespace) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Subscribe and watch or record until interrupted or the bound is reached."""
     from bridge.telemetry import SwarmSubscriber
-    from bridge.telemetry_config import TelemetryConnectionError
+    from bridge.telemetry.config import TelemetryConnectionError
 
     for name in ("duration", "count"):
         value = getattr(args, name)
@@ -94,8 +94,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _record(subscriber: Any, out: Path, args: argparse.Namespace) -> int:
     """Write one JSON object per line; the file appears (atomically) when recording ends."""
-    from bridge.telemetry_keys import alive_key
-    from bridge.telemetry_schema import Presence
+    from bridge.telemetry.keys import alive_key
+    from bridge.telemetry.schema import Presence
 
     swarm = subscriber.config.swarm
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -119,7 +119,7 @@ def _record(subscriber: Any, out: Path, args: argparse.Namespace) -> int:
 
 def _watch(subscriber: Any, args: argparse.Namespace, stream: TextIO) -> None:
     """Print the swarm table every ``--refresh-s`` seconds (redrawn in place on a terminal)."""
-    from bridge.telemetry_schema import Presence
+    from bridge.telemetry.schema import Presence
 
     snapshot = subscriber.latest()
     alive = subscriber.alive()

@@ -4,11 +4,12 @@
 ``replan_every_s`` of crowd time, plans from the vehicles' **measured** positions and sends each
 live vehicle its new target while it flies (``MAV_CMD_DO_REPOSITION``, or a new mission flown in
 AUTO). Vehicles are launched as soon as they are ready (a position fix and their home, each waited
-for on its own, :meth:`bridge.fleet.Fleet.wait_ready`; then :mod:`bridge.flight`); a vehicle silent for
-``flight.link_timeout_s`` is lost and replanned around, and launched again when heard; a live vehicle
-seen disarmed is left out. At the end every launch still running is cancelled and every vehicle
-heard is sent RTL or LAND. States are published as each position arrives, plans and QoS as they
-are made. :func:`uav_swarm.runs.fly.fly` opens the fleet and telemetry and writes the outputs.
+for on its own, :meth:`bridge.flight.fleet.Fleet.wait_ready`; then :mod:`bridge.flight.guided`); a
+vehicle silent for ``flight.link_timeout_s`` is lost and replanned around, and launched again when
+heard; a live vehicle seen disarmed is left out. At the end every launch still running is
+cancelled and every vehicle heard is sent RTL or LAND. States are published as each position
+arrives, plans and QoS as they are made. :func:`uav_swarm.runs.fly.fly` opens the fleet and
+telemetry and writes the outputs.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bridge.errors import BridgeError
-from bridge.flight import ARDUPILOT, AUTO_MODE, end_flight, launch, set_mode
+from bridge.flight.guided import end_flight, launch, set_mode
 from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.records import QosTrace
@@ -34,9 +35,9 @@ from uav_swarm.world.scenario import random_scenario
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
-    from bridge.fleet import Fleet
+    from bridge.flight.fleet import Fleet
+    from bridge.link.vehicle_state import VehicleState
     from bridge.telemetry import SwarmPublisher
-    from bridge.vehicle_state import VehicleState
     from uav_swarm.runs.recording import RunRecorder
 
 __all__ = ["Flight"]
@@ -150,14 +151,14 @@ class Flight:
         vehicle.job = self._pool.submit(self._launch_one, vehicle)
 
     def _launch_one(self, vehicle: _Vehicle) -> None:
-        state = self._state(vehicle)
-        autopilot = state.autopilot if state is not None and state.autopilot is not None else 0
+        autopilot = self.fleet.conventions(vehicle.system_id).autopilot  # from its HEARTBEAT
         try:
             flight = self.config.flight  # a fix and its home first, checked before anything that moves it
-            self.fleet.wait_ready(vehicle.system_id, flight.ready_timeout_s, flight.stream_rate_hz,
-                                  cancel=self._stop)
+            home = self.fleet.wait_ready(vehicle.system_id, flight.ready_timeout_s, flight.stream_rate_hz,
+                                         cancel=self._stop)
             launch(self.fleet.link(vehicle.system_id), self.fleet.tracker, vehicle.system_id, autopilot,
-                   self.alt_m, self.config.flight, self.bridge.protocol, cancel=self._stop)
+                   self.alt_m, self.config.flight, self.bridge.protocol, cancel=self._stop,
+                   home_alt_m=home.home.alt_m)
         except BridgeError as exc:
             if vehicle.status == "lost" or self._stop.is_set():  # taken back when heard / the flight ends
                 return
@@ -249,7 +250,7 @@ class Flight:
         targets = [(float(x), float(y), self.alt_m) for x, y in result.targets_m]
         self.plans.append({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
         if self.publisher is not None or self.recorder is not None:
-            from bridge.telemetry_schema import Plan, PlanTarget
+            from bridge.telemetry.schema import Plan, PlanTarget
 
             plan = Plan(stamp_s=time.time(), seq=seq, source="vehicle", planner=planner.name,
                         latency_ms=float(result.latency_ms),
@@ -284,20 +285,19 @@ class Flight:
     def _fly_mission(self, vehicle: _Vehicle, target: tuple[float, float, float]) -> None:
         from pymavlink.dialects.v20.common import MAV_CMD_NAV_WAYPOINT as NAV_WAYPOINT
 
-        from bridge.mission import build_mission
+        from bridge.missions.items import build_mission
 
         sid = vehicle.system_id
-        state = self._state(vehicle)
-        autopilot = state.autopilot if state is not None and state.autopilot is not None else 0
+        conventions = self.fleet.conventions(sid)
         shape = self.bridge.mission.replace(takeoff_alt_m=self.alt_m, cruise_alt_m=self.alt_m)
-        mission = build_mission([target], self.bridge.home, shape, self.bridge.geofence, autopilot)
+        mission = build_mission([target], self.bridge.home, shape, self.bridge.geofence,
+                                conventions.autopilot)
         client = self.fleet.client(sid)
         client.upload(mission.items)
         first_waypoint = next(i.seq for i in mission.items if i.command == NAV_WAYPOINT and i.seq > 0)
         client.set_current(first_waypoint)
         if not vehicle.in_auto:
-            set_mode(self.fleet.link(sid), sid, AUTO_MODE.get(autopilot, AUTO_MODE[ARDUPILOT]),
-                     self.bridge.protocol)
+            set_mode(self.fleet.link(sid), sid, conventions.mission_mode, self.bridge.protocol)
             vehicle.in_auto = True
 
     # -- loop ----------------------------------------------------------------------------------
@@ -310,7 +310,7 @@ class Flight:
         times.append(self._clock_s)
         rows.append((float(cov.qos_s1), float(cov.qos_s2), float(cov.mean_throughput_mbps)))
         if self.publisher is not None or self.recorder is not None:
-            from bridge.telemetry_schema import Qos
+            from bridge.telemetry.schema import Qos
 
             qos = Qos(stamp_s=time.time(), seq=seq, source="vehicle", qos_s1=rows[-1][0], qos_s2=rows[-1][1],
                       mean_throughput_mbps=rows[-1][2], n_users=int(users.shape[0]))
@@ -329,7 +329,7 @@ class Flight:
 
     def _record_step(self, qos: Any, users: np.ndarray, covered: np.ndarray, seq: int) -> None:
         """Record each heard vehicle's state (with or without a position fix), the scene and the QoS."""
-        from bridge.telemetry_schema import state_from_vehicle
+        from bridge.telemetry.schema import state_from_vehicle
 
         heard = [(v, self._state(v)) for v in self.vehicles]
         states = [state_from_vehicle(state, seq, uav_id=v.uav_id, target_enu_m=v.target_m)
@@ -404,7 +404,7 @@ class Flight:
 
     def _on_state(self, state: VehicleState) -> None:
         """Publish a vehicle's state as each position arrives (on the link's reader thread)."""
-        from bridge.telemetry_schema import state_from_vehicle
+        from bridge.telemetry.schema import state_from_vehicle
 
         vehicle = self._by_sid.get(state.system_id)
         if (self.publisher is None or vehicle is None or vehicle.status in ("waiting", "lost")

@@ -6,7 +6,7 @@
 live vehicle its new target while it flies: ``MAV_CMD_DO_REPOSITION`` in guided mode, or a new
 mission flown in AUTO (``mode = "mission"``).
 
-The sequence is the real one (:mod:`bridge.flight`): every vehicle's heartbeat, its position fix
+The sequence is the real one (:mod:`bridge.flight.guided`): every vehicle's heartbeat, its position fix
 and its home (each vehicle on its own), the guided mode, arming, take-off to ``uav.alt_m`` above
 its home; then the loop; at the end (``duration_s`` reached, or :meth:`Flight.stop` from Ctrl-C or
 SIGTERM) every vehicle is sent RTL or LAND (``flight.end_action``) and the outputs are written.
@@ -119,7 +119,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened.
         bridge.errors.BridgeError: No vehicle could be launched (outputs are written).
     """
-    from bridge.fleet import Fleet
+    from bridge.flight.fleet import Fleet
     from bridge.telemetry import SwarmPublisher
     from learning.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure

@@ -3,7 +3,7 @@
 A TOML file (``uav-swarm fly --config file.toml``) holds the top-level keys below and the tables
 ``[task]`` (the crowd world and Wi-Fi model, as for ``simulate``), ``[uav]`` (``alt_m`` is the cruise
 altitude above each vehicle's home), ``[planning]``, ``[telemetry]`` and ``[flight]``
-(:class:`bridge.flight.FlightConfig`: launch timeouts, link timeout, end action). Every key is
+(:class:`bridge.flight.guided.FlightConfig`: launch timeouts, link timeout, end action). Every key is
 optional except the bridge config, which names the vehicles.
 
 Examples:
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from bridge.flight import FlightConfig
-from bridge.telemetry_config import TelemetryConfig
+from bridge.flight.guided import FlightConfig
+from bridge.telemetry.config import TelemetryConfig
 from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.task import WifiConfig

@@ -64,7 +64,7 @@ from foxglove.channels import (
 )
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
-from bridge.telemetry_schema import Plan, Qos, UavState, encode_payload
+from bridge.telemetry.schema import Plan, Qos, UavState, encode_payload
 from learning.files import atomic_path
 from typed_config import ConfigError
 from uav_swarm.runs import foxglove_scene as fox

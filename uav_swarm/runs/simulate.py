@@ -19,7 +19,8 @@ Outputs in ``out_dir`` (:mod:`uav_swarm.runs.plots` draws the pictures):
   planning latency; learned/expert ratios; the resolved config;
 - ``timeseries.csv``: the per-step values of every run;
 - ``missions/vehicle_<id>.plan``: each UAV's mission to its final target (QGroundControl files);
-  with a bridge config that lists vehicles, the missions are also uploaded (:class:`bridge.fleet.Fleet`).
+  with a bridge config that lists vehicles, the missions are also uploaded
+  (:class:`bridge.flight.fleet.Fleet`).
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ from uav_swarm.world.comms import evaluate_coverage
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
     from bridge.telemetry import SwarmPublisher
-    from bridge.telemetry_schema import Plan, Qos, UavState
+    from bridge.telemetry.schema import Plan, Qos, UavState
     from uav_swarm.runs.live_view import LiveView
     from uav_swarm.runs.recording import RunRecorder
 
@@ -64,7 +65,7 @@ class SimulationResult:
 
 def _telemetry(env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> tuple[list[UavState], Qos]:
     """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them."""
-    from bridge.telemetry_schema import Qos, UavState
+    from bridge.telemetry.schema import Qos, UavState
 
     stamp_s = time.time()
     positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
@@ -81,7 +82,7 @@ def _telemetry(env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> tupl
 
 
 def _plan(planner: Planner, targets_m: np.ndarray, alt_m: float, latency_ms: float, seq: int) -> Plan:
-    from bridge.telemetry_schema import Plan, PlanTarget
+    from bridge.telemetry.schema import Plan, PlanTarget
 
     targets = tuple(PlanTarget(uav_id=i, target_enu_m=(float(x), float(y), alt_m))
                     for i, (x, y) in enumerate(targets_m))
@@ -241,7 +242,7 @@ def _ratios(learned: dict[str, Any], expert: dict[str, Any]) -> dict[str, float 
 def _load_bridge(config: SimulateConfig) -> BridgeConfig:
     from bridge.config import BridgeConfig
     from bridge.geofence import check_geofence
-    from bridge.mission import takeoff_altitude
+    from bridge.missions.items import takeoff_altitude
     from typed_config import ConfigError, load_toml
 
     bridge = load_toml(BridgeConfig, config.bridge_config) if config.bridge_config else BridgeConfig()
@@ -268,7 +269,7 @@ def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, alt_m: float) -> d
     """Each UAV's plan, its final target at the simulated altitude ``alt_m``, by vehicle system id.
 
     Ids are the configured vehicles' (else 1..n). The take-off then climbs no higher than
-    ``alt_m`` (:func:`bridge.mission.takeoff_altitude`): the mission never descends.
+    ``alt_m`` (:func:`bridge.missions.items.takeoff_altitude`): the mission never descends.
     """
     ids = [v.system_id for v in bridge.vehicles[:len(targets_m)]] or list(range(1, len(targets_m) + 1))
     return {sid: [(float(x), float(y), alt_m)] for sid, (x, y) in zip(ids, targets_m, strict=True)}
@@ -276,8 +277,8 @@ def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, alt_m: float) -> d
 
 def _write_plan_files(bridge: BridgeConfig, plans: dict[int, list[tuple]], folder: Path) -> list[Path]:
     """One QGroundControl ``.plan`` per UAV (generic autopilot convention)."""
-    from bridge.mission import build_mission
-    from bridge.mission_files import save_mission
+    from bridge.missions.files import save_mission
+    from bridge.missions.items import build_mission
 
     folder.mkdir(parents=True, exist_ok=True)
     files = []
@@ -292,9 +293,9 @@ def _upload(bridge: BridgeConfig, plans: dict[int, list[tuple]]) -> None:
     """Upload each UAV's mission to its vehicle (each on its own: heartbeat, home check, verified upload).
 
     Raises:
-        bridge.fleet.FleetError: Naming each vehicle that failed; the others have their missions.
+        bridge.flight.fleet.FleetError: Naming each vehicle that failed; the others have their missions.
     """
-    from bridge.fleet import Fleet
+    from bridge.flight.fleet import Fleet
 
     with Fleet(bridge) as fleet:
         fleet.upload_plans(plans)

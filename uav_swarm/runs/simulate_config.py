@@ -4,7 +4,7 @@ A TOML file (``uav-swarm simulate --config file.toml``) holds the top-level keys
 tables ``[task]`` (:class:`uav_swarm.missions.wifi.task.WifiConfig`: raster, scenario, crowd, radio,
 expert; the same table as a task settings file), ``[uav]`` (flight limits), ``[planning]``
 (:class:`uav_swarm.planning.planner.PlannerConfig`) and ``[telemetry]``
-(:class:`bridge.telemetry_config.TelemetryConfig`). Every key is optional.
+(:class:`bridge.telemetry.config.TelemetryConfig`). Every key is optional.
 
 Examples:
     >>> cfg = SimulateConfig.from_dict({"duration_s": 10, "task": {"scenario": {"n_groups_max": 8}}})
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from bridge.telemetry_config import TelemetryConfig
+from bridge.telemetry.config import TelemetryConfig
 from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS, EnvConfig
 from uav_swarm.missions.wifi.task import WifiConfig

@@ -50,6 +50,12 @@ DEFAULT_MAX_VERTICES = 64
 """Most vertices a footprint may have (the exact experts' cost grows with them)."""
 
 
+DEGENERATE_WIDTH_M = 0.01
+"""An outline whose vertices spread less than this across their line encloses no area (metres).
+
+Exact collinearity is not enough: WGS84 vertices on one straight line come out of the projection to
+metres a fraction of a millimetre off it."""
+
 _ROUNDING_PX = 0.5 * 2 ** 0.5 + 1e-9
 """Farthest an input vertex may lie from the rounded outline (rounding moves a vertex this far at most)."""
 
@@ -186,6 +192,13 @@ def _clean(ring: np.ndarray) -> np.ndarray:
     return ring[keep]
 
 
+def _width_m(points: np.ndarray) -> float:
+    """How far the vertices spread across their best-fitting line, metres (0: collinear)."""
+    centred = points - points.mean(axis=0)
+    across = np.linalg.svd(centred, full_matrices=False)[2][-1]  # the direction of least spread
+    return float(np.ptp(centred @ across))
+
+
 def _building(rings: list[np.ndarray], origin: Home | None, name: str, where: str, max_vertices: int
               ) -> Footprint:
     rings = [_clean(ring) for ring in rings]
@@ -195,10 +208,11 @@ def _building(rings: list[np.ndarray], origin: Home | None, name: str, where: st
     count = sum(len(ring) for ring in rings)
     if count > max_vertices:
         raise FootprintError(f"{where}: {count} vertices; allowed at most {max_vertices}")
-    scale = float(np.ptp(points, axis=0).max())
-    if scale == 0.0 or np.linalg.matrix_rank(points - points.mean(axis=0), tol=1e-9 * scale) < 2:
-        raise FootprintError(f"{where}: the outline encloses no area (degenerate: its vertices are "
-                             "collinear)")
+    width_m = _width_m(points)
+    if width_m <= DEGENERATE_WIDTH_M:
+        raise FootprintError(f"{where}: the outline encloses no area (degenerate: its vertices lie on one "
+                             f"line, {width_m:.2g} m across at the widest; a building is at least "
+                             f"{DEGENERATE_WIDTH_M} m wide)")
     if not is_simple(points):
         raise FootprintError(f"{where}: the outline is not a simple polygon (it crosses or touches itself, "
                              "or repeats a vertex)")

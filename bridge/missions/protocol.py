@@ -5,7 +5,7 @@ Timing follows the protocol: the first answer is awaited ``handshake_timeout_s``
 again up to ``max_retries`` (5) times, then :class:`~bridge.errors.MissionTimeoutError`
 is raised. Every wait is bounded, so no call can hang. Error acknowledgements raise
 the named exception of their ``MAV_MISSION_RESULT`` code. Uploads run in
-:mod:`bridge.mission_upload` (requests answered as they arrive, on the thread that reads;
+:mod:`bridge.missions.upload` (requests answered as they arrive, on the thread that reads;
 its docstring gives the re-send rules).
 
 A transfer that breaks off after the handshake (the vehicle answered, then fell
@@ -24,10 +24,10 @@ from typing import TypeVar
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionMismatchError, MissionTimeoutError, mission_result_error
-from bridge.mavlink import MavlinkLink
-from bridge.mission import DEG_E7, MissionItem
-from bridge.mission_compare import compare_missions
-from bridge.mission_upload import is_mission_message, upload_concurrently, vehicle_says
+from bridge.link.mavlink import MavlinkLink
+from bridge.missions.compare import compare_missions
+from bridge.missions.items import DEG_E7, MissionItem
+from bridge.missions.upload import is_mission_message, upload_concurrently, vehicle_says
 
 __all__ = ["MissionClient", "UploadTimes"]
 
@@ -282,7 +282,7 @@ class MissionClient:
     def upload_verified(
         self, items: Sequence[MissionItem], *, strict: bool = False, vehicle_home: bool = False
     ) -> UploadTimes:
-        """Upload, then download and compare (:func:`~bridge.mission_compare.compare_missions`).
+        """Upload, then download and compare (:func:`~bridge.missions.compare.compare_missions`).
 
         A final MISSION_ACK lost on the way back is not an error when the vehicle's
         mission, read back, is the one sent.

@@ -15,7 +15,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from bridge.errors import MissionMismatchError
-from bridge.mission import DEG_E7, MissionItem
+from bridge.missions.items import DEG_E7, MissionItem
 
 __all__ = ["compare_missions", "POSITIONAL_COMMANDS"]
 

@@ -1,11 +1,14 @@
 """Flying a vehicle: launch (ready, guided, armed, airborne), new targets in flight, and the end.
 
-Each step follows the autopilot's own convention (:data:`GUIDED_MODE`):
+Each step follows the autopilot's own convention (:mod:`bridge.autopilots`, chosen from the
+``autopilot`` of its HEARTBEAT):
 
 - **ArduPilot** (Copter): ``MAV_CMD_DO_SET_MODE`` to GUIDED (custom mode 4), arm, then
   ``MAV_CMD_NAV_TAKEOFF`` with param7 the altitude above home.
 - **PX4**: ``MAV_CMD_DO_SET_MODE`` to AUTO.LOITER (main mode 4, sub mode 3), arm, then
-  ``MAV_CMD_NAV_TAKEOFF`` with param7 the altitude above mean sea level (home + take-off altitude).
+  ``MAV_CMD_NAV_TAKEOFF`` with param7 the altitude above mean sea level: the vehicle's own home
+  altitude (its HOME_POSITION) + the take-off height. PX4 climbs in AUTO.TAKEOFF and holds in
+  AUTO.LOITER.
 
 Arming is retried while the autopilot refuses it (its pre-arm checks, e.g. no GPS fix yet)
 until ``arm_timeout_s``; the take-off is done when the vehicle reports its altitude within
@@ -25,20 +28,17 @@ from typing import Literal
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from bridge.commands import command_long
+from bridge.autopilots import Conventions, conventions_for
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, CommandRejectedError
-from bridge.mavlink import MavlinkLink
-from bridge.vehicle_state import VehicleState, VehicleStateTracker
+from bridge.flight.commands import command_long
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleState, VehicleStateTracker
 from typed_config import Config, param
 
 __all__ = [
-    "ARDUPILOT",
-    "PX4",
     "FlightConfig",
     "FlightError",
-    "GUIDED_MODE",
-    "AUTO_MODE",
     "has_position",
     "is_airborne",
     "launch",
@@ -48,15 +48,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-ARDUPILOT = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
-PX4 = mavlink.MAV_AUTOPILOT_PX4
-
-GUIDED_MODE = {ARDUPILOT: (4.0,), PX4: (4.0, 3.0)}
-"""``MAV_CMD_DO_SET_MODE`` custom mode (param2[, param3]) of guided flight: Copter GUIDED, PX4 AUTO.LOITER."""
-
-AUTO_MODE = {ARDUPILOT: (3.0,), PX4: (4.0, 4.0)}
-"""Custom mode of flying the uploaded mission: Copter AUTO, PX4 AUTO.MISSION."""
 
 _POLL_S = 0.05
 
@@ -138,13 +129,13 @@ def request_position_stream(link: MavlinkLink, system_id: int, rate_hz: float,
 
 def set_mode(link: MavlinkLink, system_id: int, custom_mode: tuple[float, ...],
              protocol: ProtocolConfig) -> None:
-    """``MAV_CMD_DO_SET_MODE`` with the custom mode (``GUIDED_MODE`` or ``AUTO_MODE`` of the autopilot)."""
+    """``MAV_CMD_DO_SET_MODE`` to a custom mode (its conventions' ``guided_mode`` or ``mission_mode``)."""
     command_long(link, system_id, command=mavlink.MAV_CMD_DO_SET_MODE,
                  params=(float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), *custom_mode), protocol=protocol)
 
 
-def _arm(link: MavlinkLink, system_id: int, config: FlightConfig, protocol: ProtocolConfig,
-         cancel: threading.Event) -> None:
+def _arm(link: MavlinkLink, system_id: int, conventions: Conventions, config: FlightConfig,
+         protocol: ProtocolConfig, cancel: threading.Event) -> None:
     deadline_s = time.monotonic() + config.arm_timeout_s
     while True:
         try:
@@ -153,6 +144,7 @@ def _arm(link: MavlinkLink, system_id: int, config: FlightConfig, protocol: Prot
             return
         except CommandRejectedError as exc:
             said = list(dict.fromkeys(link.status_texts(system_id, time.monotonic() - config.arm_retry_s)))
+            said = [text for text in said if text.startswith(conventions.prearm_prefixes)] or said
             said_text = "; it says: " + ", ".join(f'"{text}"' for text in said[-3:]) if said else ""
             if time.monotonic() + config.arm_retry_s >= deadline_s:
                 raise FlightError(system_id, f"arming refused for {config.arm_timeout_s:.0f} s "
@@ -162,25 +154,33 @@ def _arm(link: MavlinkLink, system_id: int, config: FlightConfig, protocol: Prot
             _pause(system_id, config.arm_retry_s, cancel)
 
 
-def _takeoff(link: MavlinkLink, system_id: int, autopilot: int, state: VehicleState, alt_m: float,
-             protocol: ProtocolConfig) -> None:
+def _takeoff(link: MavlinkLink, system_id: int, conventions: Conventions, state: VehicleState, alt_m: float,
+             protocol: ProtocolConfig, home_alt_m: float | None) -> None:
     nan = math.nan
-    if autopilot == PX4:  # PX4: param7 above mean sea level
-        home_amsl_m = (state.alt_m or 0.0) - (state.relative_alt_m or 0.0)
-        params = (-1.0, 0.0, 0.0, nan, nan, nan, home_amsl_m + alt_m)
+    if conventions.takeoff_amsl:  # PX4: param7 above mean sea level
+        if home_alt_m is None:  # its home from its own position report: altitude less height above home
+            if state.alt_m is None or state.relative_alt_m is None:
+                raise FlightError(system_id, "take-off altitude unknown: no home altitude (HOME_POSITION) "
+                                             "and no altitude in its position report")
+            home_alt_m = state.alt_m - state.relative_alt_m
+        params = (-1.0, 0.0, 0.0, nan, nan, nan, home_alt_m + alt_m)
     else:  # ArduPilot and the rest: param7 above home
         params = (0.0, 0.0, 0.0, nan, 0.0, 0.0, alt_m)
     command_long(link, system_id, command=mavlink.MAV_CMD_NAV_TAKEOFF, params=params, protocol=protocol)
 
 
 def launch(link: MavlinkLink, tracker: VehicleStateTracker, system_id: int, autopilot: int, alt_m: float,
-           config: FlightConfig, protocol: ProtocolConfig, cancel: threading.Event | None = None) -> None:
+           config: FlightConfig, protocol: ProtocolConfig, cancel: threading.Event | None = None,
+           home_alt_m: float | None = None) -> None:
     """Bring one vehicle to guided flight at ``alt_m`` above its home.
 
     Asks for the position stream, waits for the first position fix, switches to the guided mode,
     arms (retried while refused) and takes off, then waits until it reaches the altitude. A vehicle
     already armed and airborne is only switched to the guided mode (a vehicle taken back in flight).
-    Setting ``cancel`` stops the launch between two steps (nothing more is sent).
+    Setting ``cancel`` stops the launch between two steps (nothing more is sent). ``autopilot``
+    (its HEARTBEAT's) chooses the conventions (:func:`~bridge.autopilots.conventions_for`);
+    ``home_alt_m`` is its home's altitude above mean sea level, from its HOME_POSITION, for an
+    autopilot whose take-off altitude is above sea level (``None``: taken from its position report).
 
     Raises:
         FlightError: No position fix, arming refused or no climb within the configured time, or cancelled.
@@ -199,17 +199,18 @@ def launch(link: MavlinkLink, tracker: VehicleStateTracker, system_id: int, auto
     state = _wait_for(tracker, system_id, fresh_fix, config.ready_timeout_s, cancel)
     if state is None:
         raise FlightError(system_id, f"no position fix within {config.ready_timeout_s:.0f} s")
-    guided = GUIDED_MODE.get(autopilot, GUIDED_MODE[ARDUPILOT])
+    conventions = conventions_for(autopilot)
+    guided = conventions.guided_mode
     if is_airborne(state, alt_m, max(config.takeoff_tolerance_m, 0.5 * alt_m)):
         set_mode(link, system_id, guided, protocol)
         log.info("vehicle %d: already airborne at %.1f m, taken back in guided mode", system_id,
                  state.relative_alt_m)
         return
     set_mode(link, system_id, guided, protocol)
-    _arm(link, system_id, config, protocol, cancel)
+    _arm(link, system_id, conventions, config, protocol, cancel)
     state = tracker.state(system_id) or state
     _pause(system_id, 0.0, cancel)
-    _takeoff(link, system_id, autopilot, state, alt_m, protocol)
+    _takeoff(link, system_id, conventions, state, alt_m, protocol, home_alt_m)
     reached = _wait_for(tracker, system_id, lambda s: is_airborne(s, alt_m, config.takeoff_tolerance_m),
                         config.takeoff_timeout_s, cancel)
     if reached is None:

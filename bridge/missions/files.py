@@ -23,8 +23,9 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from bridge.autopilots import conventions_for
 from bridge.geo import Home
-from bridge.mission import DEG_E7, Mission, MissionItem, home_placeholder, mark_current
+from bridge.missions.items import DEG_E7, Mission, MissionItem, home_placeholder, mark_current
 
 __all__ = [
     "save_plan",
@@ -127,7 +128,7 @@ def load_plan(path: str | Path) -> Mission:
     lat_deg, lon_deg, alt_m = section["plannedHomePosition"]
     home = Home(lat_deg=lat_deg, lon_deg=lon_deg, alt_m=alt_m)
     autopilot = int(section.get("firmwareType", mavlink.MAV_AUTOPILOT_GENERIC))
-    items = [home_placeholder(home)] if autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA else []
+    items = [home_placeholder(home)] if conventions_for(autopilot).home_item else []
     for index, entry in enumerate(section["items"]):
         if entry.get("type") != "SimpleItem":
             raise ValueError(

@@ -1,13 +1,13 @@
 """MAVLink connections shared by every client of the vehicles behind them.
 
 A :class:`MavlinkLink` is one pymavlink connection with exactly one reader (a
-:class:`~bridge.link_reader.LinkReader`, shared by the links of a fleet) and a send lock.
+:class:`~bridge.link.reader.LinkReader`, shared by the links of a fleet) and a send lock.
 Received messages go to the state listeners and, for the mission and command protocols,
 to the handler of the operation running with that vehicle, which can answer at once on the
 reading thread. Each vehicle's recent STATUSTEXT messages are kept
 (:meth:`MavlinkLink.status_texts`) so that an error can show what the vehicle said.
 
-Hot paths stay short (frames as bytes: :mod:`bridge.mavlink_frames`): a datagram holding
+Hot paths stay short (frames as bytes: :mod:`bridge.link.frames`): a datagram holding
 exactly one MAVLink 2 frame is decoded directly (pymavlink's byte-stream parser only for
 anything else), and not at all when no one reads its type; a mission item request on an
 unsigned link is answered from its checked raw frame before it is decoded (see
@@ -34,8 +34,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 
 from bridge.errors import HeartbeatTimeoutError
-from bridge.link_reader import LinkReader
-from bridge.mavlink_frames import (
+from bridge.link.frames import (
     IFLAG_SIGNED,
     ITEM_REQUEST,
     PROTOCOL_MESSAGES,
@@ -47,7 +46,8 @@ from bridge.mavlink_frames import (
     pack_body,
     whole_frame_size,
 )
-from bridge.signing import SigningKey
+from bridge.link.reader import LinkReader
+from bridge.link.signing import SigningKey
 
 __all__ = ["MavlinkLink", "LinkReader", "PackedMessage", "PROTOCOL_MESSAGES", "use_mavlink2"]
 

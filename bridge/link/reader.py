@@ -1,6 +1,6 @@
 """The one reader of a set of MAVLink links: one ``select`` over all their sockets.
 
-pymavlink connections are not thread-safe, so each :class:`~bridge.mavlink.MavlinkLink` has
+pymavlink connections are not thread-safe, so each :class:`~bridge.link.mavlink.MavlinkLink` has
 exactly one reader. A :class:`LinkReader`'s thread waits on the sockets of all its links at once,
 receives every datagram (or TCP chunk) and has the link dispatch it, and sends each link's
 ground-station HEARTBEAT once a second; a caller waiting for answers can borrow it to read on its
@@ -25,7 +25,7 @@ POLL_S = 0.02
 
 
 class ReadableLink(Protocol):
-    """What the reader needs of a link (:class:`bridge.mavlink.MavlinkLink` registers itself as one)."""
+    """What the reader needs of a link (:class:`bridge.link.mavlink.MavlinkLink` registers itself as one)."""
 
     def reader_fd(self) -> int | None:
         """The socket to wait on; ``None`` while closed or disconnected."""

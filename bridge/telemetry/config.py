@@ -25,7 +25,7 @@ from typing import Literal
 
 import zenoh
 
-from bridge.telemetry_keys import check_swarm_name
+from bridge.telemetry.keys import check_swarm_name
 from typed_config import Config, ConfigError, param
 
 __all__ = [

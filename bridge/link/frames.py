@@ -60,7 +60,7 @@ _MAGIC = bytes((V2_MAGIC,))
 
 
 class PackedMessage(NamedTuple):
-    """A message packed once for one link (:meth:`~bridge.mavlink.MavlinkLink.pack`).
+    """A message packed once for one link (:meth:`~bridge.link.mavlink.MavlinkLink.pack`).
 
     Attributes:
         body: The MAVLink 2 frame without its magic byte and CRC (the sequence number is

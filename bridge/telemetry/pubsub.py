@@ -1,6 +1,6 @@
 """Swarm telemetry over Eclipse Zenoh: a publisher and a subscriber of typed payloads.
 
-The simulator and the MAVLink bridge publish the same payloads (:mod:`bridge.telemetry_schema`);
+The simulator and the MAVLink bridge publish the same payloads (:mod:`bridge.telemetry.schema`);
 only their ``source`` field tells them apart. A :class:`SwarmPublisher` holds one liveliness token
 per UAV (so subscribers see UAVs appear and disappear, also when the process dies) and answers
 queries with the latest state of every UAV, the latest plan and the latest QoS, so a late joiner
@@ -35,8 +35,8 @@ import msgspec
 import zenoh
 
 from bridge.geo import Home, enu_to_geodetic
-from bridge.telemetry_config import TelemetryConfig, open_session
-from bridge.telemetry_keys import (
+from bridge.telemetry.config import TelemetryConfig, open_session
+from bridge.telemetry.keys import (
     alive_key,
     all_alive_key,
     is_payload_key,
@@ -46,7 +46,7 @@ from bridge.telemetry_keys import (
     swarm_root,
     uav_id_from_key,
 )
-from bridge.telemetry_schema import (
+from bridge.telemetry.schema import (
     ENCODING,
     GeoPoint,
     Payload,

@@ -192,7 +192,7 @@ class VehicleStateTracker:
             "MISSION_ITEM_REACHED",
         }
     )
-    """The message types :meth:`update` uses (for :meth:`~bridge.mavlink.MavlinkLink.add_listener`)."""
+    """The message types :meth:`update` uses (for :meth:`~bridge.link.mavlink.MavlinkLink.add_listener`)."""
 
     def __init__(self, home: Home, component_id: int = mavlink.MAV_COMP_ID_AUTOPILOT1) -> None:
         self._home = home

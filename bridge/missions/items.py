@@ -26,7 +26,9 @@ is lower, so a mission never descends after take-off unless the user's own point
 The user numbers points as ``waypoint 1 .. k`` (intermediate, in order) and ``target``
 (the last); refusals use those names.
 
-Verification of a mission read back is :mod:`bridge.mission_compare`.
+Whether item 0 is the home placeholder is the autopilot's convention
+(:attr:`bridge.autopilots.Conventions.home_item`: ArduPilot's, not PX4's, whose item 0 is the
+take-off). Verification of a mission read back is :mod:`bridge.missions.compare`.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from bridge.autopilots import conventions_for
 from bridge.geo import Home, enu_to_geodetic
 from bridge.geofence import GeofenceConfig, check_geofence
 from typed_config import Config, ConfigError, param
@@ -57,7 +60,6 @@ __all__ = [
 DEG_E7 = 10_000_000
 """Scale of MISSION_ITEM_INT latitude/longitude integers (degrees * 1e7)."""
 
-ARDUPILOT = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
 
 def _f32(value: float) -> float:
     return float(np.float32(value))
@@ -141,8 +143,8 @@ class Mission:
 
     @property
     def has_home_placeholder(self) -> bool:
-        """True when item 0 is ArduPilot's home placeholder."""
-        return self.autopilot == ARDUPILOT and len(self.items) > 0
+        """True when item 0 is the home placeholder (ArduPilot's convention)."""
+        return conventions_for(self.autopilot).home_item and len(self.items) > 0
 
 
 @dataclass(frozen=True)
@@ -248,7 +250,8 @@ def build_mission(
         home: Geodetic origin of the ENU frame.
         config: Take-off, loiter and return settings.
         fence: The allowed area and altitude band; checked before anything is built.
-        autopilot: ``MAV_AUTOPILOT_*`` of the vehicle (ArduPilot gets a home placeholder at seq 0).
+        autopilot: ``MAV_AUTOPILOT_*`` of the vehicle (ArduPilot gets a home placeholder at seq 0,
+            PX4's take-off is item 0).
 
     Returns:
         The mission; item 0 is the only current one.
@@ -261,7 +264,7 @@ def build_mission(
     takeoff_alt_m = takeoff_altitude(points, config)
     check_geofence([*points, (0.0, 0.0, takeoff_alt_m)], fence, [*point_labels(len(points)), "take-off"])
     items: list[MissionItem] = []
-    if autopilot == ARDUPILOT:
+    if conventions_for(autopilot).home_item:
         items.append(home_placeholder(home))
     items.append(
         _global_item(

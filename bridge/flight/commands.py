@@ -1,5 +1,10 @@
 """Commands to a vehicle (COMMAND_INT, COMMAND_LONG) and guided replanning with ``MAV_CMD_DO_REPOSITION``.
 
+The reposition's altitude follows the vehicle's autopilot (:mod:`bridge.autopilots`): ArduPilot
+takes ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT`` with z above its home; PX4 reads z above mean sea level
+whatever the frame says, so it gets ``MAV_FRAME_GLOBAL_INT`` with z = its home altitude (its
+HOME_POSITION) + the height.
+
 A command is sent again when no COMMAND_ACK arrives within the handshake
 timeout (up to ``max_retries`` times); ``MAV_RESULT_IN_PROGRESS`` keeps waiting,
 ``MAV_RESULT_ACCEPTED`` succeeds, any other result raises
@@ -12,12 +17,13 @@ import queue
 import time
 from collections.abc import Callable
 
+from bridge.autopilots import GENERIC, Conventions
 from bridge.config import ProtocolConfig
-from bridge.errors import CommandRejectedError, CommandTimeoutError
+from bridge.errors import CommandRejectedError, CommandTimeoutError, RefusedError
 from bridge.geo import Home, enu_to_geodetic
 from bridge.geofence import GeofenceConfig, check_geofence
-from bridge.mavlink import MavlinkLink
-from bridge.mission import DEG_E7
+from bridge.link.mavlink import MavlinkLink
+from bridge.missions.items import DEG_E7
 
 __all__ = ["command_int", "command_long", "reposition"]
 
@@ -161,6 +167,8 @@ def reposition(
     *,
     speed_m_s: float = -1.0,
     protocol: ProtocolConfig | None = None,
+    conventions: Conventions = GENERIC,
+    home_alt_m: float | None = None,
 ) -> None:
     """Send a guided vehicle to a new ENU point (``MAV_CMD_DO_REPOSITION``, switching to guided mode).
 
@@ -174,23 +182,33 @@ def reposition(
         z_m: Height above home, metres.
         speed_m_s: Ground speed, m/s (-1: the vehicle's default).
         protocol: Timeouts and retries.
+        conventions: The vehicle's autopilot conventions (frame and altitude reference).
+        home_alt_m: The vehicle's own home altitude above mean sea level (needed when its
+            conventions read the altitude above sea level).
 
     Raises:
+        RefusedError: ``home_alt_m`` is missing where it is needed (nothing sent).
         GeofenceError: The point is outside the fence (nothing sent).
         CommandRejectedError: The vehicle refused.
         CommandTimeoutError: No answer.
     """
     check_geofence([(x_m, y_m, z_m)], fence)
+    z = z_m
+    if conventions.reposition_amsl:
+        if home_alt_m is None:
+            raise RefusedError(f"vehicle {system_id}: {conventions.name} reads a reposition altitude above "
+                               "sea level and its home altitude (HOME_POSITION) is unknown: nothing sent")
+        z = home_alt_m + z_m
     m = link.mavlink
     lat_deg, lon_deg, _ = enu_to_geodetic(home, x_m, y_m, z_m)
     command_int(
         link,
         system_id,
         command=m.MAV_CMD_DO_REPOSITION,
-        frame=m.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        frame=conventions.reposition_frame,
         params=(speed_m_s, float(m.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE), 0.0, float("nan")),
         x=round(lat_deg * DEG_E7),
         y=round(lon_deg * DEG_E7),
-        z=z_m,
+        z=z,
         protocol=protocol,
     )

@@ -1,6 +1,6 @@
 """Telemetry payloads: what goes over Zenoh, independent of where the data came from.
 
-Keys (:mod:`bridge.telemetry_keys`): a :class:`UavState` on ``uav_swarm/<swarm>/uav/<id>/state``,
+Keys (:mod:`bridge.telemetry.keys`): a :class:`UavState` on ``uav_swarm/<swarm>/uav/<id>/state``,
 a :class:`Plan` on ``uav_swarm/<swarm>/plan``, a :class:`Qos` on ``uav_swarm/<swarm>/qos``.
 
 Payloads are UTF-8 JSON objects (encoding ``application/json``) sharing a header: ``schema`` (the
@@ -29,10 +29,10 @@ from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal
 import msgspec
 import zenoh
 
-from bridge.telemetry_keys import payload_kind, plan_key, qos_key, state_key, uav_id_from_key
+from bridge.telemetry.keys import payload_kind, plan_key, qos_key, state_key, uav_id_from_key
 
 if TYPE_CHECKING:
-    from bridge.vehicle_state import VehicleState
+    from bridge.link.vehicle_state import VehicleState
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -288,7 +288,7 @@ def state_from_vehicle(vehicle: VehicleState, seq: int, *, uav_id: int | None = 
     """The telemetry state of a real (or SITL) vehicle, from the MAVLink bridge's snapshot.
 
     Args:
-        vehicle: The vehicle's latest :class:`bridge.vehicle_state.VehicleState`.
+        vehicle: The vehicle's latest :class:`bridge.link.vehicle_state.VehicleState`.
         seq: The sequence number of this state in the UAV's stream.
         uav_id: The UAV number in the swarm (default: the vehicle's MAVLink system id).
         target_enu_m: The UAV's current target, when the caller knows it.

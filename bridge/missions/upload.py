@@ -1,9 +1,9 @@
 """Mission uploads to one or many vehicles at once, driven by the vehicles' requests.
 
 The calling thread reads the links itself while it waits (it borrows the links' reader,
-:meth:`~bridge.link_reader.LinkReader.lend`; when another caller holds it, that one reads and
+:meth:`~bridge.link.reader.LinkReader.lend`; when another caller holds it, that one reads and
 this one waits): each request is answered the moment it arrives, from the raw frame (see
-:meth:`~bridge.mavlink.MavlinkLink.protocol_handler`), with items packed once (while the
+:meth:`~bridge.link.mavlink.MavlinkLink.protocol_handler`), with items packed once (while the
 vehicle answers MISSION_COUNT), and no message crosses a thread. Between messages it
 watches the clock for all uploads at once: it re-sends MISSION_COUNT (handshake,
 ``handshake_timeout_s``) or the last item (whose MISSION_ACK may be lost,
@@ -49,9 +49,9 @@ from collections.abc import Callable, Mapping, Sequence
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionResultError, MissionTimeoutError, mission_result_error
-from bridge.mavlink import MavlinkLink
-from bridge.mavlink_frames import PackedMessage
-from bridge.mission import MissionItem
+from bridge.link.frames import PackedMessage
+from bridge.link.mavlink import MavlinkLink
+from bridge.missions.items import MissionItem
 
 __all__ = ["upload_concurrently", "is_mission_message", "vehicle_says"]
 
@@ -76,7 +76,7 @@ def is_mission_message(msg: object) -> bool:
 class _Upload:
     """The upload of one mission to one vehicle, over all its transfer attempts.
 
-    Every message is packed once (:meth:`~bridge.mavlink.MavlinkLink.pack`); a request is
+    Every message is packed once (:meth:`~bridge.link.mavlink.MavlinkLink.pack`); a request is
     answered by sending the packed item with a fresh sequence number.
     """
 

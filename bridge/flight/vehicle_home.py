@@ -2,7 +2,7 @@
 
 The home is the vehicle's HOME_POSITION or, for autopilots that may not report one, its first
 GLOBAL_POSITION_INT fix (latitude and longitude not both 0: ArduPilot reports 0, 0 before its
-fix). :class:`HomeWatcher` keeps both as they arrive; :mod:`bridge.readiness` waits for them.
+fix). :class:`HomeWatcher` keeps both as they arrive; :mod:`bridge.flight.readiness` waits for them.
 A mission built around another home would send the vehicle to places it does not expect:
 beyond ``max_home_offset_m`` the upload is refused (:func:`check_home_offset`).
 """
@@ -55,7 +55,7 @@ class HomeWatcher:
     """
 
     MESSAGE_TYPES = frozenset({"HOME_POSITION", "GLOBAL_POSITION_INT"})
-    """The message types :meth:`update` uses (for :meth:`~bridge.mavlink.MavlinkLink.add_listener`)."""
+    """The message types :meth:`update` uses (for :meth:`~bridge.link.mavlink.MavlinkLink.add_listener`)."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()

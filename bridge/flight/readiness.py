@@ -34,9 +34,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, HomeUnknownError
-from bridge.mavlink import MavlinkLink
-from bridge.vehicle_home import HomeWatcher, ReportedHome
-from bridge.vehicle_state import VehicleStateTracker
+from bridge.flight.vehicle_home import HomeWatcher, ReportedHome
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleStateTracker
 
 __all__ = ["STREAMS_HZ", "request_streams", "request_message", "wait_ready"]
 

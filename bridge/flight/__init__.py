@@ -1,0 +1,5 @@
+"""Flight: the fleet of vehicles, their readiness and homes, guided commands, per-autopilot conventions.
+
+:class:`~bridge.flight.fleet.Fleet` reaches the configured vehicles; :mod:`bridge.flight.guided`
+launches, repositions and ends a flight by each vehicle's own autopilot convention.
+"""

@@ -1,0 +1,199 @@
+"""A test vehicle that answers as PX4 v1.16 does (its SIH quadrotor), so CI proves PX4's conventions.
+
+Written from PX4's sources (Commander, Navigator, the MAVLink receiver and mission manager at
+v1.16.0) and from what real PX4 SITL did, independently of the bridge's own table:
+
+- **HEARTBEAT**: ``MAV_AUTOPILOT_PX4``; ``custom_mode`` is PX4's union: main mode in bits 16-23,
+  sub mode in bits 24-31 (AUTO.LOITER = main 4, sub 3). It boots in POSCTL (main 3).
+- **Modes** (``MAV_CMD_DO_SET_MODE``, param2 the main mode, param3 the sub mode): POSCTL and
+  AUTO.{TAKEOFF, LOITER, MISSION, RTL, LAND}; another sub mode of AUTO is denied.
+- **Arming**: refused (``MAV_RESULT_TEMPORARILY_REJECTED``, STATUSTEXT "Preflight Fail: ...") for
+  ``prearm_s`` after start.
+- **Take-off** (``MAV_CMD_NAV_TAKEOFF``): param7 is the altitude above mean sea level; the vehicle
+  switches to AUTO.TAKEOFF, climbs, and holds in AUTO.LOITER once there.
+- **Reposition** (``MAV_CMD_DO_REPOSITION``, COMMAND_INT): needs param2's change-mode bit (else
+  ``MAV_RESULT_UNSUPPORTED``), switches to AUTO.LOITER, and reads z as an altitude **above mean
+  sea level whatever the frame says** (``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT`` included). Sent below
+  its home it descends to the ground: STATUSTEXT "Landing detected", then disarmed ("Disarmed by
+  landing"). It moves only while armed.
+- **Missions**: item 0 is the first real item (no home placeholder); AUTO.MISSION flies from the
+  current item, item 0 included (a take-off item climbs where it stands). MISSION_CLEAR_ALL is
+  accepted in any mode, flying or not. Mission transfers follow :class:`SimVehicle`'s ``"px4"``
+  personality.
+- **Streams** GLOBAL_POSITION_INT, MISSION_CURRENT and HOME_POSITION without being asked (its
+  offboard and GCS links do), and answers ``MAV_CMD_REQUEST_MESSAGE`` for HOME_POSITION.
+- **The end**: AUTO.RTL flies home and lands, AUTO.LAND lands where it is; on the ground "Landing
+  detected" and disarmed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from flying_vehicle import FlyingVehicle
+from sim_vehicle import m
+
+from bridge.geo import Home, geodetic_to_enu
+from bridge.missions.items import DEG_E7
+
+__all__ = ["Px4Vehicle", "POSCTL", "TAKEOFF", "LOITER", "MISSION", "RTL", "LAND", "px4_mode"]
+
+POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND = (3, 0), (4, 2), (4, 3), (4, 4), (4, 5), (4, 6)
+_MODES = (POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND)
+_TAKEOFF_ALT_M = 2.5  # MIS_TAKEOFF_ALT's default, for a take-off without an altitude
+_HOME_PERIOD_S = 1.0
+_POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
+
+
+def px4_mode(custom_mode: int) -> tuple[int, int]:
+    """``(main, sub)`` of a PX4 HEARTBEAT ``custom_mode``."""
+    return (custom_mode >> 16) & 0xFF, (custom_mode >> 24) & 0xFF
+
+
+def _custom_mode(mode: tuple[int, int]) -> int:
+    return mode[0] << 16 | mode[1] << 24
+
+
+class Px4Vehicle(FlyingVehicle):
+    """A PX4 quadrotor at ``home`` (see the module docstring); :class:`FlyingVehicle`'s kinematics.
+
+    Args:
+        url: Its end of the link (PX4's offboard link sends to UDP 14540 + instance: ``udpout:``).
+        system_id: Its MAVLink system id.
+        home: Where it stands at start (its home).
+        **options: :class:`FlyingVehicle`'s (speeds, ``prearm_s``, ``position_period_s``).
+    """
+
+    def __init__(self, url: str, system_id: int, *, home: Home | None = None, **options) -> None:
+        self.mode = POSCTL
+        self.texts: list[str] = []
+        self.landed_in: list[tuple[int, int]] = []
+        self._next_home_s = 0.0
+        options.setdefault("stream_until_asked", False)
+        super().__init__(url, system_id, home=home, autopilot=m.MAV_AUTOPILOT_PX4,
+                         custom_mode=_custom_mode(POSCTL), personality="px4", **options)
+
+    # -- modes ---------------------------------------------------------------------------------
+    def set_mode(self, mode: tuple[int, int]) -> None:
+        """Switch to ``(main, sub)``, as a mode change on the vehicle does."""
+        self.mode = mode
+        self.custom_mode = _custom_mode(mode)
+        self.modes.append(self.custom_mode)
+
+    def _say(self, text: str, severity: int = m.MAV_SEVERITY_INFO) -> None:
+        self.texts.append(text)
+        self._conn.mav.statustext_send(severity=severity, text=text.encode())
+
+    # -- kinematics ----------------------------------------------------------------------------
+    def _mission_target(self) -> tuple[float, float, float] | None:
+        while 0 <= self.current_seq < len(self.mission):
+            item = self.mission[self.current_seq]
+            if item.command == m.MAV_CMD_NAV_TAKEOFF:
+                target = (self.enu[0], self.enu[1], item.z)
+            elif item.command in _POSITIONED:
+                home = self.geo_home
+                x, y, _ = geodetic_to_enu(home, item.x / DEG_E7, item.y / DEG_E7, home.alt_m)
+                target = (x, y, item.z)
+            else:
+                self.current_seq += 1
+                continue
+            passing = item.command in (m.MAV_CMD_NAV_TAKEOFF, m.MAV_CMD_NAV_WAYPOINT)
+            if passing and math.dist(target, self.enu) < 0.5:
+                self.reached_seq = self.current_seq
+                self.current_seq += 1
+                continue
+            return target
+        return None
+
+    def _goal(self) -> tuple[float, float, float] | None:
+        if not self.armed:
+            return None
+        if self.mode in (TAKEOFF, LOITER):
+            return self.target
+        if self.mode == MISSION:
+            return self._mission_target()
+        if self.mode == RTL:
+            return (0.0, 0.0, self.enu[2]) if math.hypot(*self.enu[:2]) > 0.5 else (0.0, 0.0, 0.0)
+        if self.mode == LAND:
+            return (self.enu[0], self.enu[1], 0.0)
+        return None
+
+    def _step(self) -> None:
+        now_s = time.monotonic()
+        dt_s, self._last_step_s = now_s - self._last_step_s, now_s
+        goal = self._goal()
+        if goal is None:
+            self.velocity = [0.0, 0.0, 0.0]
+            return
+        goal = (goal[0], goal[1], max(0.0, goal[2]))  # the ground stops it
+        dx, dy, dz = (g - p for g, p in zip(goal, self.enu, strict=True))
+        horizontal = math.hypot(dx, dy)
+        scale = min(1.0, self.speed_m_s * dt_s / horizontal) if horizontal > 0 else 0.0
+        climb = max(-self.climb_m_s * dt_s, min(self.climb_m_s * dt_s, dz))
+        step = (dx * scale, dy * scale, climb)
+        self.enu = [p + d for p, d in zip(self.enu, step, strict=True)]
+        self.velocity = [d / dt_s if dt_s > 0 else 0.0 for d in step]
+        if self.mode == TAKEOFF and self.target is not None and abs(self.target[2] - self.enu[2]) < 0.3:
+            self.set_mode(LOITER)  # take-off done: PX4 holds there
+        descended = self.enu[2] <= 0.01 and goal[2] == 0.0
+        if descended and (self.mode != RTL or math.hypot(dx, dy) < 0.5):
+            self.enu[2] = 0.0
+            self.armed = False
+            self.landed_in.append(self.mode)
+            self._say("Landing detected")
+            self._say("Disarmed by landing")
+
+    def _telemetry(self) -> None:
+        super()._telemetry()
+        now_s = time.monotonic()
+        if now_s >= self._next_home_s:
+            self._next_home_s = now_s + _HOME_PERIOD_S
+            lat, lon, alt_m = self.home
+            self._conn.mav.home_position_send(
+                latitude=lat, longitude=lon, altitude=round(alt_m * 1000), x=0.0, y=0.0, z=0.0,
+                q=[1.0, 0.0, 0.0, 0.0], approach_x=0.0, approach_y=0.0, approach_z=0.0)
+
+    # -- commands ------------------------------------------------------------------------------
+    def _command(self, msg) -> int:
+        if msg.command == m.MAV_CMD_DO_SET_MODE:
+            mode = (int(msg.param2), int(msg.param3) if int(msg.param2) == 4 else 0)
+            if not int(msg.param1) & m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED or mode not in _MODES:
+                return m.MAV_RESULT_DENIED
+            self.set_mode(mode)
+            return m.MAV_RESULT_ACCEPTED
+        if msg.command == m.MAV_CMD_COMPONENT_ARM_DISARM:
+            if msg.param1 == 1.0 and time.monotonic() < self._ready_at_s:
+                self._say("Preflight Fail: ekf2 missing data", m.MAV_SEVERITY_CRITICAL)
+                return m.MAV_RESULT_TEMPORARILY_REJECTED
+            self.armed = msg.param1 == 1.0
+            return m.MAV_RESULT_ACCEPTED
+        if msg.command == m.MAV_CMD_NAV_TAKEOFF:
+            height_m = msg.param7 - self.geo_home.alt_m if math.isfinite(msg.param7) else _TAKEOFF_ALT_M
+            self.target = (self.enu[0], self.enu[1], height_m)
+            self.set_mode(TAKEOFF)
+            return m.MAV_RESULT_ACCEPTED
+        if msg.command in (m.MAV_CMD_NAV_RETURN_TO_LAUNCH, m.MAV_CMD_NAV_LAND):
+            self.set_mode(RTL if msg.command == m.MAV_CMD_NAV_RETURN_TO_LAUNCH else LAND)
+            return m.MAV_RESULT_ACCEPTED
+        return super()._command(msg)
+
+    def _on_command_int(self, msg) -> None:
+        self.commands.append(msg.command)
+        if msg.command != m.MAV_CMD_DO_REPOSITION:
+            self._answer(msg, m.MAV_RESULT_UNSUPPORTED)
+            return
+        if int(msg.param2) != m.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE:
+            self._answer(msg, m.MAV_RESULT_UNSUPPORTED)  # Commander: only the change-mode bit
+            return
+        self.reposition_frames.append(msg.frame)
+        if self.armed:  # Navigator takes the setpoint only armed; the mode changes anyway
+            x, y, _ = geodetic_to_enu(self.geo_home, msg.x / DEG_E7, msg.y / DEG_E7, self.geo_home.alt_m)
+            self.target = (x, y, msg.z - self.geo_home.alt_m)  # z above sea level, whatever the frame
+            self.reposition_target = (msg.x, msg.y, msg.z)
+        self.set_mode(LOITER)
+        self._answer(msg, m.MAV_RESULT_ACCEPTED)
+
+    def _on_mission_clear_all(self, msg) -> None:
+        self.mission, self.current_seq = [], 0  # PX4 clears whatever it flies
+        self._ack(msg, m.MAV_MISSION_ACCEPTED)

@@ -1,0 +1,205 @@
+"""PX4 as it really answers (:class:`Px4Vehicle`): guided flight, missions, the clear guard, mixed fleets.
+
+Each vehicle is a pymavlink peer on its own loopback socket; PX4 peers send from their own port
+to the ground station's UDP port, as PX4's offboard link (UDP 14540 + instance) does.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from pathlib import Path
+
+import pytest
+from fly_measures import altitude_share, final_distance_m, live_rows
+from flying_vehicle import AUTO, GUIDED, RTL, FlyingVehicle
+from lossy_relay import free_udp_port
+from px4_vehicle import LAND, LOITER, MISSION, Px4Vehicle, px4_mode
+from px4_vehicle import RTL as PX4_RTL
+from pymavlink.dialects.v20 import common as mavlink
+from sim_vehicle import endpoint_pair
+
+from bridge import autopilots
+from bridge.autopilots import conventions_for, px4_custom_mode
+from bridge.config import ProtocolConfig
+from bridge.flight.commands import reposition
+from bridge.geo import Home
+from bridge.geofence import GeofenceConfig
+from bridge.link.mavlink import MavlinkLink
+from bridge.link.vehicle_state import VehicleStateTracker
+from bridge.missions.items import MissionConfig, build_mission
+from uav_swarm.cli import main
+from uav_swarm.runs.fly import fly
+from uav_swarm.runs.fly_config import load_fly_config
+
+FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
+ALT_M = 10.0  # fly's cruise altitude ([uav] alt_m default)
+
+
+def _fleet(kinds: str, **options) -> tuple[list, list[str]]:
+    """One vehicle per letter of ``kinds`` (``p``: PX4, ``a``: ArduPilot), system ids 1.., and their URLs."""
+    vehicles, urls = [], []
+    for sid, kind in enumerate(kinds, start=1):
+        vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
+        cls = Px4Vehicle if kind == "p" else FlyingVehicle
+        vehicles.append(cls(vehicle_url, sid, speed_m_s=25.0, **options))
+        urls.append(gcs_url)
+    return vehicles, urls
+
+
+def _bridge_toml(path: Path, urls: list[str]) -> Path:
+    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
+             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
+    for sid, url in enumerate(urls, start=1):
+        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _close(vehicles) -> None:
+    for vehicle in vehicles:
+        vehicle.close()
+
+
+def _away(vehicle, x_m: float) -> float:
+    return math.hypot(vehicle.enu[0] - x_m, vehicle.enu[1])
+
+
+def _fly(tmp_path: Path, urls: list[str], **overrides):
+    config = load_fly_config(None, {
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 40.0,
+        "speedup": 4.0, "publish_telemetry": False,
+        "flight": {"link_timeout_s": 3.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5}, **overrides})
+    return fly(config, tmp_path / "out")
+
+
+def test_each_autopilot_has_its_conventions_and_px4_modes_encode_as_px4_does():
+    px4 = conventions_for(mavlink.MAV_AUTOPILOT_PX4)
+    ardupilot = conventions_for(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA)
+    assert (px4, ardupilot) == (autopilots.PX4, autopilots.ARDUPILOT)
+    assert conventions_for(None) is conventions_for(mavlink.MAV_AUTOPILOT_GENERIC) is autopilots.GENERIC
+    assert px4_mode(px4_custom_mode(4, 3)) == LOITER
+    assert px4_mode(px4_custom_mode(*map(int, px4.mission_mode))) == MISSION
+    assert px4.guided_mode == LOITER and px4.first_item() == 0 and ardupilot.first_item() == 1
+    fence = GeofenceConfig()
+    shape = MissionConfig(takeoff_alt_m=10.0, cruise_alt_m=10.0)
+    for autopilot, first in ((mavlink.MAV_AUTOPILOT_PX4, 0), (mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 1)):
+        mission = build_mission([(20.0, 30.0)], Home(), shape, fence, autopilot)
+        assert mission.items[first].command == mavlink.MAV_CMD_NAV_TAKEOFF
+        assert mission.has_home_placeholder == (first == 1)
+
+
+def test_px4_reads_a_relative_reposition_as_sea_level_and_lands_so_the_bridge_sends_amsl():
+    """The peer is PX4-like: the frame ArduPilot takes brings it down; the bridge's GLOBAL_INT holds it."""
+    vehicles, urls = _fleet("pp")
+    links = [MavlinkLink(url) for url in urls]
+    tracker = VehicleStateTracker(Home())
+    protocol = ProtocolConfig(**FAST)
+    try:
+        for link in links:
+            link.add_listener(tracker.update)
+        for vehicle in vehicles:  # airborne at 10 m, holding
+            vehicle.armed, vehicle.enu, vehicle.target = True, [0.0, 0.0, ALT_M], (0.0, 0.0, ALT_M)
+            vehicle.set_mode(LOITER)
+        fence = GeofenceConfig()
+        reposition(links[0], 1, Home(), fence, 30.0, 0.0, ALT_M, protocol=protocol,
+                   conventions=autopilots.ARDUPILOT)  # the frame an ArduPilot gets
+        reposition(links[1], 2, Home(), fence, 30.0, 0.0, ALT_M, protocol=protocol,
+                   conventions=autopilots.PX4, home_alt_m=Home().alt_m)
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and (vehicles[0].armed or _away(vehicles[1], 30.0) > 1.0):
+            time.sleep(0.05)
+    finally:
+        for link in links:
+            link.close()
+        _close(vehicles)
+    assert not vehicles[0].armed and vehicles[0].enu[2] == 0.0  # read 10 m above sea level: landed
+    assert "Landing detected" in vehicles[0].texts and "Disarmed by landing" in vehicles[0].texts
+    assert vehicles[1].armed and vehicles[1].enu[2] == pytest.approx(ALT_M, abs=0.3)
+    assert vehicles[1].reposition_frames == [mavlink.MAV_FRAME_GLOBAL_INT]
+    assert vehicles[1].reposition_target[2] == pytest.approx(Home().alt_m + ALT_M)
+
+
+def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_return(tmp_path):
+    vehicles, urls = _fleet("ppp")
+    try:
+        result = _fly(tmp_path, urls)
+        time.sleep(0.3)
+        rows = live_rows(tmp_path / "out")
+    finally:
+        _close(vehicles)
+    statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
+    assert statuses == {1: "ended", 2: "ended", 3: "ended"}
+    for vehicle in vehicles:
+        sid = vehicle.system_id
+        assert altitude_share(rows[sid], ALT_M, 2.0) >= 0.95, sid
+        assert final_distance_m(rows[sid]) <= 5.0, sid
+        assert px4_mode(vehicle.custom_mode) == PX4_RTL and vehicle.landed_in in ([], [PX4_RTL])
+        assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_INT}
+        assert vehicle.reposition_target[2] == pytest.approx(Home().alt_m + ALT_M, abs=1e-3)
+        assert [px4_mode(mode) for mode in vehicle.modes][:2] == [LOITER, (4, 2)]  # hold, then AUTO.TAKEOFF
+
+
+def test_a_mixed_fleet_of_two_px4_and_two_ardupilot_flies_one_fly(tmp_path):
+    vehicles, urls = _fleet("papa")
+    try:
+        result = _fly(tmp_path, urls)
+        time.sleep(0.3)
+        rows = live_rows(tmp_path / "out")
+    finally:
+        _close(vehicles)
+    assert all(v["status"] == "ended" for v in result.summary["vehicles"])
+    for vehicle in vehicles:
+        sid = vehicle.system_id
+        assert altitude_share(rows[sid], ALT_M, 2.0) >= 0.95, sid
+        assert final_distance_m(rows[sid]) <= 5.0, sid
+        if isinstance(vehicle, Px4Vehicle):
+            assert px4_mode(vehicle.custom_mode) == PX4_RTL and LOITER in map(px4_mode, vehicle.modes)
+            assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_INT}
+        else:
+            assert vehicle.custom_mode == RTL and GUIDED in vehicle.modes
+            assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT}
+            assert vehicle.reposition_target[2] == pytest.approx(ALT_M)
+
+
+def test_mission_mode_on_px4_flies_auto_mission_from_its_item_0_and_lands(tmp_path):
+    vehicles, urls = _fleet("pa")
+    try:
+        argv = ["fly", "--bridge-config", str(_bridge_toml(tmp_path / "bridge.toml", urls)), "--out",
+                str(tmp_path / "out"), "--mode", "mission", "--end", "land", "--duration-s", "8",
+                "--speedup", "2", "--no-telemetry"]
+        assert main(argv) == 0
+    finally:
+        _close(vehicles)
+    px4, ardupilot = vehicles
+    assert px4.uploads >= 1 and MISSION in map(px4_mode, px4.modes) and px4_mode(px4.custom_mode) == LAND
+    assert px4.mission[0].command == mavlink.MAV_CMD_NAV_TAKEOFF  # PX4: item 0 is the take-off
+    assert ardupilot.mission[1].command == mavlink.MAV_CMD_NAV_TAKEOFF and AUTO in ardupilot.modes
+    assert px4.mission[-1].z == ardupilot.mission[-1].z == ALT_M
+
+
+@pytest.mark.parametrize(("kind", "mode", "seq"), [("p", MISSION, 0), ("p", MISSION, 2), ("a", AUTO, 1)],
+                         ids=["px4-take-off-item-0", "px4-item-2", "ardupilot-take-off-item-1"])
+def test_clear_refuses_a_vehicle_flying_its_mission_at_any_item(tmp_path, capsys, kind, mode, seq):
+    vehicles, urls = _fleet(kind, stream_until_asked=False)
+    vehicle = vehicles[0]
+    config = str(_bridge_toml(tmp_path / "bridge.toml", urls))
+    try:
+        assert main(["mission", "upload", "--config", config, "--target", "1:20,30"]) == 0
+        vehicle.armed, vehicle.current_seq = True, seq
+        if kind == "p":
+            vehicle.set_mode(mode)
+        else:
+            vehicle.custom_mode = mode
+        capsys.readouterr()
+        assert main(["mission", "clear", "--config", config]) == 2
+        name = "MISSION" if kind == "p" else "AUTO"
+        items = f"{seq}" if kind == "p" else "[12]"  # the ArduPilot peer passes its take-off item at once
+        said = rf"vehicle 1: is flying its mission \(armed, mode {name}, at item {items}\)"
+        assert re.search(said, capsys.readouterr().err)
+        assert vehicle.mission  # nothing was sent
+        if kind == "p":  # PX4 itself would clear it: --force does
+            assert main(["mission", "clear", "--config", config, "--force"]) == 0 and vehicle.mission == []
+    finally:
+        _close(vehicles)
