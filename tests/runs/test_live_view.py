@@ -11,7 +11,7 @@ from foxglove_readback import conform, read_back
 from foxglove_ws_client import LiveClient
 from ports import free_tcp_port
 
-from bridge.telemetry_schema import Qos, UavState
+from bridge.telemetry.schema import Qos, UavState
 from typed_config import ConfigError
 from uav_swarm.cli import main
 from uav_swarm.runs.live_view import LiveView, live_view_option, parse_live_view

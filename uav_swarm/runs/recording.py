@@ -28,7 +28,7 @@ static scene again at once without a second copy in the file.
 Examples:
     >>> import tempfile
     >>> from mcap.reader import make_reader
-    >>> from bridge.telemetry_schema import Qos
+    >>> from bridge.telemetry.schema import Qos
     >>> path = Path(tempfile.mkdtemp()) / "run.mcap"
     >>> scene = SceneInfo(width_m=100.0, height_m=80.0, coverage_radius_m=30.0)
     >>> with open_recorder(scene, record=path) as recorder:
