@@ -89,8 +89,8 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     ``separation_weight * separation_penalty``, where the penalty sums ``1 - d / min_separation_m``
     over UAV pairs closer than ``uav.min_separation_m``. ``infos[agent]`` holds ``qos_s1``,
     ``qos_s2``, ``mean_throughput_mbps``, ``covered_users``, ``n_pedestrians``,
-    ``separation_penalty``, ``association`` (which radio association ran), and the agent's own
-    ``users_served`` and ``throughput_per_user_mbps``.
+    ``separation_penalty``, and the agent's own ``users_served`` and ``throughput_per_user_mbps``
+    (numbers only, so that RL libraries can stack them; ``env.coverage.model`` names the association).
 
     **Association.** ``radio.station_limit`` chooses it (:mod:`uav_swarm.world.comms`): ``None``, the
     paper's model, joins every user in range to its strongest UAV at every step; a limit (an integer, or
@@ -376,7 +376,6 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
             "covered_users": int(np.count_nonzero(cov.covered)),
             "n_pedestrians": int(cov.covered.shape[0]),
             "separation_penalty": self._separation,
-            "association": cov.model,
         }
         served = cov.users_per_uav.tolist()
         capacity = self.radio.capacity_mbps

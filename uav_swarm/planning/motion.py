@@ -9,7 +9,10 @@ works and changes only what a change pays for:
    ``lead_s`` (aimed where they will be when the UAV gets there): a UAV walks with its group.
 2. **Keep or release.** A followed UAV is kept while, on the crowd predicted ``lead_s`` ahead, its
    users still satisfy the strategy's rule (more than ``min_users``; at most ``max_users`` for
-   strategy 2). Released UAVs, and UAVs without users, are free.
+   strategy 2). Under admission control (``rules.admission_control``) a UAV's users are those the radio
+   admits (:func:`uav_swarm.missions.wifi.capacitated.admitted_users`): it keeps and follows them, and
+   the cap needs no margin since a full UAV refuses newcomers. Released UAVs, and UAVs without users,
+   are free.
 3. **Options.** *Hybrid*: the kept UAVs follow; the base planner's proposals that no kept UAV
    already covers (none within the coverage radius) go to the free UAVs. *Fresh*: every UAV goes to
    a proposal. Proposals are aimed at where their users will be when the UAV arrives. Both are
@@ -37,6 +40,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.spatial import cKDTree
 
 from typed_config import Config, param
+from uav_swarm.missions.wifi.capacitated import admitted_users
 from uav_swarm.missions.wifi.rules import CoverageRules, assign_users
 from uav_swarm.planning.assignment import separate_spares
 from uav_swarm.planning.horizon import horizon_qos, travelled_m
@@ -147,15 +151,30 @@ class MotionPlanning:
         index = np.flatnonzero(following)
         if len(index) == 0:
             return healthy
-        state = assign_users(predicted, targets[index], self.rules.radius_m)
-        justified = state.exclusive_counts if self.rules.exclusive else state.counts
+        _, justified = self._association(predicted, targets[index])
         healthy[index] = (justified >= self.rules.min_users) & (self._loads(predicted, targets[index])
                                                                  <= self.rules.cap)
         return healthy
 
+    def _association(self, users: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(association (N,), justified (k,))``: who each target serves and the count its rule reads.
+
+        Under admission control the association is the radio's (a full UAV refuses, the refused join
+        their next UAV in range) and a UAV is justified by the users it admits; otherwise users join
+        their nearest target and the strategy's count applies (exclusive users for strategy 1).
+        """
+        if self.rules.admission_control:
+            association = admitted_users(users, targets, self.rules)
+            return association, np.bincount(association[association >= 0], minlength=len(targets))
+        state = assign_users(users, targets, self.rules.radius_m)
+        return state.association, state.exclusive_counts if self.rules.exclusive else state.counts
+
     def _loads(self, predicted: np.ndarray, targets: np.ndarray) -> np.ndarray:
-        """``(k,)`` users each target would serve with its reach widened by ``range_margin_m``."""
-        if self.rules.max_users is None:
+        """``(k,)`` users each target would serve with its reach widened by ``range_margin_m``.
+
+        Zero under admission control: a full UAV refuses newcomers, so no load breaks the rule.
+        """
+        if self.rules.max_users is None or self.rules.admission_control:
             return np.zeros(len(targets), np.int64)
         return assign_users(predicted, targets, self.rules.radius_m + self.config.range_margin_m).counts
 
@@ -172,7 +191,7 @@ class MotionPlanning:
         velocity = np.zeros_like(targets)
         if len(targets) == 0 or len(peds) == 0:
             return velocity
-        owner = assign_users(peds, targets, self.rules.radius_m).association
+        owner, _ = self._association(peds, targets)
         served = owner >= 0
         counts = np.maximum(np.bincount(owner[served], minlength=len(targets)), 1)
         for axis in (0, 1):
@@ -206,8 +225,7 @@ class MotionPlanning:
 
     def _valid(self, predicted: np.ndarray, targets: np.ndarray) -> bool:
         """Whether every UAV at ``targets`` satisfies the rule on the predicted crowd."""
-        state = assign_users(predicted, targets, self.rules.radius_m)
-        justified = state.exclusive_counts if self.rules.exclusive else state.counts
+        _, justified = self._association(predicted, targets)
         return bool(np.all(justified >= self.rules.min_users)
                     and np.all(self._loads(predicted, targets) <= self.rules.cap))
 
@@ -262,9 +280,9 @@ class MotionPlanning:
     def _remember(self, peds: np.ndarray, vels: np.ndarray, targets: np.ndarray) -> None:
         """Each UAV's users at its new target (on the crowd ``lead_s`` ahead) and its offset from them."""
         predicted = peds + vels * self.config.lead_s
-        state = assign_users(predicted, targets, self.rules.radius_m)
+        association, _ = self._association(predicted, targets)
         for j in range(self.n_uavs):
-            users = np.flatnonzero(state.association == j)
+            users = np.flatnonzero(association == j)
             self._users[j] = users
             self._offsets[j] = (targets[j] - predicted[users].mean(axis=0)) if len(users) else 0.0
         self._n_pedestrians = len(peds)
