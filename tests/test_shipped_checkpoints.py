@@ -13,7 +13,7 @@ from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from uav_swarm.missions.registry import build_task
 
 SHIPPED = ("wifi-s1", "wifi-s2", "wifi-s2-groups", "wifi-s2-ac", "agp", "fp")
-"""Shipped files; ``wifi-s2-*`` are strategy-2 networks of other experts (the group expert; admission control)."""
+"""Shipped files; ``wifi-s2-*`` are strategy 2 with other experts (group expert; admission control)."""
 N_SCENES = 12
 
 
