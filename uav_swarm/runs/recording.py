@@ -125,15 +125,18 @@ class RunRecorder:
         scene: The run's area and coverage radius.
         contexts: One SDK context per sink group: the file's and/or the live view's.
         live: The live view's context (one of ``contexts``), or None.
-        speed: Keep the run at this many run seconds per wall-clock second (each step waits for the
-            clock, never for a client); None: no pace.
+        view: The live view's settings: its pace (each step waits for the clock, never for a client)
+            and its rate of steps.
     """
 
     def __init__(self, scene: SceneInfo, contexts: Sequence[foxglove.Context],
-                 live: foxglove.Context | None = None, speed: float | None = None) -> None:
+                 live: foxglove.Context | None = None, view: LiveView | None = None) -> None:
         self.scene = scene
-        self._speed = speed
+        self._speed = None if view is None else view.speed
         self._start_wall_s: float | None = None
+        self._stream_period_s = 1.0 / view.max_rate_hz if view is not None and view.max_rate_hz else 0.0
+        self._next_stream_s = 0.0
+        self._streaming = True  # whether what is logged now goes to the live view too
         self._contexts = list(contexts)
         self._live = None if live is None else self._contexts.index(live)
         self._channels: dict[str, list[Any]] = {}
@@ -156,13 +159,18 @@ class RunRecorder:
         if time_s < 0:
             raise ValueError(f"{topic}: time_s = {time_s} is negative: run times start at 0")
         self._now_s = max(self._now_s, time_s)
-        channels = [channel for channel in self._channel_list(topic, make) if channel.has_sinks()]
-        if not channels:  # only a live view, and no client subscribes to the topic
+        channels = self._takers(topic, make)
+        if not channels:  # only a live view, and no client subscribes to the topic (or not this step)
             return
         message, ns = build(), round(time_s * 1e9)
         for channel in channels:
             channel.log(message, log_time=ns)
         self.counts[topic] += 1
+
+    def _takers(self, topic: str, make: Callable[[str, foxglove.Context], Any]) -> list[Any]:
+        """The channels of ``topic`` that take a message now: a sink takes it, the live view if streaming."""
+        return [channel for i, channel in enumerate(self._channel_list(topic, make))
+                if (self._streaming or i != self._live) and channel.has_sinks()]
 
     def _log_json(self, topic: str, schema: str, time_s: float, payload: Any) -> None:
         """Log a telemetry payload (``Plan``, ``Qos``, ``UavState``) as the JSON that Zenoh carries."""
@@ -228,6 +236,24 @@ class RunRecorder:
             covered: ``(N,)`` True for a user a UAV serves.
         """
         self._keep_pace(time_s)
+        self._streaming = self._stream_due()
+        try:
+            self._log_step(time_s, states, qos, pedestrians_m, covered)
+        finally:
+            self._streaming = True
+
+    def _stream_due(self) -> bool:
+        """Whether this step goes to the live view (at most ``max_rate_hz`` steps per wall-clock second)."""
+        if self._live is None or not self._stream_period_s:
+            return True
+        now_s = time.monotonic()
+        if now_s < self._next_stream_s:
+            return False
+        self._next_stream_s = now_s + self._stream_period_s
+        return True
+
+    def _log_step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
+                  covered: np.ndarray) -> None:
         placed: dict[int, tuple[fox.Vec3, fox.Vec3 | None]] = {}  # position and target of each UAV with a fix
         fixes: dict[int, tuple[float, float, float]] = {}  # WGS84 position of each, when known
         for state in states:
@@ -239,7 +265,7 @@ class RunRecorder:
                 fixes[state.uav_id] = (state.position_wgs84.lat_deg, state.position_wgs84.lon_deg,
                                        state.position_wgs84.alt_m)
         wanted = {i: position for i, (position, _) in placed.items()
-                  if any(c.has_sinks() for c in self._channel_list(f"/uav/{i}/location", _LOCATION_CHANNEL))}
+                  if self._takers(f"/uav/{i}/location", _LOCATION_CHANNEL)}
         fixes |= self._fixes_from_home({i: position for i, position in wanted.items() if i not in fixes})
         for uav_id, fix in fixes.items():
             self._log(f"/uav/{uav_id}/location", _LOCATION_CHANNEL, time_s,
@@ -304,8 +330,7 @@ def open_recorder(scene: SceneInfo, *, record: str | Path | None = None, live: L
                 "time": "log times are run time: nanoseconds from the start of the run",
                 "config": json.dumps(config or {}, sort_keys=True)})
         live_context = foxglove.Context() if live is not None else None
-        recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context,
-                               speed=None if live is None else live.speed)
+        recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context, live)
         if live is not None:
             stack.callback(_stop_live, _start_live(live, live_context, recorder, command))  # type: ignore[arg-type]
         yield recorder
