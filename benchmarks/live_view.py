@@ -2,7 +2,8 @@
 
 The learned planner (the shipped checkpoint) flies the default sequence (``SimulateConfig()``: 10 UAVs,
 seed 0, replanning every 10 steps, every step streamed) for ``--duration-s`` simulated seconds,
-``--rounds`` times each way, alternating (so that a changing machine load hits all alike):
+``--rounds`` times each way, after one untimed warm-up run; each round runs every kind once, in an
+order rotated from round to round (so that a changing machine load hits all alike):
 
 - ``plain``: no live view, no recording;
 - ``layout``: ``simulate --live``: the SDK's WebSocket server on 127.0.0.1 (at most 25 steps streamed
@@ -19,7 +20,7 @@ the median wall time of each and its ratio to ``plain``; the ratio of the CPU ti
 process (all its threads, the server's included; not the client's process); what each reading client
 received, and how long the server took to stop.
 
-Usage: python benchmarks/live_view.py [--duration-s 60] [--rounds 3]
+Usage: python benchmarks/live_view.py [--duration-s 60] [--rounds 5]
 """
 
 from __future__ import annotations
@@ -115,7 +116,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--duration-s", type=float, default=60.0, help="simulated seconds per run")
-    parser.add_argument("--rounds", type=int, default=3, help="runs of each kind")
+    parser.add_argument("--rounds", type=int, default=5, help="runs of each kind")
     args = parser.parse_args()
     config = SimulateConfig.from_dict({"duration_s": args.duration_s})
     planner = make_planner("learned", config.n_uavs, config.task, config=config.planning)
@@ -125,12 +126,16 @@ def main() -> None:
     stops: dict[str, list[float]] = {variant: [] for variant in VARIANTS}
     cpu: dict[str, list[float]] = {kind: [] for kind in times}
     received: dict[str, tuple] = {}
-    for _ in range(args.rounds):
-        start_s, cpu_from_s = time.perf_counter(), time.process_time()
-        run = run_sequence(config, planner, "learned")
-        times["plain"].append(time.perf_counter() - start_s)
-        cpu["plain"].append(time.process_time() - cpu_from_s)
-        for kind in stops:
+    run = run_sequence(config, planner, "learned")  # warm-up, not timed
+    kinds = list(times)
+    for round_ in range(args.rounds):
+        for kind in kinds[round_ % len(kinds):] + kinds[:round_ % len(kinds)]:  # each round in another order
+            if kind == "plain":
+                start_s, cpu_from_s = time.perf_counter(), time.process_time()
+                run = run_sequence(config, planner, "learned")
+                times[kind].append(time.perf_counter() - start_s)
+                cpu[kind].append(time.process_time() - cpu_from_s)
+                continue
             run_s, cpu_s, stop_s, received[kind] = _timed_live(config, planner, scene, kind)
             times[kind].append(run_s)
             cpu[kind].append(cpu_s)

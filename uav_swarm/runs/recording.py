@@ -237,6 +237,9 @@ class RunRecorder:
         """
         self._keep_pace(time_s)
         self._streaming = self._stream_due()
+        if not self._streaming and len(self._contexts) == 1:  # a live view only, and not this step
+            self._streaming = True
+            return
         try:
             self._log_step(time_s, states, qos, pedestrians_m, covered)
         finally:
