@@ -23,7 +23,9 @@ The ``uav_swarm.*`` channels carry exactly the JSON that telemetry publishes ove
 schemas are generated from the payload types. The file is written beside its final path and
 renamed when the run ends (:func:`learning.files.atomic_path`): a run that fails leaves no file.
 The live view has its own SDK context, so that a client subscribing to ``/scene`` late gets the
-static scene again at once without a second copy in the file.
+static scene again at once without a second copy in the file. It gets at most
+:attr:`~uav_swarm.runs.live_view.LiveView.max_rate_hz` recorded steps per wall-clock second, and a
+message that no sink takes (no file, no client subscribed to its topic) is not even built.
 
 Examples:
     >>> import tempfile
@@ -183,23 +185,6 @@ class RunRecorder:
         update = fox.static_scene(self.scene.width_m, self.scene.height_m, self._obstacles_m, time_s)
         self._log(_SCENE, _scene_channel, time_s, lambda: update)
 
-    def _fixes_from_home(self, positions_m: dict[int, fox.Vec3]) -> dict[int, tuple[float, float, float]]:
-        """WGS84 positions of local ones around the scene's home (none without a home), in one call."""
-        from bridge.geo import enu_to_geodetic_many
-
-        if self.scene.home is None or not positions_m:
-            return {}
-        geodetic = enu_to_geodetic_many(self.scene.home, np.array(list(positions_m.values())))
-        return {uav_id: (float(lat), float(lon), float(alt))
-                for uav_id, (lat, lon, alt) in zip(positions_m, geodetic, strict=True)}
-
-    def _keep_pace(self, time_s: float) -> None:
-        if self._speed is None:
-            return
-        if self._start_wall_s is None:
-            self._start_wall_s = time.monotonic() - time_s / self._speed
-        time.sleep(max(0.0, self._start_wall_s + time_s / self._speed - time.monotonic()))
-
     def advertise(self) -> None:
         """Create the channels every run has (scene, crowd, frames, plans, QoS) before their first message."""
         for topic, make in _RUN_CHANNELS.items():
@@ -244,6 +229,23 @@ class RunRecorder:
             self._log_step(time_s, states, qos, pedestrians_m, covered)
         finally:
             self._streaming = True
+
+    def _keep_pace(self, time_s: float) -> None:
+        if self._speed is None:
+            return
+        if self._start_wall_s is None:
+            self._start_wall_s = time.monotonic() - time_s / self._speed
+        time.sleep(max(0.0, self._start_wall_s + time_s / self._speed - time.monotonic()))
+
+    def _fixes_from_home(self, positions_m: dict[int, fox.Vec3]) -> dict[int, tuple[float, float, float]]:
+        """WGS84 positions of local ones around the scene's home (none without a home), in one call."""
+        from bridge.geo import enu_to_geodetic_many
+
+        if self.scene.home is None or not positions_m:
+            return {}
+        geodetic = enu_to_geodetic_many(self.scene.home, np.array(list(positions_m.values())))
+        return {uav_id: (float(lat), float(lon), float(alt))
+                for uav_id, (lat, lon, alt) in zip(positions_m, geodetic, strict=True)}
 
     def _stream_due(self) -> bool:
         """Whether this step goes to the live view (at most ``max_rate_hz`` steps per wall-clock second)."""
