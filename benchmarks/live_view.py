@@ -27,20 +27,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
 import os
 import platform
 import socket
 import struct
+import subprocess
+import sys
 import time
-
-import numpy as np
-
-from uav_swarm.planning.planner import make_planner
-from uav_swarm.runs.live_view import LiveView
-from uav_swarm.runs.recording import SceneInfo, open_recorder
-from uav_swarm.runs.simulate import run_sequence
-from uav_swarm.runs.simulate_config import SimulateConfig
+from typing import Any
 
 LAYOUT_TOPICS = ("/scene", "/pedestrians", "/tf", "/qos", "/plan")
 
@@ -50,8 +44,12 @@ VARIANTS = {"layout": ("layout", 25.0), "all": ("all", 25.0), "all-every": ("all
 """Each live variant: what its client does, and the live view's ``max_rate_hz``."""
 
 
-def _client(port: int, kind: str, results: multiprocessing.Queue) -> None:
-    """A Foxglove-protocol client: subscribe (to the layout's topics or all); read all (or nothing)."""
+def _client(port: int, kind: str) -> None:
+    """A Foxglove-protocol client: subscribe (to the layout's topics or all); read all (or nothing).
+
+    It runs in its own process (``--client PORT KIND``, only the standard library and ``websockets``
+    imported) and prints what it received, as JSON, when the server closes the connection.
+    """
     read = kind != "stalled"
     from websockets.exceptions import ConnectionClosed
     from websockets.sync.client import connect
@@ -85,19 +83,21 @@ def _client(port: int, kind: str, results: multiprocessing.Queue) -> None:
             assert struct.unpack_from("<B", frame)[0] == 1
             messages, size = messages + 1, size + len(frame)
     except ConnectionClosed:
-        results.put((messages, size))
+        print(json.dumps([messages, size]), flush=True)
 
 
-def _timed_live(config: SimulateConfig, planner, scene: SceneInfo,
-                variant: str) -> tuple[float, float, float, tuple]:
+def _timed_live(config: Any, planner: Any, scene: Any, variant: str) -> tuple[float, float, float, tuple]:
     """Wall and CPU time of the run, the server's stop time, and (received, bytes received, logged)."""
+    from uav_swarm.runs.live_view import LiveView
+    from uav_swarm.runs.recording import open_recorder
+    from uav_swarm.runs.simulate import run_sequence
+
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
-    results: multiprocessing.Queue = multiprocessing.Queue()
     kind, max_rate_hz = VARIANTS[variant]
-    client = multiprocessing.Process(target=_client, args=(port, kind, results), daemon=True)
-    client.start()
+    client = subprocess.Popen([sys.executable, __file__, "--client", str(port), kind], stdout=subprocess.PIPE,
+                              text=True)
     live = LiveView("127.0.0.1", port, wait_for_client_s=120.0, max_rate_hz=max_rate_hz)
     with open_recorder(scene, live=live, command="benchmark") as recorder:
         start_s, cpu_from_s = time.perf_counter(), time.process_time()
@@ -105,9 +105,9 @@ def _timed_live(config: SimulateConfig, planner, scene: SceneInfo,
         run_s, cpu_s = time.perf_counter() - start_s, time.process_time() - cpu_from_s
         stop_from_s = time.perf_counter()
     stop_s = time.perf_counter() - stop_from_s
-    received = results.get(timeout=120) if kind != "stalled" else (0, 0)
-    client.kill()
-    client.join()
+    if kind == "stalled":
+        client.kill()
+    received = json.loads(client.communicate(timeout=120)[0] or "[0, 0]")
     return run_s, cpu_s, stop_s, (*received, sum(recorder.counts.values()))
 
 
@@ -117,7 +117,18 @@ def main() -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--duration-s", type=float, default=60.0, help="simulated seconds per run")
     parser.add_argument("--rounds", type=int, default=5, help="runs of each kind")
+    parser.add_argument("--client", nargs=2, metavar=("PORT", "KIND"), help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.client:
+        _client(int(args.client[0]), args.client[1])
+        return
+    import numpy as np
+
+    from uav_swarm.planning.planner import make_planner
+    from uav_swarm.runs.recording import SceneInfo
+    from uav_swarm.runs.simulate import run_sequence
+    from uav_swarm.runs.simulate_config import SimulateConfig
+
     config = SimulateConfig.from_dict({"duration_s": args.duration_s})
     planner = make_planner("learned", config.n_uavs, config.task, config=config.planning)
     scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
