@@ -66,7 +66,7 @@ from foxglove.channels import (
 )
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
-from bridge.telemetry_schema import Plan, Qos, UavState, encode_payload
+from bridge.telemetry_schema import GeoPoint, Plan, Qos, UavState, encode_payload
 from learning.files import atomic_path
 from typed_config import ConfigError
 from uav_swarm.runs import foxglove_scene as fox
@@ -238,7 +238,10 @@ class RunRecorder:
         time.sleep(max(0.0, self._start_wall_s + time_s / self._speed - time.monotonic()))
 
     def _fixes_from_home(self, positions_m: dict[int, fox.Vec3]) -> dict[int, tuple[float, float, float]]:
-        """WGS84 positions of local ones around the scene's home (none without a home), in one call."""
+        """WGS84 positions of local ones around the scene's home (none without a home), in one call.
+
+        The same numbers as :func:`bridge.geo.enu_to_geodetic`, which the telemetry publisher uses.
+        """
         from bridge.geo import enu_to_geodetic_many
 
         if self.scene.home is None or not positions_m:
@@ -259,22 +262,24 @@ class RunRecorder:
 
     def _log_step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
                   covered: np.ndarray) -> None:
+        # a state without its WGS84 position gets it from the home, as the telemetry publisher sends it
+        located = self._fixes_from_home({
+            s.uav_id: s.position_enu_m for s in states
+            if s.position_enu_m is not None and s.position_wgs84 is None
+            and (self._takers(f"/uav/{s.uav_id}/state", _STATE_CHANNEL)
+                 or self._takers(f"/uav/{s.uav_id}/location", _LOCATION_CHANNEL))})
         placed: dict[int, tuple[fox.Vec3, fox.Vec3 | None]] = {}  # position and target of each UAV with a fix
-        fixes: dict[int, tuple[float, float, float]] = {}  # WGS84 position of each, when known
         for state in states:
+            if state.uav_id in located:
+                state = msgspec.structs.replace(state, position_wgs84=GeoPoint(*located[state.uav_id]))
             self._log_json(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, state)
             if state.position_enu_m is None:  # no position fix: its state says so, nothing to draw
                 continue
             placed[state.uav_id] = (state.position_enu_m, state.target_enu_m)
-            if state.position_wgs84 is not None:
-                fixes[state.uav_id] = (state.position_wgs84.lat_deg, state.position_wgs84.lon_deg,
-                                       state.position_wgs84.alt_m)
-        wanted = {i: position for i, (position, _) in placed.items()
-                  if self._takers(f"/uav/{i}/location", _LOCATION_CHANNEL)}
-        fixes |= self._fixes_from_home({i: position for i, position in wanted.items() if i not in fixes})
-        for uav_id, fix in fixes.items():
-            self._log(f"/uav/{uav_id}/location", _LOCATION_CHANNEL, time_s,
-                      lambda uav_id=uav_id, fix=fix: fox.location_fix(time_s, uav_id, *fix))
+            fix = state.position_wgs84
+            if fix is not None:
+                self._log(f"/uav/{state.uav_id}/location", _LOCATION_CHANNEL, time_s, lambda i=state.uav_id,
+                          f=fix: fox.location_fix(time_s, i, f.lat_deg, f.lon_deg, f.alt_m))
         self._log("/tf", _RUN_CHANNELS["/tf"], time_s,
                   lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
         self._log(_SCENE, _scene_channel, time_s,
@@ -291,6 +296,7 @@ def _typed(kind: Callable[..., Any]) -> Callable[[str, foxglove.Context], Any]:
 _scene_channel = _typed(SceneUpdateChannel)
 _LOCATION_CHANNEL = _typed(LocationFixChannel)
 _JSON_CHANNELS = {name: _json_channel(name) for name in _PAYLOADS}
+_STATE_CHANNEL = _JSON_CHANNELS["uav_swarm.UavState"]
 _RUN_CHANNELS: dict[str, Callable[[str, foxglove.Context], Any]] = {
     _SCENE: _scene_channel, "/pedestrians": _typed(PointCloudChannel), "/tf": _typed(FrameTransformsChannel),
     "/plan": _JSON_CHANNELS["uav_swarm.Plan"], "/plan/targets": _typed(PosesInFrameChannel),
