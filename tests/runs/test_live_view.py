@@ -122,13 +122,13 @@ def test_simulate_streams_the_scene_the_crowd_and_the_qos_to_a_live_client(tmp_p
     recorded = read_back(path)["topics"]
     assert len(recorded["/qos"]["messages"]) == 30
     for topic in ("/scene", "/pedestrians", "/qos"):
-        # the run logs fewer messages than the server's backlog holds, so none is dropped while it runs;
-        # what was still queued when the server stopped is not sent: the client gets the run's start, as
-        # recorded, up to there
+        # the live view streams at most 25 steps per wall-clock second (the file keeps every one), and
+        # what is still queued when the server stops is not sent: the client gets recorded messages,
+        # in order, each equal to the file's at its log time
+        in_file = dict(zip(recorded[topic]["log_ns"], recorded[topic]["messages"], strict=True))
         live = by_topic[topic]
-        assert 0 < len(live) <= len(recorded[topic]["messages"]), topic
-        assert [ns for ns, _ in live] == recorded[topic]["log_ns"][:len(live)], topic
-        assert [m for _, m in live] == recorded[topic]["messages"][:len(live)], topic
+        assert live and [ns for ns, _ in live] == sorted({ns for ns, _ in live}), topic
+        assert all(in_file[ns] == message for ns, message in live), topic
     first = {e["id"] for e in by_topic["/scene"][0][1]["entities"]}
     assert first == {"area", "obstacles"}
     assert all(conform(m, "foxglove.PointCloud") == [] for _, m in by_topic["/pedestrians"])
@@ -201,7 +201,7 @@ def test_a_stalled_client_never_blocks_a_step_the_server_drops_its_oldest(caplog
     # kernel), the client library's queue of 16 frames, the server's backlog and its socket's buffer
     held = 2 * 4096 + (16 + LIVE_BACKLOG_MESSAGES) * cloud_bytes + _tcp_send_buffer_max()
     assert steps * cloud_bytes > 2 * held
-    with open_recorder(scene, live=LiveView("127.0.0.1", port)) as recorder:
+    with open_recorder(scene, live=LiveView("127.0.0.1", port, max_rate_hz=None)) as recorder:  # every step
         client = LiveClient(port, receive_buffer_bytes=4096)
         client.wait_for(["/pedestrians"])
         client.subscribe(["/pedestrians"])
@@ -235,3 +235,27 @@ def test_fly_refuses_a_bad_live_address_before_anything_is_sent(tmp_path, capsys
     assert main(argv) == 2
     assert "uav-swarm fly: live = 'localhost:http': give PORT or HOST:PORT" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_live_view_streams_at_most_its_rate_and_the_file_keeps_every_step(tmp_path):
+    import time
+
+    port, path, steps = free_tcp_port(), tmp_path / "run.mcap", 200
+    scene = SceneInfo(width_m=100.0, height_m=80.0, coverage_radius_m=30.0)
+    qos = Qos(stamp_s=0.0, seq=0, source="sim", qos_s1=0.5, qos_s2=0.4, mean_throughput_mbps=2.0, n_users=1)
+    with open_recorder(scene, record=path, live=LiveView("127.0.0.1", port, max_rate_hz=25.0)) as recorder:
+        recorder.static_scene(OBSTACLES)
+        client = LiveClient(port)
+        client.wait_for(["/qos", "/scene"])
+        client.subscribe(["/qos"])
+        client.subscribe(["/scene"])
+        assert client.next_message()[0] == "/scene"  # re-sent on subscribing: /qos is subscribed by then
+        start_s = time.monotonic()
+        for step in range(1, steps + 1):
+            recorder.step(0.1 * step, [], qos, np.zeros((1, 2)), np.zeros(1, bool))
+        elapsed_s = time.monotonic() - start_s
+        last = recorder.counts["/qos"]
+    received = [ns for topic, ns, _ in client.messages(timeout_s=60) if topic == "/qos"]
+    client.close()
+    assert last == steps == len(read_back(path)["topics"]["/qos"]["messages"])
+    assert len(received) <= 2 + elapsed_s * 25.0  # one step per 40 ms at most (and the first)

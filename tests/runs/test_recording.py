@@ -191,6 +191,42 @@ def test_the_command_records_with_record(tmp_path, capsys):
     assert len(topics["/qos"]["messages"]) == 10 and len(topics["/uav/1/state"]["messages"]) == 10
 
 
+def test_the_telemetry_channels_carry_what_zenoh_carries(tmp_path):
+    """A run that publishes over Zenoh (loopback) and records: each state, plan and QoS equal in both."""
+    import time
+
+    import msgspec
+    from ports import free_tcp_port
+
+    from bridge.telemetry import SwarmSubscriber
+    from bridge.telemetry.config import TelemetryConfig
+    from bridge.telemetry.schema import Payload
+
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    config = SimulateConfig.from_dict({
+        "duration_s": 2.0, "n_uavs": 2, "planner": "expert", "compare_expert": False, "gif": False,
+        "publish_telemetry": True, "wait_for_subscriber_s": 60.0, "task": SMALL_WIFI_TASK,
+        "telemetry": {"swarm": "rectest", "listen": [endpoint], "multicast_scouting": False}})
+    received: list = []
+    watch = TelemetryConfig(swarm="rectest", listen=(), connect=(endpoint,), multicast_scouting=False)
+    path = tmp_path / "run.mcap"
+    with SwarmSubscriber(watch, callback=received.append, presence=False):
+        simulate(config, tmp_path / "out", progress=False, record=path)
+        deadline = time.monotonic() + 30.0  # the last QoS is on its way
+        while time.monotonic() < deadline and not any(isinstance(m, Qos) and m.seq == 19 for m in received):
+            time.sleep(0.05)
+    recorded = {}
+    for t in read_back(path)["topics"].values():
+        if t["schema"].startswith("uav_swarm."):
+            for message in t["messages"]:
+                payload = msgspec.convert(message, Payload)
+                recorded[(type(payload).__name__, getattr(payload, "uav_id", None), payload.seq)] = payload
+    assert received and all(
+        recorded[(type(m).__name__, getattr(m, "uav_id", None), m.seq)] == m for m in received)
+    states = [m for m in received if isinstance(m, UavState)]
+    assert states and all(m.position_wgs84 is not None for m in states)  # filled from the home, in both
+
+
 @pytest.mark.parametrize("module", [recording, foxglove_scene, live_view], ids=lambda m: m.__name__)
 def test_module_doctests(module):
     assert doctest.testmod(module).failed == 0

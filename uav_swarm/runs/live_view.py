@@ -8,9 +8,9 @@ message again, and tells whoever waits for a first viewer; it never raises into 
 
 Examples:
     >>> parse_live_view("8765")
-    LiveView(host='127.0.0.1', port=8765, wait_for_client_s=0.0, speed=None)
-    >>> parse_live_view("[::1]:9000", wait_for_client_s=30, speed=1)
-    LiveView(host='::1', port=9000, wait_for_client_s=30.0, speed=1.0)
+    LiveView(host='127.0.0.1', port=8765, wait_for_client_s=0.0, speed=None, max_rate_hz=25.0)
+    >>> parse_live_view("[::1]:9000", wait_for_client_s=30, speed=1).speed
+    1.0
     >>> parse_live_view("0.0.0.0:99999")
     Traceback (most recent call last):
     ...
@@ -52,12 +52,16 @@ class LiveView:
             subscribe to the scene (0: it starts at once). Once it runs, it never waits on a client.
         speed: Run seconds per wall-clock second while streaming (``simulate``: 1 is the crowd's own pace,
             to watch); None: as fast as the run computes.
+        max_rate_hz: Recorded steps streamed per wall-clock second at most; the others are skipped for
+            the live view only (the file keeps every one). An unpaced ``simulate`` records hundreds of
+            steps a second, more than a viewer draws. None: stream every step.
     """
 
     host: str
     port: int
     wait_for_client_s: float = 0.0
     speed: float | None = None
+    max_rate_hz: float | None = 25.0
 
     @property
     def is_loopback(self) -> bool:

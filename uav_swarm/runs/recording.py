@@ -23,7 +23,9 @@ The ``uav_swarm.*`` channels carry exactly the JSON that telemetry publishes ove
 schemas are generated from the payload types. The file is written beside its final path and
 renamed when the run ends (:func:`learning.files.atomic_path`): a run that fails leaves no file.
 The live view has its own SDK context, so that a client subscribing to ``/scene`` late gets the
-static scene again at once without a second copy in the file.
+static scene again at once without a second copy in the file. It gets at most
+:attr:`~uav_swarm.runs.live_view.LiveView.max_rate_hz` recorded steps per wall-clock second, and a
+message that no sink takes (no file, no client subscribed to its topic) is not even built.
 
 Examples:
     >>> import tempfile
@@ -64,7 +66,7 @@ from foxglove.channels import (
 )
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
-from bridge.telemetry.schema import Plan, Qos, UavState, encode_payload
+from bridge.telemetry.schema import GeoPoint, Plan, Qos, UavState, encode_payload
 from learning.files import atomic_path
 from typed_config import ConfigError
 from uav_swarm.runs import foxglove_scene as fox
@@ -125,15 +127,18 @@ class RunRecorder:
         scene: The run's area and coverage radius.
         contexts: One SDK context per sink group: the file's and/or the live view's.
         live: The live view's context (one of ``contexts``), or None.
-        speed: Keep the run at this many run seconds per wall-clock second (each step waits for the
-            clock, never for a client); None: no pace.
+        view: The live view's settings: its pace (each step waits for the clock, never for a client)
+            and its rate of steps.
     """
 
     def __init__(self, scene: SceneInfo, contexts: Sequence[foxglove.Context],
-                 live: foxglove.Context | None = None, speed: float | None = None) -> None:
+                 live: foxglove.Context | None = None, view: LiveView | None = None) -> None:
         self.scene = scene
-        self._speed = speed
+        self._speed = None if view is None else view.speed
         self._start_wall_s: float | None = None
+        self._stream_period_s = 1.0 / view.max_rate_hz if view is not None and view.max_rate_hz else 0.0
+        self._next_stream_s = 0.0
+        self._streaming = True  # whether what is logged now goes to the live view too
         self._contexts = list(contexts)
         self._live = None if live is None else self._contexts.index(live)
         self._channels: dict[str, list[Any]] = {}
@@ -156,13 +161,18 @@ class RunRecorder:
         if time_s < 0:
             raise ValueError(f"{topic}: time_s = {time_s} is negative: run times start at 0")
         self._now_s = max(self._now_s, time_s)
-        channels = [channel for channel in self._channel_list(topic, make) if channel.has_sinks()]
-        if not channels:  # only a live view, and no client subscribes to the topic
+        channels = self._takers(topic, make)
+        if not channels:  # only a live view, and no client subscribes to the topic (or not this step)
             return
         message, ns = build(), round(time_s * 1e9)
         for channel in channels:
             channel.log(message, log_time=ns)
         self.counts[topic] += 1
+
+    def _takers(self, topic: str, make: Callable[[str, foxglove.Context], Any]) -> list[Any]:
+        """The channels of ``topic`` that take a message now: a sink takes it, the live view if streaming."""
+        return [channel for i, channel in enumerate(self._channel_list(topic, make))
+                if (self._streaming or i != self._live) and channel.has_sinks()]
 
     def _log_json(self, topic: str, schema: str, time_s: float, payload: Any) -> None:
         """Log a telemetry payload (``Plan``, ``Qos``, ``UavState``) as the JSON that Zenoh carries."""
@@ -174,23 +184,6 @@ class RunRecorder:
         self._obstacles_m = np.asarray(obstacles_m, np.float64).reshape(-1, 4).copy()
         update = fox.static_scene(self.scene.width_m, self.scene.height_m, self._obstacles_m, time_s)
         self._log(_SCENE, _scene_channel, time_s, lambda: update)
-
-    def _fixes_from_home(self, positions_m: dict[int, fox.Vec3]) -> dict[int, tuple[float, float, float]]:
-        """WGS84 positions of local ones around the scene's home (none without a home), in one call."""
-        from bridge.geo import enu_to_geodetic_many
-
-        if self.scene.home is None or not positions_m:
-            return {}
-        geodetic = enu_to_geodetic_many(self.scene.home, np.array(list(positions_m.values())))
-        return {uav_id: (float(lat), float(lon), float(alt))
-                for uav_id, (lat, lon, alt) in zip(positions_m, geodetic, strict=True)}
-
-    def _keep_pace(self, time_s: float) -> None:
-        if self._speed is None:
-            return
-        if self._start_wall_s is None:
-            self._start_wall_s = time.monotonic() - time_s / self._speed
-        time.sleep(max(0.0, self._start_wall_s + time_s / self._speed - time.monotonic()))
 
     def advertise(self) -> None:
         """Create the channels every run has (scene, crowd, frames, plans, QoS) before their first message."""
@@ -228,22 +221,65 @@ class RunRecorder:
             covered: ``(N,)`` True for a user a UAV serves.
         """
         self._keep_pace(time_s)
+        self._streaming = self._stream_due()
+        if not self._streaming and len(self._contexts) == 1:  # a live view only, and not this step
+            self._streaming = True
+            return
+        try:
+            self._log_step(time_s, states, qos, pedestrians_m, covered)
+        finally:
+            self._streaming = True
+
+    def _keep_pace(self, time_s: float) -> None:
+        if self._speed is None:
+            return
+        if self._start_wall_s is None:
+            self._start_wall_s = time.monotonic() - time_s / self._speed
+        time.sleep(max(0.0, self._start_wall_s + time_s / self._speed - time.monotonic()))
+
+    def _fixes_from_home(self, positions_m: dict[int, fox.Vec3]) -> dict[int, tuple[float, float, float]]:
+        """WGS84 positions of local ones around the scene's home (none without a home), in one call.
+
+        The same numbers as :func:`bridge.geo.enu_to_geodetic`, which the telemetry publisher uses.
+        """
+        from bridge.geo import enu_to_geodetic_many
+
+        if self.scene.home is None or not positions_m:
+            return {}
+        geodetic = enu_to_geodetic_many(self.scene.home, np.array(list(positions_m.values())))
+        return {uav_id: (float(lat), float(lon), float(alt))
+                for uav_id, (lat, lon, alt) in zip(positions_m, geodetic, strict=True)}
+
+    def _stream_due(self) -> bool:
+        """Whether this step goes to the live view (at most ``max_rate_hz`` steps per wall-clock second)."""
+        if self._live is None or not self._stream_period_s:
+            return True
+        now_s = time.monotonic()
+        if now_s < self._next_stream_s:
+            return False
+        self._next_stream_s = now_s + self._stream_period_s
+        return True
+
+    def _log_step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
+                  covered: np.ndarray) -> None:
+        # a state without its WGS84 position gets it from the home, as the telemetry publisher sends it
+        located = self._fixes_from_home({
+            s.uav_id: s.position_enu_m for s in states
+            if s.position_enu_m is not None and s.position_wgs84 is None
+            and (self._takers(f"/uav/{s.uav_id}/state", _STATE_CHANNEL)
+                 or self._takers(f"/uav/{s.uav_id}/location", _LOCATION_CHANNEL))})
         placed: dict[int, tuple[fox.Vec3, fox.Vec3 | None]] = {}  # position and target of each UAV with a fix
-        fixes: dict[int, tuple[float, float, float]] = {}  # WGS84 position of each, when known
         for state in states:
+            if state.uav_id in located:
+                state = msgspec.structs.replace(state, position_wgs84=GeoPoint(*located[state.uav_id]))
             self._log_json(f"/uav/{state.uav_id}/state", "uav_swarm.UavState", time_s, state)
             if state.position_enu_m is None:  # no position fix: its state says so, nothing to draw
                 continue
             placed[state.uav_id] = (state.position_enu_m, state.target_enu_m)
-            if state.position_wgs84 is not None:
-                fixes[state.uav_id] = (state.position_wgs84.lat_deg, state.position_wgs84.lon_deg,
-                                       state.position_wgs84.alt_m)
-        wanted = {i: position for i, (position, _) in placed.items()
-                  if any(c.has_sinks() for c in self._channel_list(f"/uav/{i}/location", _LOCATION_CHANNEL))}
-        fixes |= self._fixes_from_home({i: position for i, position in wanted.items() if i not in fixes})
-        for uav_id, fix in fixes.items():
-            self._log(f"/uav/{uav_id}/location", _LOCATION_CHANNEL, time_s,
-                      lambda uav_id=uav_id, fix=fix: fox.location_fix(time_s, uav_id, *fix))
+            fix = state.position_wgs84
+            if fix is not None:
+                self._log(f"/uav/{state.uav_id}/location", _LOCATION_CHANNEL, time_s, lambda i=state.uav_id,
+                          f=fix: fox.location_fix(time_s, i, f.lat_deg, f.lon_deg, f.alt_m))
         self._log("/tf", _RUN_CHANNELS["/tf"], time_s,
                   lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
         self._log(_SCENE, _scene_channel, time_s,
@@ -260,6 +296,7 @@ def _typed(kind: Callable[..., Any]) -> Callable[[str, foxglove.Context], Any]:
 _scene_channel = _typed(SceneUpdateChannel)
 _LOCATION_CHANNEL = _typed(LocationFixChannel)
 _JSON_CHANNELS = {name: _json_channel(name) for name in _PAYLOADS}
+_STATE_CHANNEL = _JSON_CHANNELS["uav_swarm.UavState"]
 _RUN_CHANNELS: dict[str, Callable[[str, foxglove.Context], Any]] = {
     _SCENE: _scene_channel, "/pedestrians": _typed(PointCloudChannel), "/tf": _typed(FrameTransformsChannel),
     "/plan": _JSON_CHANNELS["uav_swarm.Plan"], "/plan/targets": _typed(PosesInFrameChannel),
@@ -304,8 +341,7 @@ def open_recorder(scene: SceneInfo, *, record: str | Path | None = None, live: L
                 "time": "log times are run time: nanoseconds from the start of the run",
                 "config": json.dumps(config or {}, sort_keys=True)})
         live_context = foxglove.Context() if live is not None else None
-        recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context,
-                               speed=None if live is None else live.speed)
+        recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context, live)
         if live is not None:
             stack.callback(_stop_live, _start_live(live, live_context, recorder, command))  # type: ignore[arg-type]
         yield recorder
