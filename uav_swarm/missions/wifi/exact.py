@@ -71,6 +71,20 @@ def _pairs(users_m: np.ndarray, candidates_m: np.ndarray, radius_m: float) -> tu
     return u[keep], c[keep], d2[keep]
 
 
+def _useful_pairs(users_m: np.ndarray, candidates_m: np.ndarray, rules: CoverageRules
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(user, candidate, squared distance, candidates)`` pairs of the candidates within reach of
+    ``min_users`` users (the others can never be opened), candidates re-indexed.
+    """
+    candidates_m = np.asarray(candidates_m, np.float64).reshape(-1, 2)
+    u, c, d2 = _pairs(users_m, candidates_m, rules.radius_m) if len(users_m) and len(candidates_m) else (
+        np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+    useful = np.bincount(c, minlength=len(candidates_m)) >= rules.min_users
+    keep = useful[c]
+    index = np.cumsum(useful) - 1
+    return u[keep], index[c[keep]], d2[keep], candidates_m[useful]
+
+
 def exact_placement(
     users_m: np.ndarray,
     rules: CoverageRules,
@@ -93,16 +107,9 @@ def exact_placement(
     """
     start = time.perf_counter()
     users_m = np.asarray(users_m, np.float64).reshape(-1, 2)
-    candidates_m = np.asarray(candidates_m, np.float64).reshape(-1, 2)
-    u, c, d2 = _pairs(users_m, candidates_m, rules.radius_m) if len(users_m) and len(candidates_m) else (
-        np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
-    useful = np.bincount(c, minlength=len(candidates_m)) >= rules.min_users
-    keep = useful[c]
-    if not keep.any() or rules.max_uavs == 0:
+    u, c, d2, cands = _useful_pairs(users_m, candidates_m, rules)
+    if len(cands) == 0 or rules.max_uavs == 0:
         return ExactPlacement(np.zeros((0, 2)), 0, True, time.perf_counter() - start)
-    index = np.cumsum(useful) - 1
-    u, c, d2 = u[keep], index[c[keep]], d2[keep]
-    cands = candidates_m[useful]
     n_users, m = len(users_m), len(cands)
 
     if rules.exclusive:
@@ -233,16 +240,9 @@ def capacitated_optimum(users_m: np.ndarray, rules: CoverageRules, candidates_m:
         raise ValueError("capacitated_optimum needs rules.max_users (the station limit)")
     start = time.perf_counter()
     users_m = np.asarray(users_m, np.float64).reshape(-1, 2)
-    candidates_m = np.asarray(candidates_m, np.float64).reshape(-1, 2)
-    u, c, _ = _pairs(users_m, candidates_m, rules.radius_m) if len(users_m) and len(candidates_m) else (
-        np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
-    useful = np.bincount(c, minlength=len(candidates_m)) >= rules.min_users
-    keep = useful[c]
-    if not keep.any() or rules.max_uavs == 0:
+    u, c, _, cands = _useful_pairs(users_m, candidates_m, rules)
+    if len(cands) == 0 or rules.max_uavs == 0:
         return ExactPlacement(np.zeros((0, 2)), 0, True, time.perf_counter() - start)
-    index = np.cumsum(useful) - 1
-    u, c = u[keep], index[c[keep]]
-    cands = candidates_m[useful]
     n_users, m, p = len(users_m), len(cands), len(u)
     # Variables: x (p pairs), then y (m candidates).
     cost = np.concatenate([-np.ones(p), np.full(m, 1.0 / (rules.max_uavs + 1))])
