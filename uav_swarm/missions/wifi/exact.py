@@ -73,8 +73,9 @@ def _pairs(users_m: np.ndarray, candidates_m: np.ndarray, radius_m: float) -> tu
 
 def _useful_pairs(users_m: np.ndarray, candidates_m: np.ndarray, rules: CoverageRules
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(user, candidate, squared distance, candidates)`` pairs of the candidates within reach of
-    ``min_users`` users (the others can never be opened), candidates re-indexed.
+    """The pairs of the candidates in reach of ``min_users`` users (the others are never opened).
+
+    Returns ``(user, candidate, squared distance, candidates)``, the candidates re-indexed.
     """
     candidates_m = np.asarray(candidates_m, np.float64).reshape(-1, 2)
     u, c, d2 = _pairs(users_m, candidates_m, rules.radius_m) if len(users_m) and len(candidates_m) else (
