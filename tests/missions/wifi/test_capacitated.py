@@ -74,3 +74,17 @@ def test_against_the_exact_capacitated_optimum_on_a_small_scene():
     radio_judged = int((admitted_users(scene.users_m, optimum.uavs_m, task.rules) >= 0).sum())
     assert admitted >= radio_judged  # the optimum's own positions, under the radio's admission
     assert admitted >= 0.9 * optimum.n_served
+
+
+def test_completing_a_proposal_admits_no_fewer_users_and_keeps_the_rule():
+    from uav_swarm.missions.wifi.capacitated import complete_capacitated
+
+    task = WifiTask(WifiConfig(strategy=2, radio=ADMISSION))
+    scene = task.sample(np.random.default_rng(8))
+    expert = task.expert_placement_m(scene.users_m)
+    rough = expert[: max(1, len(expert) // 2)] + 4.0  # half the UAVs, 4 m off
+    before = evaluate_coverage(scene.users_m, rough, ADMISSION)
+    done = complete_capacitated(scene.users_m, rough, task.rules, 200.0, 200.0)
+    after = evaluate_coverage(scene.users_m, done, ADMISSION)
+    assert after.covered.sum() >= before.covered.sum()
+    assert len(done) >= len(rough) and after.users_per_uav.min() >= 31

@@ -40,7 +40,7 @@ from typed_config import Config, param
 from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid
 from uav_swarm.world.comms import admit_stations
 
-__all__ = ["CapacitatedExpertConfig", "admitted_users", "place_uavs_capacitated"]
+__all__ = ["CapacitatedExpertConfig", "admitted_users", "place_uavs_capacitated", "complete_capacitated"]
 
 
 @dataclass(frozen=True)
@@ -209,4 +209,28 @@ def place_uavs_capacitated(users_m: np.ndarray, rules: CoverageRules, width_m: f
         if key > best_key:
             best, best_key = uavs_m, key
     uavs_m = best
+    return uavs_m[np.lexsort((uavs_m[:, 0], uavs_m[:, 1]))] if len(uavs_m) else np.zeros((0, 2))
+
+
+def complete_capacitated(users_m: np.ndarray, uavs_m: np.ndarray, rules: CoverageRules, width_m: float,
+                         height_m: float, config: CapacitatedExpertConfig | None = None) -> np.ndarray:
+    """A placement completed and centred under admission control, as the expert does from its seeds.
+
+    UAVs are added greedily while one admits ``min_users`` more users (judged by the radio's admission),
+    each UAV is centred on its admitted users when that admits no fewer, and UAVs admitting fewer than
+    ``min_users`` are dropped. It never admits fewer users than ``uavs_m`` justified by the rule.
+
+    Raises:
+        ValueError: ``rules`` have no station limit.
+    """
+    config = config or CapacitatedExpertConfig()
+    if rules.max_users is None or rules.exclusive:
+        raise ValueError("complete_capacitated needs strategy-2 rules with a station limit (max_users)")
+    users_m = np.asarray(users_m, dtype=np.float64).reshape(-1, 2)
+    uavs_m = np.asarray(uavs_m, dtype=np.float64).reshape(-1, 2)[: rules.max_uavs]
+    if len(users_m) < rules.min_users or rules.max_uavs == 0:
+        return np.zeros((0, 2))
+    candidates_m, _ = candidate_grid(width_m, height_m, config.grid_step_m)
+    search = _Search(users_m, rules, candidates_m, config)
+    uavs_m = search.justify(search.centre(search.greedy(search.justify(uavs_m))))
     return uavs_m[np.lexsort((uavs_m[:, 0], uavs_m[:, 1]))] if len(uavs_m) else np.zeros((0, 2))

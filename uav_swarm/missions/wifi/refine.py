@@ -49,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from typed_config import Config, ConfigError, param
+from uav_swarm.missions.wifi.capacitated import complete_capacitated
 from uav_swarm.missions.wifi.expert import CandidatePairs, PlacementSearch
 from uav_swarm.missions.wifi.relocation import adopt_by_relocation, insert_by_relocation, relocate
 from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid
@@ -165,6 +166,8 @@ def refine_placement(
         search.ruin_and_recreate(config.max_moves)
     search.refine(config.centre_passes)
     uavs = search.uavs_m
+    if rules.admission_control:  # judged by the radio's admission: complete and centre as the expert does
+        return complete_capacitated(users, uavs, rules, width_m, height_m)
     return uavs[np.lexsort((uavs[:, 0], uavs[:, 1]))] if len(uavs) else np.zeros((0, 2))
 
 
