@@ -167,7 +167,7 @@ def test_five_arducopters_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
         time.sleep(2.0)  # the TCP ports open
         observers = {i + 1: Observer(_ardupilot_url(i, serial=0), ask=(i + 1,)) for i in range(5)}
         try:
-            _wait_homes(observers, 90.0)
+            _wait_homes(observers, 180.0)
             urls = {i + 1: _ardupilot_url(i) for i in range(5)}
             toml = _bridge_toml(tmp_path / "bridge.toml", CMAC_HOME, urls)
             measured = _fly_and_measure(tmp_path, toml, observers, CMAC_HOME[2])
@@ -184,7 +184,7 @@ def test_arducopter_clear_guard_at_its_take_off_item(tmp_path, capsys):
         time.sleep(2.0)
         observer = Observer(_ardupilot_url(0, serial=0), ask=(1,))
         try:
-            _wait_homes({1: observer}, 90.0)
+            _wait_homes({1: observer}, 180.0)
             toml = str(_bridge_toml(tmp_path / "bridge.toml", CMAC_HOME, {1: _ardupilot_url(0)}))
             assert main(["mission", "upload", "--config", toml, "--target", "1:40,25"]) == 0
             with MavlinkLink(_ardupilot_url(0)) as link:  # armed in GUIDED, then AUTO: its take-off (item 1)
@@ -226,7 +226,7 @@ def test_a_mixed_fleet_of_two_px4_and_two_arducopters_flies_one_fly(tmp_path):
                      3: Observer(_ardupilot_url(2, serial=0), ask=(3,)),
                      4: Observer(_ardupilot_url(3, serial=0), ask=(4,))}
         try:
-            _wait_homes(observers, 90.0)
+            _wait_homes(observers, 180.0)
             urls = {1: _px4_url(0), 2: _px4_url(1), 3: _ardupilot_url(2), 4: _ardupilot_url(3)}
             toml = _bridge_toml(tmp_path / "bridge.toml", PX4_HOME, urls)
             measured = _fly_and_measure(tmp_path, toml, observers, PX4_HOME[2])
