@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
-from fly_measures import altitude_share, final_distance_m, live_rows
+from fly_measures import altitude_share, live_rows, settled_distance_m
 from flying_vehicle import AUTO, GUIDED, RTL, FlyingVehicle
 from lossy_relay import free_udp_port
 from px4_vehicle import LAND, LOITER, MISSION, Px4Vehicle, px4_mode
@@ -150,8 +150,8 @@ def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_ret
     assert statuses == {1: ("ended", 1), 2: ("ended", 2), 3: ("ended", 1)}
     for vehicle in vehicles:
         sid = vehicle.system_id
-        assert altitude_share(rows[sid], ALT_M, 2.0) >= 0.95, sid
-        assert final_distance_m(rows[sid]) <= 5.0, sid
+        share, distance_m = altitude_share(rows[sid], ALT_M, 2.0), settled_distance_m(rows[sid])
+        assert share >= 0.95 and distance_m <= 5.0, (sid, share, distance_m)
         assert px4_mode(vehicle.custom_mode) == PX4_RTL and vehicle.landed_in in ([], [PX4_RTL])
         assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_INT}
         assert vehicle.reposition_target[2] == pytest.approx(Home().alt_m + ALT_M, abs=1e-3)
@@ -169,8 +169,8 @@ def test_a_mixed_fleet_of_two_px4_and_two_ardupilot_flies_one_fly(tmp_path):
     assert all(v["status"] == "ended" for v in result.summary["vehicles"])
     for vehicle in vehicles:
         sid = vehicle.system_id
-        assert altitude_share(rows[sid], ALT_M, 2.0) >= 0.95, sid
-        assert final_distance_m(rows[sid]) <= 5.0, sid
+        share, distance_m = altitude_share(rows[sid], ALT_M, 2.0), settled_distance_m(rows[sid])
+        assert share >= 0.95 and distance_m <= 5.0, (sid, share, distance_m)
         if isinstance(vehicle, Px4Vehicle):
             assert px4_mode(vehicle.custom_mode) == PX4_RTL and LOITER in map(px4_mode, vehicle.modes)
             assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_INT}
