@@ -112,7 +112,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         typed_config.ConfigError: Invalid bridge config, no vehicles, or ``record`` not a .mcap file.
         bridge.errors.GeofenceError: The area at the cruise altitude is outside the geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
-        bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened.
+        bridge.telemetry.config.TelemetryConnectionError: The Zenoh session could not be opened.
         bridge.errors.BridgeError: No vehicle could be launched (outputs are written).
     """
     from bridge.flight.fleet import Fleet

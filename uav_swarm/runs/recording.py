@@ -23,7 +23,7 @@ renamed when the run ends (:func:`learning.files.atomic_path`): a run that fails
 Examples:
     >>> import tempfile
     >>> from mcap.reader import make_reader
-    >>> from bridge.telemetry_schema import Qos
+    >>> from bridge.telemetry.schema import Qos
     >>> path = Path(tempfile.mkdtemp()) / "run.mcap"
     >>> scene = SceneInfo(width_m=100.0, height_m=80.0, coverage_radius_m=30.0)
     >>> with open_recording(path, scene) as recorder:

@@ -310,7 +310,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
         typed_config.ConfigError: Invalid bridge config, too few vehicles, or ``record`` not a .mcap file.
         bridge.errors.GeofenceError: The area at the flight altitude is not inside the bridge's geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
-        bridge.telemetry_config.TelemetryConnectionError: The Zenoh session could not be opened, e.g. a
+        bridge.telemetry.config.TelemetryConnectionError: The Zenoh session could not be opened, e.g. a
             listen endpoint is in use (nothing is written).
         bridge.errors.BridgeError: Uploading to the configured vehicles failed (outputs are written).
     """
