@@ -9,7 +9,7 @@ import csv
 import math
 from pathlib import Path
 
-__all__ = ["live_rows", "altitude_share", "final_distance_m"]
+__all__ = ["live_rows", "altitude_share", "final_distance_m", "settled_distance_m"]
 
 
 def live_rows(out_dir: Path) -> dict[int, list[dict[str, float]]]:
@@ -37,3 +37,24 @@ def final_distance_m(rows: list[dict[str, float]]) -> float:
         if not math.isnan(row["target_x_m"]):
             return math.hypot(row["x_m"] - row["target_x_m"], row["y_m"] - row["target_y_m"])
     return math.inf
+
+
+def settled_distance_m(rows: list[dict[str, float]], jump_m: float = 5.0, grace_s: float = 10.0) -> float:
+    """Horizontal distance to the last target the vehicle had time to reach.
+
+    That is :func:`final_distance_m` at the end, unless the planner moved the target by more than
+    ``jump_m`` between two records within the last ``grace_s``: then just before the first such move
+    (a target given in the last seconds of a flight is not a settled one).
+    """
+    if not rows:
+        return math.inf
+    end_s = rows[-1]["time_s"]
+    first_jump = None
+    for i in range(len(rows) - 1, 0, -1):
+        if rows[i]["time_s"] < end_s - grace_s:
+            break
+        moved = math.hypot(rows[i]["target_x_m"] - rows[i - 1]["target_x_m"],
+                           rows[i]["target_y_m"] - rows[i - 1]["target_y_m"])
+        if moved > jump_m:
+            first_jump = i
+    return final_distance_m(rows[:first_jump] if first_jump is not None else rows)

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import math
 import re
+import threading
 import time
 from pathlib import Path
 
 import pytest
-from fly_measures import altitude_share, final_distance_m, live_rows
+from fly_measures import altitude_share, live_rows, settled_distance_m
 from flying_vehicle import AUTO, GUIDED, RTL, FlyingVehicle
 from lossy_relay import free_udp_port
 from px4_vehicle import LAND, LOITER, MISSION, Px4Vehicle, px4_mode
@@ -35,6 +36,7 @@ from uav_swarm.runs.fly_config import load_fly_config
 
 FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
 ALT_M = 10.0  # fly's cruise altitude ([uav] alt_m default)
+LINK_TIMEOUT_S = 3.0
 
 
 def _fleet(kinds: str, **options) -> tuple[list, list[str]]:
@@ -70,7 +72,8 @@ def _fly(tmp_path: Path, urls: list[str], **overrides):
     config = load_fly_config(None, {
         "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 40.0,
         "speedup": 4.0, "publish_telemetry": False,
-        "flight": {"link_timeout_s": 3.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5}, **overrides})
+        "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
+        **overrides})
     return fly(config, tmp_path / "out")
 
 
@@ -122,19 +125,33 @@ def test_px4_reads_a_relative_reposition_as_sea_level_and_lands_so_the_bridge_se
 
 
 def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_return(tmp_path):
+    """One of them is killed in flight and restarted on the ground: taken back with a new take-off."""
     vehicles, urls = _fleet("ppp")
+    outcome: dict = {}
+    killed = 2
     try:
-        result = _fly(tmp_path, urls)
+        runner = threading.Thread(target=lambda: outcome.update(result=_fly(tmp_path, urls, duration_s=60.0)))
+        runner.start()
+        deadline = time.monotonic() + 30.0
+        while time.monotonic() < deadline and not all(v.enu[2] >= ALT_M - 0.5 for v in vehicles):
+            time.sleep(0.05)
+        time.sleep(1.0)
+        vehicles[killed - 1].close()
+        time.sleep(2 * LINK_TIMEOUT_S)  # silent twice the link timeout: lost however slow the machine
+        vehicles[killed - 1] = Px4Vehicle(vehicles[killed - 1].url, killed, speed_m_s=25.0)
+        runner.join(timeout=300.0)  # bounded by the run itself
+        assert not runner.is_alive()
         time.sleep(0.3)
         rows = live_rows(tmp_path / "out")
     finally:
         _close(vehicles)
-    statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
-    assert statuses == {1: "ended", 2: "ended", 3: "ended"}
+    result = outcome["result"]
+    statuses = {v["system_id"]: (v["status"], v["launches"]) for v in result.summary["vehicles"]}
+    assert statuses == {1: ("ended", 1), 2: ("ended", 2), 3: ("ended", 1)}
     for vehicle in vehicles:
         sid = vehicle.system_id
-        assert altitude_share(rows[sid], ALT_M, 2.0) >= 0.95, sid
-        assert final_distance_m(rows[sid]) <= 5.0, sid
+        share, distance_m = altitude_share(rows[sid], ALT_M, 2.0), settled_distance_m(rows[sid])
+        assert share >= 0.95 and distance_m <= 5.0, (sid, share, distance_m)
         assert px4_mode(vehicle.custom_mode) == PX4_RTL and vehicle.landed_in in ([], [PX4_RTL])
         assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_INT}
         assert vehicle.reposition_target[2] == pytest.approx(Home().alt_m + ALT_M, abs=1e-3)
@@ -152,8 +169,8 @@ def test_a_mixed_fleet_of_two_px4_and_two_ardupilot_flies_one_fly(tmp_path):
     assert all(v["status"] == "ended" for v in result.summary["vehicles"])
     for vehicle in vehicles:
         sid = vehicle.system_id
-        assert altitude_share(rows[sid], ALT_M, 2.0) >= 0.95, sid
-        assert final_distance_m(rows[sid]) <= 5.0, sid
+        share, distance_m = altitude_share(rows[sid], ALT_M, 2.0), settled_distance_m(rows[sid])
+        assert share >= 0.95 and distance_m <= 5.0, (sid, share, distance_m)
         if isinstance(vehicle, Px4Vehicle):
             assert px4_mode(vehicle.custom_mode) == PX4_RTL and LOITER in map(px4_mode, vehicle.modes)
             assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_INT}

@@ -271,7 +271,7 @@ class Flight:
         sid = vehicle.system_id
         try:
             if self.config.mode == "guided":
-                self.fleet.reposition(sid, *target)
+                self.fleet.reposition(sid, *target, speed_m_s=self.config.uav.max_speed_m_s)  # the planner's
             else:
                 self._fly_mission(vehicle, target)
         except BridgeError as exc:
