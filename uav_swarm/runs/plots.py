@@ -48,7 +48,8 @@ def write_qos_figure(runs: Mapping[str, QosSeries], path: Path, reference: Stati
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, (ax_qos, ax_rate) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    figure, (ax_qos, ax_rate) = plt.subplots(2, 1, figsize=(9, 8), sharex=True, layout="constrained",
+                                             height_ratios=(3, 2))
     for kind, run in runs.items():
         style = _STYLE.get(kind, {})
         ax_qos.plot(run.times_s, run.qos_s1, label=f"{kind}: S1 (share covered)", **style)
@@ -65,13 +66,13 @@ def write_qos_figure(runs: Mapping[str, QosSeries], path: Path, reference: Stati
         ax_qos.plot(reference.times_s, reference.qos, linestyle="none", marker="D", color="black",
                     label=f"static reference: S{strategy} of the expert's placement, as if reached")
     ax_qos.set(ylabel="QoS", ylim=(0.0, 1.02), title="Dynamic sequence: QoS over time")
-    ax_qos.legend(loc="center right", fontsize="small", ncol=2, framealpha=0.8)  # S1 above, S2 below
+    # Below the QoS panel, not over it: with both radios drawn the curves fill the panel.
+    ax_qos.legend(loc="upper center", bbox_to_anchor=(0.5, -0.03), fontsize="small", ncol=2, frameon=False)
     ax_qos.grid(alpha=0.3)
     ax_rate.set(xlabel="simulated time (s)", ylabel="mean throughput per user (Mbps)")
     ax_rate.set_ylim(bottom=0.0)
     ax_rate.legend(loc="lower right", fontsize="small")
     ax_rate.grid(alpha=0.3)
-    figure.tight_layout()
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=100)
     plt.close(figure)
