@@ -8,6 +8,8 @@ seq   command                                      frame
 0     ArduPilot only: home placeholder             ``MAV_FRAME_GLOBAL_INT`` (AMSL)
       (``MAV_CMD_NAV_WAYPOINT`` at home)
 .     ``MAV_CMD_NAV_TAKEOFF`` to ``takeoff_alt_m``  ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT``
+.     optional ``MAV_CMD_DO_CHANGE_SPEED``         ``MAV_FRAME_MISSION``
+      (``speed_m_s`` > 0: ground speed)
 .     ``MAV_CMD_NAV_WAYPOINT`` per waypoint        ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT``
 .     ``MAV_CMD_NAV_LOITER_UNLIM`` or
       ``MAV_CMD_NAV_LOITER_TIME`` at the last one  ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT``
@@ -157,6 +159,9 @@ class MissionConfig(Config):
     loiter_time_s: float = param(0.0, ge=0.0, le=86400.0, doc="loiter at the target: 0 = unlimited, else s")
     loiter_radius_m: float = param(0.0, ge=0.0, le=1000.0, doc="loiter radius (fixed wing), 0 = default")
     return_to_launch: bool = param(False, doc="append MAV_CMD_NAV_RETURN_TO_LAUNCH after a timed loiter")
+    speed_m_s: float = param(0.0, ge=0.0, le=100.0,
+                             doc="ground speed of the legs (MAV_CMD_DO_CHANGE_SPEED after take-off); "
+                                 "0 = the vehicle's own mission speed")
 
     def check(self) -> None:
         """An unlimited loiter never ends, so a return-to-launch after it could never run."""
@@ -275,6 +280,10 @@ def build_mission(
             param4=float("nan"),
         )
     )
+    if config.speed_m_s > 0.0:  # param1 1: ground speed; param3 -1: throttle unchanged
+        items.append(MissionItem(seq=len(items), frame=mavlink.MAV_FRAME_MISSION,
+                                 command=mavlink.MAV_CMD_DO_CHANGE_SPEED, param1=1.0,
+                                 param2=config.speed_m_s, param3=-1.0))
     for point in points:
         items.append(
             _global_item(

@@ -116,6 +116,7 @@ class Observer:
     def __init__(self, url: str, ask: tuple[int, ...] = ()) -> None:
         self.positions: dict[int, list[tuple[float, float, float, float]]] = {}
         self.modes: dict[int, str] = {}
+        self.modes_seen: dict[int, set[str]] = {}
         self.armed: dict[int, bool] = {}
         self.home_alt_m: dict[int, float] = {}
         self.mission_seq: dict[int, int] = {}
@@ -161,6 +162,7 @@ class Observer:
                     (time.monotonic(), msg.relative_alt / 1000.0, msg.lat / 1e7, msg.lon / 1e7))
             elif kind == "HEARTBEAT" and msg.type != m.MAV_TYPE_GCS:
                 self.modes[sid] = mavutil.mode_string_v10(msg)
+                self.modes_seen.setdefault(sid, set()).add(self.modes[sid])
                 self.armed[sid] = bool(msg.base_mode & m.MAV_MODE_FLAG_SAFETY_ARMED)
             elif kind == "HOME_POSITION":
                 self.home_alt_m[sid] = msg.altitude / 1000.0

@@ -18,7 +18,7 @@ AUTOPILOTS = {"ardupilot": mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, "px4": mavlink.M
 
 def _mission(autopilot):
     config = MissionConfig(
-        cruise_alt_m=33.3, acceptance_radius_m=1.7, loiter_time_s=12.5, return_to_launch=True
+        cruise_alt_m=33.3, acceptance_radius_m=1.7, loiter_time_s=12.5, return_to_launch=True, speed_m_s=7.5
     )
     return build_mission(
         [(12.34, -56.78), (-123.456, 222.2, 47.77)], HOME, config, GeofenceConfig(), autopilot

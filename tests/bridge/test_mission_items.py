@@ -137,3 +137,17 @@ def test_new_bridge_settings_are_validated_with_field_and_range(data, message):
     with pytest.raises(ConfigError, match=message.replace("(", r"\(").replace("[", r"\[")):
         BridgeConfig.from_dict(data)
     assert BridgeConfig.from_dict({"home": "vehicle"}).home_source == "vehicle"
+
+
+@pytest.mark.parametrize("autopilot", [mavlink.MAV_AUTOPILOT_PX4, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA],
+                         ids=["px4", "ardupilot"])
+def test_a_mission_speed_is_a_change_speed_item_right_after_the_take_off(autopilot):
+    home, fence = Home(), GeofenceConfig()
+    plain = build_mission([(10.0, 20.0)], home, MissionConfig(), fence, autopilot)
+    fast = build_mission([(10.0, 20.0)], home, MissionConfig(speed_m_s=9.5), fence, autopilot)
+    take_off = next(i.seq for i in fast.items if i.command == mavlink.MAV_CMD_NAV_TAKEOFF)
+    speed = fast.items[take_off + 1]
+    assert speed.command == mavlink.MAV_CMD_DO_CHANGE_SPEED and speed.frame == mavlink.MAV_FRAME_MISSION
+    assert (speed.param1, speed.param2, speed.param3) == (1.0, 9.5, -1.0)  # ground speed, throttle unchanged
+    assert len(fast.items) == len(plain.items) + 1
+    assert mavlink.MAV_CMD_DO_CHANGE_SPEED not in [i.command for i in plain.items]

@@ -68,11 +68,12 @@ def _bridge_toml(path: Path, home: tuple[float, float, float], urls: dict[int, s
     return path
 
 
-def _fly_and_measure(tmp_path: Path, toml: Path, observers: dict[int, Observer], config_alt_m: float
-                     ) -> dict[int, dict[str, object]]:
+def _fly_and_measure(tmp_path: Path, toml: Path, observers: dict[int, Observer], config_alt_m: float,
+                     mode: str = "guided") -> dict[int, dict[str, object]]:
     """Fly 60 s; per vehicle: altitude share within 2 m (above its own home), final distance, mode after."""
     config = load_fly_config(None, {
         "bridge_config": str(toml), "duration_s": 60.0, "speedup": 1.0, "publish_telemetry": False,
+        "mode": mode,
         "flight": {"ready_timeout_s": 120.0, "arm_timeout_s": 90.0, "takeoff_timeout_s": 90.0,
                    "link_timeout_s": 5.0}})
     result = fly(config, tmp_path / "out")
@@ -87,7 +88,8 @@ def _fly_and_measure(tmp_path: Path, toml: Path, observers: dict[int, Observer],
         measured[sid] = {"status": ended.get(sid), "altitude_share": round(share, 3), "rows": len(heights),
                          "final_distance_m": round(final_distance_m(rows.get(sid, [])), 2),
                          "settled_distance_m": round(settled_distance_m(rows.get(sid, [])), 2),
-                         "mode_after": observer.modes.get(sid), "landing_texts": [
+                         "mode_after": observer.modes.get(sid),
+                         "modes_seen": sorted(observer.modes_seen.get(sid, ())), "landing_texts": [
                              t for t in observer.texts.get(sid, []) if "Landing" in t or "Disarmed" in t]}
     log.info("measured: %s; mean QoS S1 %s", measured, result.summary.get("mean_qos_s1"))
     return measured
@@ -160,6 +162,30 @@ def test_three_px4_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
         finally:
             observer.close()
     _assert_flown(measured, dict.fromkeys(measured, "RTL"))
+
+
+@needs_px4
+def test_two_px4_fly_60_s_in_mission_mode(tmp_path):
+    """``--mode mission``: each new target a new mission (with the planner's speed), flown in AUTO.MISSION.
+
+    The distance to the target is logged, not judged: in mission mode every target change is a new
+    mission PX4 starts flying afresh, and a planner that swaps a vehicle's target twice in the last
+    15 s (seen once in two runs: 88 m from the first swap's target) leaves no settled target.
+    """
+    with Instances(tmp_path / "sitl") as sitl:
+        for i in range(2):
+            sitl.start_px4(PX4_ROOT, i)
+        observer = Observer(PX4_GCS_URL, ask=(1, 2))
+        try:
+            observers = {sid: observer for sid in (1, 2)}
+            _wait_homes(observers, 60.0)
+            toml = _bridge_toml(tmp_path / "bridge.toml", PX4_HOME, {i + 1: _px4_url(i) for i in range(2)})
+            measured = _fly_and_measure(tmp_path, toml, observers, PX4_HOME[2], mode="mission")
+        finally:
+            observer.close()
+    for sid, values in measured.items():
+        assert values["status"] == "ended" and values["altitude_share"] >= 0.95, (sid, values)
+        assert "MISSION" in values["modes_seen"] and values["mode_after"] == "RTL", (sid, values)
 
 
 @needs_ardupilot

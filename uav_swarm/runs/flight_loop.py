@@ -289,7 +289,8 @@ class Flight:
 
         sid = vehicle.system_id
         conventions = self.fleet.conventions(sid)
-        shape = self.bridge.mission.replace(takeoff_alt_m=self.alt_m, cruise_alt_m=self.alt_m)
+        shape = self.bridge.mission.replace(takeoff_alt_m=self.alt_m, cruise_alt_m=self.alt_m,
+                                            speed_m_s=self.config.uav.max_speed_m_s)  # the planner's speed
         mission = build_mission([target], self.bridge.home, shape, self.bridge.geofence,
                                 conventions.autopilot)
         client = self.fleet.client(sid)
