@@ -2,7 +2,7 @@
 
 Deselected by default (``-m "not sitl"`` in pyproject's addopts: the summary counts them as
 deselected). Run with ``PX4_SITL_DIR`` and/or ``ARDUPILOT_SITL_DIR`` set to the build roots of
-``../shared/sitl``'s scripts, e.g.::
+the SITL build scripts of the workspace (PX4 v1.16.0, ArduCopter 4.6.3 from source), e.g.::
 
     PX4_SITL_DIR=$HOME/sitl/px4 ARDUPILOT_SITL_DIR=$HOME/sitl/ap pytest -m sitl tests/bridge/test_sitl.py \\
         -o log_cli=true --log-cli-level=INFO
