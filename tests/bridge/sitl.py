@@ -2,7 +2,8 @@
 
 The builds are made from source outside the repository (the workspace's SITL build scripts):
 ``PX4_SITL_DIR`` is the PX4 build root (``PX4-Autopilot/build/px4_sitl_default/bin/px4`` and
-``run/loopback_bind.so`` under it), ``ARDUPILOT_SITL_DIR`` the ArduPilot one (``ardupilot/build/sitl/bin/arducopter``).
+``run/loopback_bind.so`` under it), ``ARDUPILOT_SITL_DIR`` the ArduPilot one
+(``ardupilot/build/sitl/bin/arducopter``).
 Every instance is started through the loopback shim (its sockets bind to 127.0.0.1 only) and
 ended by its own PID (:meth:`Instances.close`).
 
