@@ -11,6 +11,8 @@ Examples:
     >>> import numpy as np
     >>> density_map(np.array([[1.0, 1.0], [1.5, 0.2], [9.9, 9.9]]), 10.0, 10.0, (2, 2)).tolist()
     [[2.0, 0.0], [0.0, 1.0]]
+    >>> density_maps(np.array([[1.0, 1.0], [9.9, 9.9]]), np.array([0, 1]), 2, 10.0, 10.0, (1, 1)).tolist()
+    [[[1.0]], [[1.0]]]
     >>> metres_to_pixels(np.array([[2.5, 7.5]]), 10.0, 10.0, (2, 2)).tolist()
     [[0.0, 1.0]]
 """
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["density_map", "metres_to_pixels", "pixels_to_metres"]
+__all__ = ["density_map", "density_maps", "metres_to_pixels", "pixels_to_metres"]
 
 
 def _check_shape(shape: tuple[int, int]) -> tuple[int, int]:
@@ -79,6 +81,34 @@ def density_map(
     rows = np.minimum((y_m * (h / height_m)).astype(np.intp), h - 1)
     counts = np.bincount(rows * w + cols, weights=weights, minlength=h * w)
     return counts.reshape(h, w).astype(np.float32)
+
+
+def density_maps(
+    positions_m: np.ndarray, copy_index: np.ndarray, n_copies: int, width_m: float, height_m: float,
+    shape: tuple[int, int],
+) -> np.ndarray:
+    """:func:`density_map` of B worlds at once, whose points are stacked in one array.
+
+    Args:
+        positions_m: (N, 2) positions in metres of all worlds.
+        copy_index: (N,) int, the world of each point (``0 <= copy_index < n_copies``).
+        n_copies: Number of worlds B.
+        width_m: Area width (x extent) in metres, the same for every world.
+        height_m: Area height (y extent) in metres.
+        shape: Raster shape ``(h, w)``.
+
+    Returns:
+        (B, h, w) float32 counts of points per pixel of each world.
+    """
+    h, w = _check_shape(shape)
+    _check_area(width_m, height_m)
+    x_m, y_m = positions_m[:, 0], positions_m[:, 1]
+    inside = (x_m >= 0) & (x_m <= width_m) & (y_m >= 0) & (y_m <= height_m)
+    cols = np.minimum((x_m * (w / width_m)).astype(np.intp), w - 1)
+    rows = np.minimum((y_m * (h / height_m)).astype(np.intp), h - 1)
+    pixel = (copy_index * h + rows) * w + cols
+    counts = np.bincount(pixel if inside.all() else pixel[inside], minlength=n_copies * h * w)
+    return counts.reshape(n_copies, h, w).astype(np.float32)
 
 
 def metres_to_pixels(

@@ -27,7 +27,7 @@ import numpy as np
 
 from typed_config import Config, param
 
-__all__ = ["UAVConfig", "UAVFleet", "separation_penalty"]
+__all__ = ["UAVConfig", "UAVFleet", "fly_step", "separation_penalty", "waypoint_velocity"]
 
 
 @dataclass(frozen=True)
@@ -106,9 +106,32 @@ class UAVFleet:
 
 
 def _cap_norm(vectors: np.ndarray, cap: float) -> np.ndarray:
-    """Scale down the rows of ``vectors`` whose norm exceeds ``cap`` (a new array)."""
-    norm = np.hypot(vectors[:, 0], vectors[:, 1])
-    return vectors * (cap / np.maximum(norm, cap))[:, None]
+    """Scale down the vectors (last axis, 2) whose norm exceeds ``cap`` (a new array)."""
+    norm = np.hypot(vectors[..., 0], vectors[..., 1])
+    return vectors * (cap / np.maximum(norm, cap))[..., None]
+
+
+def fly_step(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_m_s: np.ndarray, dt_s: float,
+             config: UAVConfig, upper_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One kinematic step of (..., K, 2) UAVs: new positions and velocities (new arrays)."""
+    desired = _cap_norm(np.asarray(command_m_s, dtype=np.float64), config.max_speed_m_s)
+    delta = _cap_norm(desired - velocities_m_s, config.max_accel_m_s2 * dt_s)
+    velocities = velocities_m_s + delta
+    positions = positions_m + velocities * dt_s
+    clamped = np.clip(positions, 0.0, upper_m)
+    velocities[clamped != positions] = 0.0  # stopped by the border
+    return clamped, velocities
+
+
+def waypoint_velocity(positions_m: np.ndarray, targets_m: np.ndarray, dt_s: float, config: UAVConfig
+                      ) -> np.ndarray:
+    """(..., K, 2) velocity commands that fly to the targets and brake to a stop on them."""
+    offset = np.asarray(targets_m, dtype=np.float64) - positions_m
+    dist = np.sqrt(np.einsum("...c,...c->...", offset, offset))
+    speed = np.minimum(np.minimum(config.max_speed_m_s, dist / dt_s), np.sqrt(2.0 * config.max_accel_m_s2 * dist))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(dist > 1e-9, speed / dist, 0.0)
+    return offset * scale[..., None]
 
 
 def separation_penalty(positions_m: np.ndarray, min_separation_m: float) -> float:
