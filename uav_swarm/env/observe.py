@@ -121,7 +121,9 @@ def observe(layout: Layout, positions_m: np.ndarray, velocities_m_s: np.ndarray,
     stats[:, :, 3] = coverage.qos_s2[:, None]
     # Guards against rounding only; the patch (shares of a count, <= 1 exactly) needs none.
     for part in (slice(0, start), slice(-N_STATS, None)):
-        np.clip(obs[:, :, part], layout.obs_low[part], layout.obs_high[part], out=obs[:, :, part])
+        view = obs[:, :, part]
+        np.minimum(view, layout.obs_high[part], out=view)
+        np.maximum(view, layout.obs_low[part], out=view)
     return obs
 
 
@@ -148,9 +150,9 @@ def info_arrays(coverage: CoverageBatch, separation: np.ndarray, closest_m: np.n
         "qos_s2": coverage.qos_s2,
         "mean_throughput_mbps": coverage.mean_throughput_mbps,
         "covered_users": coverage.covered_users,
-        "n_pedestrians": coverage.n_users.copy(),
-        "separation_penalty": separation.copy(),
-        "closest_separation_m": closest_m.copy(),
+        "n_pedestrians": coverage.n_users,
+        "separation_penalty": separation,
+        "closest_separation_m": closest_m,
         "users_served": served,
         "throughput_per_user_mbps": np.where(served > 0, radio.capacity_mbps / np.maximum(served, 1), 0.0),
         "separation_held": held.astype(np.int64),

@@ -302,9 +302,9 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     def _infos(self) -> dict[str, dict[str, Any]]:
         arrays = self._core.infos()
         team = {key: arrays[key][0].item() for key in TEAM_INFO_KEYS}
-        per_agent = zip(*(arrays[key][0].tolist() for key in AGENT_INFO_KEYS), strict=True)
-        return {agent: {**team, **dict(zip(AGENT_INFO_KEYS, values, strict=True))}
-                for agent, values in zip(self.agents, per_agent, strict=True)}
+        served, rate, held = (arrays[key][0].tolist() for key in AGENT_INFO_KEYS)
+        return {agent: {**team, "users_served": k, "throughput_per_user_mbps": r, "separation_held": h}
+                for agent, k, r, h in zip(self.agents, served, rate, held, strict=True)}
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:

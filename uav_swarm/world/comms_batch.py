@@ -119,7 +119,10 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
         ValueError: A station limit without one association per world.
     """
     n_copies, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
-    offsets = np.searchsorted(copy_index, np.arange(n_copies + 1))
+    if n_copies == 1:
+        offsets = np.array([0, len(users_m)])
+    else:
+        offsets = np.searchsorted(copy_index, np.arange(n_copies + 1))
     n_users = np.diff(offsets)
     if config.max_stations is not None:
         if associations is None or len(associations) != n_copies:
@@ -131,20 +134,18 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
     nearest, best = nearest_uav(np.ascontiguousarray(users_m, dtype=np.float64),
                                 np.ascontiguousarray(copy_index, dtype=np.int64),
                                 np.ascontiguousarray(uavs_m, dtype=np.float64), heights * heights)
+    # numpy's exp, as evaluate_coverage's, so that a user on the range's edge is judged the same.
     in_range = np.exp(best * (-0.5 / config.effective_sigma_sq_m2)) >= config.signal_at_range
     association = np.where(in_range, nearest, -1)
-    served = np.bincount((copy_index * n_uavs + nearest)[in_range],
-                         minlength=n_copies * n_uavs).reshape(n_copies, n_uavs)
+    slot = nearest[in_range] if n_copies == 1 else (copy_index * n_uavs + nearest)[in_range]
+    served = np.bincount(slot, minlength=n_copies * n_uavs).reshape(n_copies, n_uavs)
     rate_mbps = config.capacity_mbps / np.maximum(served, 1)
     n_fast = (served * (rate_mbps >= config.min_user_rate_mbps)).sum(axis=1)
-    total_mbps = config.capacity_mbps * np.count_nonzero(served, axis=1)
-    some = n_users > 0
-    share = np.zeros(n_copies)
+    total_mbps = config.capacity_mbps * (served > 0).sum(axis=1)
+    users = np.maximum(n_users, 1)  # a world without users has none covered: its shares are 0.0
     return CoverageBatch(
         association=association, in_range=in_range, offsets=offsets, users_per_uav=served, n_users=n_users,
-        qos_s1=np.divide(served.sum(axis=1), n_users, out=share.copy(), where=some),
-        qos_s2=np.divide(n_fast, n_users, out=share.copy(), where=some),
-        mean_throughput_mbps=np.divide(total_mbps, n_users, out=share, where=some),
+        qos_s1=served.sum(axis=1) / users, qos_s2=n_fast / users, mean_throughput_mbps=total_mbps / users,
         config=config)
 
 

@@ -106,7 +106,7 @@ def density_maps(
     inside = (x_m >= 0) & (x_m <= width_m) & (y_m >= 0) & (y_m <= height_m)
     cols = np.minimum((x_m * (w / width_m)).astype(np.intp), w - 1)
     rows = np.minimum((y_m * (h / height_m)).astype(np.intp), h - 1)
-    pixel = (copy_index * h + rows) * w + cols
+    pixel = rows * w + cols if n_copies == 1 else (copy_index * h + rows) * w + cols
     counts = np.bincount(pixel if inside.all() else pixel[inside], minlength=n_copies * h * w)
     return counts.reshape(n_copies, h, w).astype(np.float32)
 
