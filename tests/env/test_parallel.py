@@ -166,7 +166,7 @@ def test_reward_infos_and_accessors_agree_with_the_world():
         par_env.uav_positions_m[0, 0] = 1.0  # read-only
 
 
-def test_waypoint_mode_reaches_targets_and_separation_is_penalised():
+def test_waypoint_mode_reaches_targets_and_the_guard_keeps_the_separation():
     par_env = parallel_env(**small(n_uavs=3, action_mode="waypoint", max_cycles=600, separation_weight=0.5))
     par_env.reset(seed=4)
     targets = {"uav_0": np.array([20.0, 30.0]), "uav_1": np.array([180.0, 150.0]),
@@ -176,12 +176,29 @@ def test_waypoint_mode_reaches_targets_and_separation_is_penalised():
     assert np.allclose(par_env.uav_positions_m, np.stack(list(targets.values())), atol=0.05)
     assert np.allclose(par_env.uav_velocities_m_s, 0.0, atol=0.05)
     assert infos["uav_0"]["separation_penalty"] == 0.0
-    # Same target for all: three coinciding pairs, penalty 3.
+    # Same target for all: the guard holds the later UAVs back, no pair comes within the minimum.
     together = {a: np.array([100.0, 100.0]) for a in par_env.agents}
+    held = np.zeros(3)
     for _ in range(250):
         _, rewards, _, _, infos = par_env.step(together)
-    assert infos["uav_0"]["separation_penalty"] == pytest.approx(3.0, abs=0.05)
-    assert rewards["uav_0"] == pytest.approx(infos["uav_0"]["qos_s1"] - 0.5 * 3.0, abs=0.05)
+        held += [infos[a]["separation_held"] for a in par_env.agents]
+        assert infos["uav_0"]["closest_separation_m"] >= 5.0 - 1e-9
+    assert infos["uav_0"]["separation_penalty"] == 0.0
+    assert held.sum() > 0
+    assert np.linalg.norm(par_env.uav_positions_m - 100.0, axis=1).min() < 5.0  # one of them got there
+
+
+def test_velocity_mode_is_not_guarded_and_separation_is_penalised():
+    par_env = parallel_env(**small(n_uavs=3, max_cycles=600, separation_weight=0.5))
+    par_env.reset(seed=4)
+    for _ in range(300):  # every UAV flies towards the centre, at most at 1 m/s once within 10 m
+        offset = (np.array([100.0, 100.0]) - par_env.uav_positions_m) / 10.0
+        action = np.clip(offset / np.maximum(1.0, np.abs(offset).max(axis=1, keepdims=True)), -1, 1)
+        _, rewards, _, _, infos = par_env.step(dict(zip(par_env.agents, action, strict=True)))
+    info = infos["uav_0"]
+    assert info["closest_separation_m"] < 1.0 and info["separation_penalty"] > 2.0
+    assert {infos[a]["separation_held"] for a in par_env.agents} == {0}
+    assert rewards["uav_0"] == pytest.approx(info["qos_s1"] - 0.5 * info["separation_penalty"], abs=1e-12)
 
 
 def test_missing_agent_keeps_its_target_or_stops():

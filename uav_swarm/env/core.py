@@ -36,7 +36,7 @@ from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.crowd_batch import BatchedCrowd
 from uav_swarm.world.raster import density_maps
 from uav_swarm.world.scenario import Scenario, random_scenario
-from uav_swarm.world.separation import closest_distances_m, guard_commands, separation_penalty, uav_altitudes_m
+from uav_swarm.world.separation import closest_distances_m, guard_commands, separation_penalty
 from uav_swarm.world.uav import fly_step, waypoint_velocity
 
 __all__ = ["SwarmCore"]
@@ -78,7 +78,7 @@ class SwarmCore:
         self.dt_s = cfg.crowd_steps_per_env_step * cfg.crowd.dt_s
         self.radio = cfg.effective_radio
         self.layout = Layout(cfg, self.width_m, self.height_m)
-        self.altitudes_m = uav_altitudes_m(cfg.uav, cfg.n_uavs)
+        self.altitudes_m = cfg.uav.altitudes_m(cfg.n_uavs)
         layered = bool(np.any(self.altitudes_m != cfg.uav.alt_m))
         # The radio sees each UAV's own altitude when the layers differ and 3D distances are on.
         self._radio_altitudes_m = self.altitudes_m if cfg.use_3d_distance and layered else None
@@ -190,7 +190,7 @@ class SwarmCore:
         self.targets_m = np.where(acting[..., None], values, self.targets_m)
         command = waypoint_velocity(self.positions_m, self.targets_m, self.dt_s, cfg.uav)
         safe, held = guard_commands(self.positions_m, self.velocities_m_s, command, self.dt_s, cfg.uav,
-                                    altitudes_m=self._guard_altitudes_m)
+                                    altitudes_m=self._guard_altitudes_m, upper_m=self.area_m)
         self.held = held if active is None else np.where(active[:, None], held, self.held)
         return safe
 
