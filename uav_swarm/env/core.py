@@ -36,7 +36,7 @@ from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.crowd_batch import BatchedCrowd
 from uav_swarm.world.raster import density_maps
 from uav_swarm.world.scenario import Scenario, random_scenario
-from uav_swarm.world.separation import closest_distances_m, guard_commands, separation_penalty
+from uav_swarm.world.separation import closest_distances_m, guard_commands, pair_distances_m, separation_penalty
 from uav_swarm.world.uav import fly_step, waypoint_velocity
 
 __all__ = ["SwarmCore"]
@@ -179,8 +179,8 @@ class SwarmCore:
         held back; velocity commands (the learning path) are not guarded.
         """
         cfg, layout = self.config, self.layout
-        values = np.minimum(np.maximum(values, layout.action_low.astype(np.float64)),
-                            layout.action_high.astype(np.float64))
+        low, high = layout.action_bounds
+        values = np.minimum(np.maximum(values, low), high)
         if cfg.action_mode == "velocity":
             command = values * cfg.uav.max_speed_m_s
             return command if given is None else np.where(given[..., None], command, 0.0)
@@ -208,9 +208,9 @@ class SwarmCore:
         self._padded_share_map[:, half:half + h, half:half + w] = self.share_map
         self.coverage: CoverageBatch = coverage_batch(peds, copy, self.positions_m, self.radio, self._links,
                                                       self._radio_altitudes_m)
-        self.separation = separation_penalty(self.positions_m, cfg.uav.min_separation_m,
-                                             altitudes_m=self._guard_altitudes_m)
-        self.closest_m = closest_distances_m(self.positions_m, altitudes_m=self._guard_altitudes_m)
+        distances_m = pair_distances_m(self.positions_m, self._guard_altitudes_m)
+        self.separation = separation_penalty(self.positions_m, cfg.uav.min_separation_m, distances_m=distances_m)
+        self.closest_m = closest_distances_m(self.positions_m, distances_m=distances_m)
         self.reward = team_reward(self.coverage, self.separation, cfg)
 
     def observations(self) -> np.ndarray:
@@ -219,7 +219,7 @@ class SwarmCore:
 
     def infos(self) -> dict[str, np.ndarray]:
         """The info arrays of every world (:func:`~uav_swarm.env.observe.info_arrays`)."""
-        return info_arrays(self.coverage, self.separation, self.closest_m, self.held, self.radio)
+        return info_arrays(self.coverage, self.separation, self.closest_m, self.held)
 
     def states(self) -> np.ndarray:
         """(B, h*w + 2K) float32: each world's share map and normalised UAV positions."""

@@ -17,7 +17,6 @@ import numpy as np
 from gymnasium import spaces
 
 from uav_swarm.env.config import MAX_UAVS, EnvConfig
-from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.comms_batch import CoverageBatch
 
 __all__ = ["Layout", "observe", "team_reward", "info_arrays", "TEAM_INFO_KEYS", "AGENT_INFO_KEYS"]
@@ -46,6 +45,7 @@ class Layout:
         state_dim: Length of the global state.
         obs_low: (obs_dim,) float32 lower bounds; ``obs_high`` the upper ones.
         action_low: (2,) float32 lower bounds of an action; ``action_high`` the upper ones.
+        action_bounds: The two as float64, for clipping.
     """
 
     def __init__(self, config: EnvConfig, width_m: float, height_m: float) -> None:
@@ -61,6 +61,7 @@ class Layout:
         else:
             self.action_low = np.zeros(2, np.float32)
             self.action_high = np.array([width_m, height_m], dtype=np.float32)
+        self.action_bounds = (self.action_low.astype(np.float64), self.action_high.astype(np.float64))
         self.max_speed_m_s = config.uav.max_speed_m_s
         self.area_m = np.array([width_m, height_m])
         # Index pairs (i, j != i) of the other UAVs, in agent order, grouped by observer.
@@ -119,11 +120,11 @@ def observe(layout: Layout, positions_m: np.ndarray, velocities_m_s: np.ndarray,
     stats[:, :, 1] = 1.0 / np.maximum(served, 1) * (served > 0)
     stats[:, :, 2] = coverage.qos_s1[:, None]
     stats[:, :, 3] = coverage.qos_s2[:, None]
-    # Guards against rounding only; the patch (shares of a count, <= 1 exactly) needs none.
-    for part in (slice(0, start), slice(-N_STATS, None)):
-        view = obs[:, :, part]
-        np.minimum(view, layout.obs_high[part], out=view)
-        np.maximum(view, layout.obs_low[part], out=view)
+    # Guards the velocities against rounding (a speed capped at the maximum may exceed it by an ulp). The
+    # rest is in its box exactly: positions clamped to the area, differences of two of them, shares.
+    velocity = obs[:, :, 2:4]
+    np.minimum(velocity, 1.0, out=velocity)
+    np.maximum(velocity, -1.0, out=velocity)
     return obs
 
 
@@ -133,8 +134,8 @@ def team_reward(coverage: CoverageBatch, separation: np.ndarray, config: EnvConf
     return qos - config.separation_weight * separation
 
 
-def info_arrays(coverage: CoverageBatch, separation: np.ndarray, closest_m: np.ndarray, held: np.ndarray,
-                radio: RadioConfig) -> dict[str, np.ndarray]:
+def info_arrays(coverage: CoverageBatch, separation: np.ndarray, closest_m: np.ndarray, held: np.ndarray
+                ) -> dict[str, np.ndarray]:
     """The infos of every world: :data:`TEAM_INFO_KEYS` ``(B,)`` and :data:`AGENT_INFO_KEYS` ``(B, K)``.
 
     Args:
@@ -142,9 +143,7 @@ def info_arrays(coverage: CoverageBatch, separation: np.ndarray, closest_m: np.n
         separation: (B,) separation penalty.
         closest_m: (B,) closest distance between two UAVs of each world (m).
         held: (B, K) bool, the UAV's waypoint command was held back by the separation guard.
-        radio: The radio model.
     """
-    served = coverage.users_per_uav
     return {
         "qos_s1": coverage.qos_s1,
         "qos_s2": coverage.qos_s2,
@@ -153,7 +152,7 @@ def info_arrays(coverage: CoverageBatch, separation: np.ndarray, closest_m: np.n
         "n_pedestrians": coverage.n_users,
         "separation_penalty": separation,
         "closest_separation_m": closest_m,
-        "users_served": served,
-        "throughput_per_user_mbps": np.where(served > 0, radio.capacity_mbps / np.maximum(served, 1), 0.0),
+        "users_served": coverage.users_per_uav,
+        "throughput_per_user_mbps": coverage.throughput_per_user_mbps,
         "separation_held": held.astype(np.int64),
     }

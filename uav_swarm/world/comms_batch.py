@@ -39,6 +39,8 @@ class CoverageBatch:
         in_range: (N,) bool, the user's strongest signal reaches ``signal_at_range``.
         offsets: (B + 1,) world ``c``'s users are ``offsets[c]:offsets[c + 1]``.
         users_per_uav: (B, K) int, users associated with each UAV.
+        throughput_per_user_mbps: (B, K) the rate each user of the UAV gets (0 for a UAV without users).
+        covered_users: (B,) int, users with network in each world.
         n_users: (B,) int, users of each world.
         qos_s1: (B,) share of each world's users with network (0.0 without users).
         qos_s2: (B,) share with network and at least ``min_user_rate_mbps``.
@@ -50,16 +52,13 @@ class CoverageBatch:
     in_range: np.ndarray
     offsets: np.ndarray
     users_per_uav: np.ndarray
+    throughput_per_user_mbps: np.ndarray
+    covered_users: np.ndarray
     n_users: np.ndarray
     qos_s1: np.ndarray
     qos_s2: np.ndarray
     mean_throughput_mbps: np.ndarray
     config: RadioConfig
-
-    @property
-    def covered_users(self) -> np.ndarray:
-        """(B,) int, users with network in each world."""
-        return self.users_per_uav.sum(axis=1)
 
     def copy(self, c: int) -> Coverage:
         """World ``c``'s :class:`~uav_swarm.world.comms.Coverage`, as ``evaluate_coverage`` returns it."""
@@ -139,23 +138,27 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
     association = np.where(in_range, nearest, -1)
     slot = nearest[in_range] if n_copies == 1 else (copy_index * n_uavs + nearest)[in_range]
     served = np.bincount(slot, minlength=n_copies * n_uavs).reshape(n_copies, n_uavs)
+    return _from_loads(association, in_range, offsets, served, n_users, config)
+
+
+def _from_loads(association: np.ndarray, in_range: np.ndarray, offsets: np.ndarray, served: np.ndarray,
+                n_users: np.ndarray, config: RadioConfig) -> CoverageBatch:
+    """The rates and QoS of each world from its UAVs' loads (``coverage_of``'s arithmetic, per world)."""
+    active = served > 0
     rate_mbps = config.capacity_mbps / np.maximum(served, 1)
     n_fast = (served * (rate_mbps >= config.min_user_rate_mbps)).sum(axis=1)
-    total_mbps = config.capacity_mbps * (served > 0).sum(axis=1)
+    covered = served.sum(axis=1)
     users = np.maximum(n_users, 1)  # a world without users has none covered: its shares are 0.0
     return CoverageBatch(
-        association=association, in_range=in_range, offsets=offsets, users_per_uav=served, n_users=n_users,
-        qos_s1=served.sum(axis=1) / users, qos_s2=n_fast / users, mean_throughput_mbps=total_mbps / users,
-        config=config)
+        association=association, in_range=in_range, offsets=offsets, users_per_uav=served,
+        throughput_per_user_mbps=rate_mbps * active, covered_users=covered, n_users=n_users,
+        qos_s1=covered / users, qos_s2=n_fast / users,
+        mean_throughput_mbps=config.capacity_mbps * active.sum(axis=1) / users, config=config)
 
 
 def _stacked(parts: list[Coverage], offsets: np.ndarray, n_users: np.ndarray, n_uavs: int,
              config: RadioConfig) -> CoverageBatch:
     """One :class:`CoverageBatch` from each world's :class:`~uav_swarm.world.comms.Coverage`."""
-    return CoverageBatch(
-        association=np.concatenate([cov.association for cov in parts]),
-        in_range=np.concatenate([cov.in_range for cov in parts]), offsets=offsets,
-        users_per_uav=np.array([cov.users_per_uav for cov in parts], np.int64).reshape(len(parts), n_uavs),
-        n_users=n_users,
-        qos_s1=np.array([cov.qos_s1 for cov in parts]), qos_s2=np.array([cov.qos_s2 for cov in parts]),
-        mean_throughput_mbps=np.array([cov.mean_throughput_mbps for cov in parts]), config=config)
+    served = np.array([cov.users_per_uav for cov in parts], np.int64).reshape(len(parts), n_uavs)
+    return _from_loads(np.concatenate([cov.association for cov in parts]),
+                       np.concatenate([cov.in_range for cov in parts]), offsets, served, n_users, config)
