@@ -20,7 +20,8 @@ from uav_swarm.env.vector import UAVSwarmVectorEnv
 
 REPO = Path(__file__).resolve().parents[2]
 SHELLS = ("uav_swarm/env/parallel.py", "uav_swarm/env/batched.py", "uav_swarm/env/vector.py")
-# The logic and where it lives, once: observation, reward, infos, controller, kinematics, coverage, separation.
+# The logic and where it lives, once: observation, reward, infos, controller, kinematics, coverage,
+# separation.
 ONE_HOME = {
     "observe": "uav_swarm/env/observe.py",
     "team_reward": "uav_swarm/env/observe.py",
@@ -43,8 +44,9 @@ def _definitions() -> dict[str, list[str]]:
     found: dict[str, list[str]] = {}
     for path in sorted((REPO / "uav_swarm").rglob("*.py")):
         for node in ast.parse(path.read_text()).body:  # module-level functions (methods have other names)
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name.lstrip("_") in ONE_HOME:
-                found.setdefault(node.name.lstrip("_"), []).append(str(path.relative_to(REPO)))
+            name = getattr(node, "name", "").lstrip("_")
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and name in ONE_HOME:
+                found.setdefault(name, []).append(str(path.relative_to(REPO)))
     return found
 
 

@@ -1,5 +1,6 @@
 """The uav_swarm_v0 environment: PettingZoo's conformance suite over a grid, and our own checks."""
 
+import copy
 import functools
 import itertools
 import types
@@ -294,3 +295,18 @@ def test_3d_distance_uses_the_flight_altitude():
     assert flat.coverage_radius_m == pytest.approx(30.0) and high.coverage_radius_m == pytest.approx(24.0)
     with pytest.raises(ConfigError, match="radio.altitude_m"):
         parallel_env(radio={"altitude_m": 10.0})
+
+
+def test_a_deep_copy_is_an_independent_env():
+    original = parallel_env(**small(n_uavs=2, action_mode="waypoint", max_cycles=400))
+    original.reset(seed=12)
+    twin = copy.deepcopy(original)
+    for _ in range(300):  # both UAVs fly to the first pedestrian: their patches see the crowd
+        actions = {a: np.array(original.pedestrian_positions_m[0]) for a in original.agents}
+        obs, *_ = original.step(actions)
+        twin_obs, *_ = twin.step(actions)
+        for agent in obs:
+            np.testing.assert_array_equal(obs[agent], twin_obs[agent])
+    assert np.any(obs["uav_0"][31:-4] > 0) or np.any(obs["uav_1"][31:-4] > 0)  # the patches are seen
+    twin.reset(seed=13)
+    assert not np.array_equal(twin.state(), original.state())

@@ -36,7 +36,12 @@ from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.crowd_batch import BatchedCrowd
 from uav_swarm.world.raster import density_maps
 from uav_swarm.world.scenario import Scenario, random_scenario
-from uav_swarm.world.separation import closest_distances_m, guard_commands, pair_distances_m, separation_penalty
+from uav_swarm.world.separation import (
+    closest_distances_m,
+    guard_commands,
+    pair_distances_m,
+    separation_penalty,
+)
 from uav_swarm.world.uav import fly_step, waypoint_velocity
 
 __all__ = ["SwarmCore"]
@@ -98,6 +103,17 @@ class SwarmCore:
         self.targets_m = np.zeros((b, n, 2))
         self.cycle = np.zeros(b, dtype=np.int64)
         self.held = np.zeros((b, n), dtype=bool)
+
+    def __getstate__(self) -> dict:
+        """The state without the patch windows: a view of the share maps, rebuilt on the copy's own maps."""
+        state = self.__dict__.copy()
+        del state["_patch_windows"]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        p = self.config.patch_px
+        self._patch_windows = sliding_window_view(self._padded_share_map, (p, p), axis=(1, 2))
 
     # --- reset and step -------------------------------------------------------------------
 
@@ -209,7 +225,8 @@ class SwarmCore:
         self.coverage: CoverageBatch = coverage_batch(peds, copy, self.positions_m, self.radio, self._links,
                                                       self._radio_altitudes_m)
         distances_m = pair_distances_m(self.positions_m, self._guard_altitudes_m)
-        self.separation = separation_penalty(self.positions_m, cfg.uav.min_separation_m, distances_m=distances_m)
+        self.separation = separation_penalty(self.positions_m, cfg.uav.min_separation_m,
+                                             distances_m=distances_m)
         self.closest_m = closest_distances_m(self.positions_m, distances_m=distances_m)
         self.reward = team_reward(self.coverage, self.separation, cfg)
 

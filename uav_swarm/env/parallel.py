@@ -1,4 +1,4 @@
-"""The ``uav_swarm_v0`` PettingZoo parallel environment: a thin shell over one world of :mod:`uav_swarm.env.core`.
+"""The ``uav_swarm_v0`` PettingZoo parallel environment: a shell over one world of :mod:`uav_swarm.env.core`.
 
 Examples:
     >>> from uav_swarm.env.parallel import parallel_env
@@ -50,11 +50,17 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     - ``action_mode="velocity"``: ``[-1, 1]^2``, the commanded velocity (East, North) as a
       fraction of ``uav.max_speed_m_s`` (per axis; the speed is then capped at the maximum).
     - ``action_mode="waypoint"``: ``[0, width_m] x [0, height_m]``, a target position in metres;
-      a controller flies there at most at the caps and brakes to a stop on it.
+      a controller flies there at most at the caps and brakes to a stop on it. Its commands pass a
+      separation guard (:func:`~uav_swarm.world.separation.guard_commands`) that keeps every pair of
+      UAVs at least ``uav.min_separation_m`` apart: a UAV whose command would close a gap below it is
+      turned around its neighbour or brakes (``separation_held = 1``), lower indices first. UAVs start
+      at random and may start closer than the minimum; such a pair may only widen its gap.
 
+    Velocity actions (the learning path) are not guarded: separation is learnt from the reward's penalty.
     Speeds are capped at ``uav.max_speed_m_s`` and velocity changes at ``uav.max_accel_m_s2``;
-    UAVs stay inside the area. Out-of-bounds values are clipped into the box; a missing
-    agent keeps its last target (waypoint) or is commanded to stop (velocity). Any float
+    UAVs stay inside the area (:func:`~uav_swarm.world.uav.fly_step`). Out-of-bounds values are
+    clipped into the box; a missing agent keeps its last target (waypoint) or is commanded to stop
+    (velocity). Any float
     or int numpy dtype is accepted; an unknown agent, a shape other than ``(2,)`` or a NaN/inf
     raises ``ValueError`` naming the agent.
 
@@ -83,10 +89,17 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     share of pedestrians with network; strategy 2: share with network and at least
     ``radio.min_user_rate_mbps``, 5 Mbps) minus
     ``separation_weight * separation_penalty``, where the penalty sums ``1 - d / min_separation_m``
-    over UAV pairs closer than ``uav.min_separation_m``. ``infos[agent]`` holds ``qos_s1``,
+    over UAV pairs closer than ``uav.min_separation_m``. ``infos[agent]`` holds the team's ``qos_s1``,
     ``qos_s2``, ``mean_throughput_mbps``, ``covered_users``, ``n_pedestrians``,
-    ``separation_penalty``, and the agent's own ``users_served`` and ``throughput_per_user_mbps``
-    (numbers only, so that RL libraries can stack them; ``env.coverage.model`` names the association).
+    ``separation_penalty`` and ``closest_separation_m`` (the distance of the closest pair of UAVs, m),
+    and the agent's own ``users_served``, ``throughput_per_user_mbps`` and ``separation_held`` (1 when
+    the guard held its waypoint command back this step, else 0) (numbers only, so that RL libraries can
+    stack them; ``env.coverage.model`` names the association).
+
+    **Altitudes.** UAV ``k`` flies at ``uav.alt_m + k * uav.layer_step_m`` (``env.uav_altitudes_m``; one
+    layer by default). With layers, distances between UAVs (the guard, the penalty, the closest pair) are
+    3-D, and with ``use_3d_distance`` the radio measures each user's distance to each UAV at that UAV's
+    own altitude.
 
     **Association.** ``radio.station_limit`` chooses it (:mod:`uav_swarm.world.comms`): ``None``, the
     paper's model, joins every user in range to its strongest UAV at every step; a limit (an integer, or
@@ -110,7 +123,12 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     ``scene`` (a :class:`~uav_swarm.world.scenario.Scenario`) fixes the scene for every episode
     (else a random one is drawn from ``config.scenario`` at each reset). ``reset(seed)``
     seeds the one ``numpy.random.Generator`` that draws the scenario, the crowd and the UAV
-    start positions. ``render_mode`` is ``None``, ``"rgb_array"`` or ``"human"``.
+    start positions (``env.np_random``, Gymnasium's name, which wrappers such as SuperSuit's frame
+    skip draw from). ``render_mode`` is ``None``, ``"rgb_array"`` or ``"human"``.
+
+    **Implementation.** This class is a PettingZoo shell over one world of
+    :class:`~uav_swarm.env.core.SwarmCore`; :class:`~uav_swarm.env.batched.BatchedUAVSwarm` is the same
+    core over B worlds, so both compute the same numbers with the same code.
 
     **Version history.** v0: initial release.
     """
