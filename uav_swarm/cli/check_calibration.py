@@ -45,8 +45,8 @@ def run(args: argparse.Namespace) -> int:
     from learning.check_calibration import calibrate_check
     from learning.checkpoint import CheckpointError
     from learning.data import DatasetError
-    from learning.files import write_json_atomic
     from typed_config import ConfigError
+    from typed_config.files import write_json_atomic
     from uav_swarm.missions.registry import build_rule_check, make_task
 
     task = make_task(args.task, args.config)

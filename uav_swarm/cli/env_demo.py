@@ -125,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "env_demo.png"
-    from learning.files import atomic_path
+    from typed_config.files import atomic_path
 
     with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)

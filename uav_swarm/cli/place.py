@@ -192,8 +192,8 @@ def run(args: argparse.Namespace) -> int:
     from bridge.errors import BridgeError
     from bridge.missions.files import save_mission
     from learning.checkpoint import CheckpointError
-    from learning.files import write_json_atomic
     from typed_config import ConfigError
+    from typed_config.files import write_json_atomic
     from uav_swarm.cli.place_output import plot_site, site_geojson
     from uav_swarm.missions.monitoring.footprint import FootprintError, read_site
     from uav_swarm.missions.monitoring.outline import OutlineError

@@ -68,7 +68,7 @@ def plot_site(path: Path, buildings: list[PlacedBuilding], title: str) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from learning.files import atomic_path
+    from typed_config.files import atomic_path
 
     fig = Figure(figsize=(7.0, 7.0), dpi=100)
     FigureCanvasAgg(fig)

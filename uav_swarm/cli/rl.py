@@ -69,7 +69,7 @@ def run_train(args: argparse.Namespace) -> int:
 
 def run_compare(args: argparse.Namespace) -> int:
     """Score the controllers; write ``comparison.json`` and ``comparison.md``; print the table."""
-    from learning.files import write_json_atomic, write_text_atomic
+    from typed_config.files import write_json_atomic, write_text_atomic
     from uav_swarm.marl.compare import compare_controllers
 
     if args.episodes < 1 or args.duration_s <= 0:

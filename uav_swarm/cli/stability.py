@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from learning.expert_stability import expert_stability
-    from learning.files import write_json_atomic
+    from typed_config.files import write_json_atomic
     from uav_swarm.missions.registry import make_task
 
     task = make_task(args.task, args.config)

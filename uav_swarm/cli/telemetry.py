@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -96,24 +95,20 @@ def _record(subscriber: Any, out: Path, args: argparse.Namespace) -> int:
     """Write one JSON object per line; the file appears (atomically) when recording ends."""
     from bridge.telemetry.keys import alive_key
     from bridge.telemetry.schema import Presence
+    from typed_config.files import atomic_path
 
     swarm = subscriber.config.swarm
     out.parent.mkdir(parents=True, exist_ok=True)
-    partial = out.with_name(out.name + ".part")
     count = 0
-    try:
-        with partial.open("w", encoding="utf-8") as stream:
-            for item in subscriber.messages(duration_s=args.duration, count=args.count):
-                if isinstance(item, Presence):
-                    line = {"key": alive_key(swarm, item.uav_id), "received_s": item.received_s,
-                            "presence": "alive" if item.alive else "lost", "uav_id": item.uav_id}
-                else:
-                    line = {"key": item.key(swarm), "received_s": time.time(), "payload": item.to_dict()}
-                stream.write(json.dumps(line, separators=(",", ":")) + "\n")
-                count += 1
-        os.replace(partial, out)
-    finally:
-        partial.unlink(missing_ok=True)
+    with atomic_path(out) as partial, partial.open("w", encoding="utf-8") as stream:
+        for item in subscriber.messages(duration_s=args.duration, count=args.count):
+            if isinstance(item, Presence):
+                line = {"key": alive_key(swarm, item.uav_id), "received_s": item.received_s,
+                        "presence": "alive" if item.alive else "lost", "uav_id": item.uav_id}
+            else:
+                line = {"key": item.key(swarm), "received_s": time.time(), "payload": item.to_dict()}
+            stream.write(json.dumps(line, separators=(",", ":")) + "\n")
+            count += 1
     return count
 
 

@@ -21,7 +21,7 @@ The channels (Foxglove's own types are protobuf; the project's are JSON):
 
 The ``uav_swarm.*`` channels carry exactly the JSON that telemetry publishes over Zenoh; their
 schemas are generated from the payload types. The file is written beside its final path and
-renamed when the run ends (:func:`learning.files.atomic_path`): a run that fails leaves no file.
+renamed when the run ends (:func:`typed_config.files.atomic_path`): a run that fails leaves no file.
 The live view has its own SDK context, so that a client subscribing to ``/scene`` late gets the
 static scene again at once without a second copy in the file. It gets at most
 :attr:`~uav_swarm.runs.live_view.LiveView.max_rate_hz` recorded steps per wall-clock second, and a
@@ -67,8 +67,8 @@ from foxglove.channels import (
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
 from bridge.telemetry.schema import GeoPoint, Plan, Qos, UavState, encode_payload
-from learning.files import atomic_path
 from typed_config import ConfigError
+from typed_config.files import atomic_path
 from uav_swarm.runs import foxglove_scene as fox
 from uav_swarm.runs.live_view import LiveListener, LiveView
 

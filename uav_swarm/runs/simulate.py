@@ -328,7 +328,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     """
     from bridge.errors import BridgeError
     from bridge.telemetry import SwarmPublisher
-    from learning.files import write_bytes_atomic
+    from typed_config.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
 
