@@ -3,8 +3,8 @@
 For each crowd size (default 200 pedestrians per copy, 5 groups of 40, and 516, the default scenario's
 mean, 6 groups of 86) and each number of copies N (default 1, 16, 64, 256), with 10 UAVs, it measures (a)
 one ``BatchedUAVSwarm(N)``, (b) N separate ``uav_swarm_v0`` parallel envs stepped in a Python loop and (c)
-VMAS's ``navigation`` scenario with ``num_envs=N`` and 10 agents on the CPU (continuous actions; ``--no-
-vmas`` leaves it out, for a machine without the ``bench`` extra). Every step draws fresh uniform random
+VMAS's ``navigation`` scenario with ``num_envs=N`` and 10 agents on the CPU (continuous actions;
+``--no-vmas`` leaves it out, for a machine without the ``bench`` extra). Every step draws fresh uniform random
 actions from a seeded generator (velocity actions in [-1, 1]). The three run in interleaved rounds, so a
 machine whose load changes during the run affects them alike. The load average before and after is
 printed. Goal: batched >= 5x separate at 64 copies, at both crowd sizes.
