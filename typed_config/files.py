@@ -1,9 +1,9 @@
 """Atomic file writes for every package: a temporary file in the target's folder, then ``os.replace``.
 
 A reader never sees a half-written file, and a write that fails (or is killed) leaves the previous file
-intact and no temporary file behind (except after a hard kill, as a hidden ``.<name>.<random>.tmp``).
-The new file gets the permissions of any other new file (``0o666`` less the umask), not the private
-``0o600`` of a temporary file; bytes written here are flushed to the disk before the rename.
+intact and no temporary file behind (except after a hard kill, as a hidden ``.<name>.<pid>.<random>.tmp``).
+The new file gets the permissions of any other new file (``0o666`` less the umask); bytes written here
+are flushed to the disk before the rename.
 
 Examples:
     >>> import json, tempfile
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
+import secrets
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -31,26 +31,17 @@ from typing import Any
 __all__ = ["atomic_path", "write_bytes_atomic", "write_text_atomic", "write_json_atomic"]
 
 
-def _default_mode() -> int:
-    """The mode ``open()`` gives a new file: 0o666 less the process's umask (0o644 under the usual 022)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
-
-
 @contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it replaces ``path``, on error it is removed.
 
-    The temporary file exists (empty) when yielded; the caller writes it by any means (its name ends in
-    ``.tmp``, so writers that infer a format from the suffix must be told the format).
+    The temporary path is unique (process id and a random token) and does not exist yet; the caller
+    creates it by any means (its name ends in ``.tmp``, so writers that infer a format from the suffix
+    must be told the format).
     """
     path = Path(path)
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    tmp = Path(name)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
     try:
-        os.fchmod(fd, _default_mode())
-        os.close(fd)
         yield tmp
         os.replace(tmp, path)
     except BaseException:
