@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SMALL_WIFI_TASK
 from PIL import Image
 from ports import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
@@ -20,6 +19,7 @@ from bridge.missions.files import load_plan
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 from bridge.telemetry.schema import Plan, Qos, UavState
+from conftest import SMALL_WIFI_TASK
 from uav_swarm.cli import main
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig

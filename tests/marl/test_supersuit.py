@@ -1,6 +1,5 @@
 """SuperSuit's wrappers on the parallel uav_swarm_v0, and its vector env, checked against the raw env."""
 
-import doctest
 import sys
 
 import numpy as np
@@ -9,7 +8,6 @@ import supersuit as ss  # noqa: E402  (the marl extra; CI installs it)
 from marl_world import SMALL_WORLD, random_actions, raw_trajectory  # noqa: E402
 from pettingzoo.test import parallel_api_test  # noqa: E402
 
-import uav_swarm.marl.supersuit_vec as supersuit_module  # noqa: E402
 from uav_swarm.env.parallel import parallel_env  # noqa: E402
 from uav_swarm.marl import supersuit_vec_env  # noqa: E402
 
@@ -198,7 +196,3 @@ def test_missing_supersuit_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "supersuit", None)
     with pytest.raises(ImportError, match=r"pip install 'uav-swarm\[marl\]'"):
         supersuit_vec_env(2, **_kwargs())
-
-
-def test_module_doctest():
-    assert doctest.testmod(supersuit_module).failed == 0
