@@ -154,7 +154,7 @@ class BatchedUAVSwarm:
     def crowd(self) -> BatchedCrowd:
         """All copies' crowds (``positions_m`` stacked; ``copy_index``, ``offsets``, ``scenarios``)."""
         self._require_reset()
-        return self._core.crowd  # type: ignore[return-value]
+        return self._core.batched_crowd
 
     @property
     def uav_positions_m(self) -> np.ndarray:
@@ -199,7 +199,9 @@ def _per_copy_seeds(seed: int | Sequence[int | None] | None, n: int) -> list[int
     """One seed (or None) per copy: ``s + k`` for an int ``s``."""
     if seed is None:
         return [None] * n
-    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer, Sequence)):
+        raise ValueError(f"seed must be an int, None or a sequence of num_envs = {n} seeds, got {seed!r}")
+    if isinstance(seed, (int, np.integer)):
         return [int(seed) + k for k in range(n)]
     seeds = list(seed)
     if len(seeds) != n:

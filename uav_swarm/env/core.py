@@ -90,13 +90,14 @@ class SwarmCore:
         self._guard_altitudes_m = self.altitudes_m if layered else None
         self._stacked = stacked_crowd
         # Admission control keeps per-world association state; the paper's model is computed for all at once.
-        self._links = [Association(self.radio) for _ in range(b)] if self.radio.max_stations is not None \
-            else None
+        self._links: list[Association] | None = [Association(self.radio) for _ in range(b)] \
+            if self.radio.max_stations is not None else None
         (h, w), p = cfg.density_shape, cfg.patch_px
         self._padded_share_map = np.zeros((b, h + p - 1, w + p - 1), dtype=np.float32)  # zero border
         self._patch_windows = sliding_window_view(self._padded_share_map, (p, p), axis=(1, 2))
         self.rngs: list[np.random.Generator | None] = [None] * b
-        self.crowd: CrowdSim | None = None
+        self._crowd: CrowdSim | None = None
+        self._batched_crowd: BatchedCrowd | None = None
         n = cfg.n_uavs
         self.positions_m = np.zeros((b, n, 2))
         self.velocities_m_s = np.zeros((b, n, 2))
@@ -117,11 +118,26 @@ class SwarmCore:
 
     # --- reset and step -------------------------------------------------------------------
 
+    @property
+    def crowd(self) -> CrowdSim:
+        """The crowds: one :class:`CrowdSim`, or all worlds' in one :class:`BatchedCrowd`."""
+        if self._crowd is None:
+            raise RuntimeError("the worlds have not been reset: call reset() first")
+        return self._crowd
+
+    @property
+    def batched_crowd(self) -> BatchedCrowd:
+        """The stacked crowds of all worlds (``stacked_crowd=True``)."""
+        if self._batched_crowd is None:
+            raise RuntimeError("the crowds are not stacked, or the worlds have not been reset")
+        return self._batched_crowd
+
     def rng(self, world: int) -> np.random.Generator:
         """World ``world``'s generator (seeded from entropy if it has none yet)."""
-        if self.rngs[world] is None:
-            self.rngs[world] = np.random.default_rng()
-        return self.rngs[world]
+        rng = self.rngs[world]
+        if rng is None:
+            rng = self.rngs[world] = np.random.default_rng()
+        return rng
 
     def reset(self, seeds: Sequence[int | None], worlds: np.ndarray) -> None:
         """Draw new scenarios, crowds and UAV start positions for ``worlds``.
@@ -146,17 +162,18 @@ class SwarmCore:
             start = rng.uniform(0.0, self.area_m, size=(cfg.n_uavs, 2))
             self.positions_m[c] = np.clip(start, 0.0, self.area_m)
         if not self._stacked:
-            self.crowd = sims[0]
-        elif self.crowd is None or len(worlds) == self.num_worlds:
-            self.crowd = BatchedCrowd(sims)
+            self._crowd = sims[0]
+        elif self._batched_crowd is None or len(worlds) == self.num_worlds:
+            self._crowd = self._batched_crowd = BatchedCrowd(sims)
         else:
-            self.crowd.replace(worlds, sims)  # type: ignore[union-attr]
+            self._batched_crowd.replace(worlds, sims)
         self.velocities_m_s[worlds] = 0.0
         self.targets_m[worlds] = self.positions_m[worlds]
         self.cycle[worlds] = 0
         self.held[worlds] = False
-        for c in worlds if self._links is not None else ():
-            self._links[c].reset()
+        for c in worlds:
+            if self._links is not None:
+                self._links[c].reset()
         self._update_view()
 
     def step(self, values: np.ndarray, given: np.ndarray | None = None, active: np.ndarray | None = None
@@ -172,8 +189,10 @@ class SwarmCore:
         command = self.command_m_s(values, given, active)
         if active is None:
             self.crowd.step(self.config.crowd_steps_per_env_step)
+        elif active.any() and self._batched_crowd is not None:  # one world: active.any() is all of it
+            self._batched_crowd.step(self.config.crowd_steps_per_env_step, active=active)
         elif active.any():
-            self.crowd.step(self.config.crowd_steps_per_env_step, active=active)  # type: ignore[call-arg]
+            self.crowd.step(self.config.crowd_steps_per_env_step)
         positions, velocities = fly_step(self.positions_m, self.velocities_m_s, command, self.dt_s,
                                          self.config.uav, self.area_m)
         if active is None:
@@ -214,12 +233,12 @@ class SwarmCore:
 
     def _update_view(self) -> None:
         """Density maps, coverage, separation and rewards of every world (once per reset or step)."""
-        cfg, b, crowd = self.config, self.num_worlds, self.crowd
+        cfg, b, stacked = self.config, self.num_worlds, self._batched_crowd
         (h, w), half = cfg.density_shape, cfg.patch_px // 2
-        peds = crowd.positions_m
-        copy = crowd.copy_index if self._stacked else np.zeros(len(peds), np.intp)  # type: ignore[union-attr]
+        peds = self.crowd.positions_m
+        copy = stacked.copy_index if stacked is not None else np.zeros(len(peds), np.intp)
         self.density = density_maps(peds, copy, b, self.width_m, self.height_m, cfg.density_shape)
-        n_users = crowd.counts() if self._stacked else np.array([len(peds)])  # type: ignore[union-attr]
+        n_users = stacked.counts() if stacked is not None else np.array([len(peds)])
         self.share_map = self.density / np.maximum(n_users, 1).astype(np.float32)[:, None, None]
         self._padded_share_map[:, half:half + h, half:half + w] = self.share_map
         self.coverage: CoverageBatch = coverage_batch(peds, copy, self.positions_m, self.radio, self._links,

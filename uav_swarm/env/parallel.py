@@ -133,7 +133,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     **Version history.** v0: initial release.
     """
 
-    metadata = {
+    metadata: dict[str, Any] = {
         "name": "uav_swarm_v0",
         "render_modes": ["human", "rgb_array"],
         "is_parallelizable": True,

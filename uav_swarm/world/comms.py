@@ -109,7 +109,7 @@ class RadioConfig(Config):
             return self.rate_bound_stations
         if self.station_limit == "off":
             return None
-        return self.station_limit  # type: ignore[return-value]
+        return self.station_limit
 
     @property
     def association_name(self) -> str:
@@ -344,7 +344,7 @@ class Association:
         d2 = _squared_distances(users_m, uavs_m, config, altitudes_m)  # (K, N)
         n_uavs, n_users = d2.shape
         in_range = _signal_in_range(d2, config)
-        in_range_any = in_range.any(axis=0) if n_uavs else np.zeros(n_users, bool)
+        in_range_any = np.asarray(in_range.any(axis=0)) if n_uavs else np.zeros(n_users, bool)
         kept = np.full(n_users, -1, np.int64)
         if previous is not None and previous.shape[0] == n_users and n_uavs:
             stays = (previous >= 0) & (previous < n_uavs)

@@ -73,9 +73,9 @@ def density_map(
         weights = np.asarray(weights, dtype=np.float64).reshape(-1)
         if len(weights) != len(positions_m) or not np.all(np.isfinite(weights)):
             raise ValueError(f"weights must be {len(positions_m)} finite values, got shape {weights.shape}")
-    ones = weights is None
-    sums = _binned(positions_m, np.zeros(len(positions_m), np.int64), np.ones(1) if ones else weights, ones,
-                   1, h, w, float(width_m), float(height_m))
+    sums = _binned(positions_m, np.zeros(len(positions_m), np.int64),
+                   np.ones(1) if weights is None else weights, weights is None, 1, h, w, float(width_m),
+                   float(height_m))
     return sums.reshape(h, w).astype(np.float32)
 
 

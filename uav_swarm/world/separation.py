@@ -285,7 +285,7 @@ def guard_commands(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_
     v = np.asarray(velocities_m_s, dtype=np.float64)
     wanted = np.asarray(command_m_s, dtype=np.float64)
     k = p.shape[-2]
-    held = np.zeros(p.shape[:-1], dtype=bool)
+    held: np.ndarray = np.zeros(p.shape[:-1], dtype=bool)
     if k < 2 or config.min_separation_m <= 0:
         return wanted.copy(), held
     batch = p.shape[:-2]
