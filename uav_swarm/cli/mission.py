@@ -26,6 +26,12 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the command imports the bridge on use, not at start-up
+    from bridge.config import BridgeConfig
+    from bridge.flight.fleet import Fleet, MissionBuilder
+    from bridge.missions.items import Mission
 
 __all__ = ["register", "run", "parse_target", "read_plans"]
 
@@ -174,7 +180,7 @@ def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
     return plans
 
 
-def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: ANN001 - BridgeConfig
+def _check_plans(plans: dict[int, list[list[float]]], config: BridgeConfig) -> None:
     """Refuse, before any network wait, plans for vehicles the config lacks or outside the fence."""
     from bridge.missions.items import build_mission
 
@@ -186,7 +192,7 @@ def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: 
             raise type(exc)(f"vehicle {sid}: {exc}") from None
 
 
-def _check_ids(ids: object, config) -> None:  # noqa: ANN001 - BridgeConfig
+def _check_ids(ids: object, config: BridgeConfig) -> None:
     """Refuse vehicle ids the bridge config lacks, naming the configured ones."""
     configured = sorted(v.system_id for v in config.vehicles)
     unknown = sorted(set(ids) - set(configured))
@@ -240,7 +246,7 @@ def _report(action: str, errors: dict[int, BaseException]) -> int:
     return 2 if all(isinstance(e, (RefusedError, ValueError)) for e in errors.values()) else 1
 
 
-def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]]:  # noqa: ANN001 - Fleet
+def _present(fleet: Fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]]:
     """The vehicles that answer (each within its own discovery time), and the others' errors."""
     from bridge.flight.fleet import FleetError
 
@@ -251,7 +257,7 @@ def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]
     return ids, {}
 
 
-def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _export(args: argparse.Namespace, config: BridgeConfig) -> int:
     from pymavlink.dialects.v20 import common as mavlink
 
     from bridge.missions.files import save_mission
@@ -279,7 +285,7 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
     return 0
 
 
-def _plan_builder(points: list[list[float]], config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
+def _plan_builder(points: list[list[float]], config: BridgeConfig) -> MissionBuilder:
     """Build a plan's mission around the home the fleet gives (the config's or the vehicle's own)."""
     from bridge.missions.items import build_mission
 
@@ -287,13 +293,13 @@ def _plan_builder(points: list[list[float]], config):  # noqa: ANN001, ANN202 - 
     return lambda sid, autopilot, home: build_mission(points, home, mission, fence, autopilot)
 
 
-def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
+def _file_builder(path: Path, config: BridgeConfig) -> MissionBuilder:
     """Load a mission file (absolute positions: its own home, or the config's for WPL) for its vehicle."""
     from pymavlink.dialects.v20 import common as mavlink
 
     from bridge.missions.files import load_mission
 
-    def build(sid: int, autopilot: int, _home: object):  # noqa: ANN202 - Mission
+    def build(sid: int, autopilot: int, _home: object) -> Mission:
         mission = load_mission(path, config.home, autopilot)
         ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
         if (mission.autopilot == ardupilot) != (autopilot == ardupilot) and path.suffix == ".plan":
@@ -306,7 +312,7 @@ def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, M
     return build
 
 
-def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _upload(args: argparse.Namespace, config: BridgeConfig) -> int:
     from bridge.flight.fleet import Fleet, FleetError
 
     plans = _plans(args)
@@ -335,7 +341,7 @@ def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
     return _report(args.action, errors)
 
 
-def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _download(args: argparse.Namespace, config: BridgeConfig) -> int:
     from bridge.flight.fleet import Fleet, FleetError
     from bridge.missions.files import save_mission
 
@@ -356,7 +362,7 @@ def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - Bridge
     return _report(args.action, errors)
 
 
-def _clear(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _clear(args: argparse.Namespace, config: BridgeConfig) -> int:
     from bridge.flight.fleet import Fleet, FleetError
 
     _check_ids(args.vehicle, config)

@@ -34,7 +34,7 @@ __all__ = ["raw_env", "parallel_env", "env", "EnvConfig"]
 logger = logging.getLogger(__name__)
 
 
-class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment class)
+class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
     """UAV swarm over a moving crowd (``uav_swarm_v0``).
 
     **Description.** Up to 10 UAVs fly at a fixed altitude over a rectangular area where a
