@@ -42,7 +42,7 @@ class FlyConfig(Config):
     record_every_s: float = param(0.5, ge=0.1, le=60.0,
                                   doc="simulated seconds between two QoS / track records (and /qos messages)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
-    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     mode: Literal["guided", "mission"] = param(
         "guided", doc="how targets reach the vehicles: 'guided' (MAV_CMD_DO_REPOSITION) or 'mission' "
                       "(a new mission uploaded and flown in AUTO)")
