@@ -25,7 +25,8 @@ import difflib
 import importlib
 import re
 from collections.abc import Callable, Iterator
-from typing import Any, get_args, get_origin, get_type_hints
+from types import UnionType
+from typing import Any, Union, get_args, get_origin, get_type_hints
 
 __all__ = ["CliParser", "CliHelpFormatter", "config_flag", "number", "plain_text", "iter_parsers",
            "add_verbosity", "SWITCH_ACTIONS"]
@@ -85,22 +86,27 @@ def _shown(value: Any) -> str:
     return str(value)
 
 
-def config_flag(parser: argparse.ArgumentParser, flag: str, spec: str, help: str | None = None,
-                **kwargs: Any) -> argparse.Action:
+def config_flag(parser: argparse.ArgumentParser, flag: str, spec: str, help: str | None = None, *,
+                key: str | None = None, **kwargs: Any) -> argparse.Action:
     """Add ``flag`` setting the config field ``spec`` (``"module:Class.field"``).
 
     The flag's value is converted to the field's type and checked against its range when parsed; its
-    help is ``help`` (or the field's doc) followed by the field's default. The config class is imported
-    only when the flag is given or its help is shown, so that ``uav-swarm --help`` stays fast.
+    help is ``help`` (or the field's doc) followed by the field's default and the ``--config`` key
+    (``key``, by default the field's name) that replaces it. The config class is imported only when the
+    flag is given or its help is shown, so that ``uav-swarm --help`` stays fast.
     """
 
     def convert(text: str) -> Any:
         cls, field = _field(spec)
         kind = get_type_hints(cls)[field.name]
+        if get_origin(kind) in (Union, UnionType):  # an optional number
+            kind = next(k for k in get_args(kind) if k is not type(None))
         if get_origin(kind) is not None or kind not in (int, float):
             options = get_args(kind)
             if options and text not in options:
                 raise argparse.ArgumentTypeError(f"{text!r} is not allowed: choose one of {list(options)}")
+            if not options:
+                _check_text(cls, field.name, text)
             return text
         meta = field.metadata
         return number(kind, ge=meta.get("ge"), gt=meta.get("gt"), le=meta.get("le"), lt=meta.get("lt"))(text)
@@ -108,7 +114,21 @@ def config_flag(parser: argparse.ArgumentParser, flag: str, spec: str, help: str
     convert.__name__ = "value"
     action = parser.add_argument(flag, type=convert, help=help or _FIELD_DOC, **kwargs)
     action.config_field = spec  # type: ignore[attr-defined]
+    action.config_key = spec.rpartition(".")[2] if key is None else key  # type: ignore[attr-defined]
     return action
+
+
+def _check_text(cls: type, name: str, text: str) -> None:
+    """A text field's own check (its config's ``check``), the message without the config's name."""
+    from typed_config import ConfigError
+
+    try:
+        cls(**{name: text})
+    except ConfigError as exc:
+        message = str(exc)
+        prefix = f"{cls.__name__}.{name}"
+        if prefix in message:  # about this field, not another one the defaults leave unset
+            raise argparse.ArgumentTypeError(message.replace(f"{prefix} = ", "").replace(prefix, name)) from None
 
 
 class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
@@ -126,7 +146,9 @@ class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
                       if meta.get(k) is not None]
             allowed = f"; allowed {' and '.join(bounds)}" if bounds else ""
             if "(default" not in text:
-                text += f" (default: {_shown(field.default).replace('%', '%%')}{allowed})"
+                shown = _shown(field.default).replace("%", "%%")
+                source = f", or {action.config_key} of --config" if action.config_key else ""
+                text += f" (default: {shown}{source}{allowed})"
             return text
         if isinstance(action, SWITCH_ACTIONS) or action.required or "default" in text:
             return text
