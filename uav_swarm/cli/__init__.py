@@ -68,7 +68,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except ConfigError as exc:
-        print(f"uav-swarm: configuration error: {exc}", file=sys.stderr)
+        command = " ".join(filter(None, (args.command, getattr(args, "action", None))))
+        print(f"uav-swarm {command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("uav-swarm: interrupted", file=sys.stderr)

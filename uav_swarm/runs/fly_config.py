@@ -56,7 +56,7 @@ class FlyConfig(Config):
     def check(self) -> None:
         """A bridge config is required; strategy 2 takes admission control unless told; the radio is 2-D."""
         if not self.bridge_config:
-            raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
+            raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
         if self.task.strategy == 2 and self.task.radio.station_limit is None:
             # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);
