@@ -113,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     except BridgeError as exc:
-        print(f"uav-swarm fly: {type(exc).__name__}: {exc}", file=sys.stderr)
+        kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "  # a vehicle's failure: its class
+        print(f"uav-swarm fly: {kind}{exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
     finally:
         for sig, handler in previous.items():

@@ -20,10 +20,14 @@ from typing import Any
 
 from uav_swarm.cli.conventions import config_flag, number
 
-__all__ = ["register", "run", "TASK_NAMES"]
+__all__ = ["register", "run", "task_names"]
 
-TASK_NAMES = ("wifi-s1", "wifi-s2", "agp", "fp")
-"""The tasks of the registry (uav_swarm.missions.registry.TASKS; a test keeps them equal)."""
+
+def task_names() -> tuple[str, ...]:
+    """The registered tasks (the choices of ``--task``)."""
+    from uav_swarm.missions.registry import TASKS
+
+    return tuple(TASKS)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -33,7 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     train_cfg, model_cfg = "learning.train:TrainConfig.", "learning.model:ModelConfig."
 
     def common(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--task", required=True, choices=TASK_NAMES, help="the task")
+        parser.add_argument("--task", required=True, choices=task_names(), help="the task")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
                             "refine, rule_check; default: none, the task's defaults)")
         parser.add_argument("--out", required=True, help="output folder")
@@ -183,8 +187,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         try:
             check = build_rule_check(factory(), table)
         except TypeError:
-            print(f"uav-swarm evaluate: --rule-check: task {args.task!r} has none: allowed with --task "
-                  "wifi-s1 or wifi-s2", file=sys.stderr)
+            print(f"uav-swarm evaluate: --rule-check: task {args.task!r} has no rule check; allowed with "
+                  "--task wifi-s1 or wifi-s2", file=sys.stderr)
             return 2
     # peaks: the settings saved with (and validated during the training of) the checkpoint
     summary = evaluate(args.checkpoint, factory, args.n, args.seed, args.out, data_dir=args.data,

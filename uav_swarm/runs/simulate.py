@@ -3,7 +3,8 @@
 :func:`simulate` runs ``uav_swarm_v0`` in waypoint mode for ``duration_s`` of simulated time,
 replanning every ``replan_every`` steps with the configured planner (:mod:`uav_swarm.planning.planner`),
 and records per step the QoS of both strategies and the mean user throughput, and per replan the
-planning latency. The same sequence is then flown with the expert planner: the environment is reset
+planning latency. One untimed replan before the first step compiles and loads what the planner needs
+(numba kernels, the network's first call), so the latencies are those of a warm planner. The same sequence is then flown with the expert planner: the environment is reset
 with the same seed, and the crowd does not react to the UAVs, so both planners face the same crowd.
 
 While the flown planner runs, UAV states, plans and QoS are published over Zenoh
@@ -111,6 +112,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         raise ValueError(f"the planner is for {planner.n_uavs} UAVs, the sequence has {config.n_uavs}")
     env = parallel_env(config=config.env_config())
     env.reset(seed=config.seed)
+    # One untimed replan first: compilation (numba) and first calls (the network) land here, not in the
+    # latencies; the planner then forgets it (planning draws no random numbers, the sequence is unchanged).
+    planner.plan(env.pedestrian_positions_m, env.uav_positions_m, env.pedestrian_velocities_m_s)
     planner.reset()
     if recorder is not None:
         recorder.static_scene(env.scenario.obstacles)
