@@ -1,9 +1,9 @@
-"""``uav-swarm calibrate-check``: choose the Wi-Fi rule check's settings on the validation split.
+r"""``uav-swarm calibrate-check``: choose the Wi-Fi rule check's settings on the validation split.
 
 Example::
 
-    uav-swarm calibrate-check --task wifi-s1 --config configs/tasks/wifi-s1.toml \\
-        --checkpoint uav_swarm/checkpoints/wifi-s1.pt --data runs/wifi-s1/data10000 \\
+    uav-swarm calibrate-check --task wifi-s1 --config configs/tasks/wifi-s1.toml \
+        --checkpoint uav_swarm/checkpoints/wifi-s1.pt --data runs/wifi-s1/data10000 \
         --out results/wifi-s1/rule-check/calibration.json
 """
 
@@ -35,7 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="slacks (users) tried (default: %(default)s)")
     parser.add_argument("--qos-floor", type=number(float, gt=0.0, le=1.5), default=0.99,
                         help="least QoS relative to the expert's of a chosen point (default: %(default)s)")
-    parser.add_argument("--n", type=number(int, ge=1), help="at most this many validation scenes (default: all)")
+    parser.add_argument("--n", type=number(int, ge=1),
+                        help="at most this many validation scenes (default: all)")
     parser.add_argument("--out", required=True, help="JSON report to write")
     parser.set_defaults(func=run)
 

@@ -128,7 +128,8 @@ def _check_text(cls: type, name: str, text: str) -> None:
         message = str(exc)
         prefix = f"{cls.__name__}.{name}"
         if prefix in message:  # about this field, not another one the defaults leave unset
-            raise argparse.ArgumentTypeError(message.replace(f"{prefix} = ", "").replace(prefix, name)) from None
+            message = message.replace(f"{prefix} = ", "").replace(prefix, name)
+            raise argparse.ArgumentTypeError(message) from None
 
 
 class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
@@ -153,7 +154,8 @@ class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
         if isinstance(action, SWITCH_ACTIONS) or action.required or "default" in text:
             return text
         if action.default is not None and action.default is not argparse.SUPPRESS and action.option_strings:
-            default = " ".join(map(str, action.default)) if isinstance(action.default, list) else "%(default)s"
+            listed = isinstance(action.default, list)
+            default = " ".join(map(str, action.default)) if listed else "%(default)s"
             return f"{text} (default: {default})"
         return text
 
@@ -175,7 +177,8 @@ class CliParser(argparse.ArgumentParser):
             kwargs["help"] = plain_text(kwargs["help"])
         return super().add_argument(*args, **kwargs)
 
-    def parse_known_args(self, args: Any = None, namespace: Any = None) -> tuple[argparse.Namespace, list[str]]:
+    def parse_known_args(self, args: Any = None, namespace: Any = None
+                         ) -> tuple[argparse.Namespace, list[str]]:
         """Parse; an argument this parser does not know is an error in its own usage, with a suggestion."""
         namespace, extras = super().parse_known_args(args, namespace)
         if extras:

@@ -53,8 +53,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                 help="how targets reach the vehicles")
     config_flag(parser, "--end", flight + "end_action", choices=("rtl", "land"))
     config_flag(parser, "--wait-ready-s", flight + "ready_timeout_s",
-                help="wait at most this long for each vehicle's heartbeat, then for its position fix and home "
-                     "([flight] ready_timeout_s)")
+                help="wait at most this long for each vehicle's heartbeat, then for its position fix and "
+                     "home ([flight] ready_timeout_s)")
     config_flag(parser, "--duration-s", cfg + "duration_s")
     config_flag(parser, "--speedup", cfg + "speedup")
     config_flag(parser, "--replan-every-s", cfg + "replan_every_s")
@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     except BridgeError as exc:
-        kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "  # a vehicle's failure: its class
+        kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "  # a vehicle's failure
         print(f"uav-swarm fly: {kind}{exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
     finally:

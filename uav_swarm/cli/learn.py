@@ -63,8 +63,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     train = subparsers.add_parser(
         "train", help="train the utility network on a dataset",
-        description="Train the utility network on a dataset of expert demonstrations; writes last.pt, best.pt "
-        "and history.json into --out. The flags replace the values of --config's [train] and [model] "
+        description="Train the utility network on a dataset of expert demonstrations; writes last.pt, "
+        "best.pt and history.json into --out. The flags replace the values of --config's [train] and [model] "
         "tables.\n\n" + __doc__)
     common(train)
     train.add_argument("--data", required=True, help="dataset folder")
@@ -72,7 +72,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(train, "--batch-size", train_cfg + "batch_size", key="[train] batch_size")
     config_flag(train, "--lr", train_cfg + "lr", key="[train] lr")
     config_flag(train, "--max-steps", train_cfg + "max_steps", key="[train] max_steps")
-    config_flag(train, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"), key="[train] device")
+    config_flag(train, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"),
+                key="[train] device")
     config_flag(train, "--torch-threads", train_cfg + "torch_threads", key="[train] torch_threads")
     config_flag(train, "--precision", train_cfg + "precision", choices=("auto", "float32", "bfloat16"),
                 key="[train] precision")
@@ -95,7 +96,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     generation(evaluate)
     evaluate.add_argument("--checkpoint", required=True, help="a .pt file trained on this task")
     evaluate.add_argument("--data", help="test dataset folder (default: OUT/test-data, generated if needed)")
-    evaluate.add_argument("--examples", type=number(int, ge=0), default=6, help="scenes drawn in examples.png")
+    evaluate.add_argument("--examples", type=number(int, ge=0), default=6,
+                          help="scenes drawn in examples.png")
     evaluate.add_argument("--precision", choices=("auto", "float32", "bfloat16"), default="auto",
                           help="network precision ('auto': bfloat16 where native)")
     evaluate.add_argument("--tta", action="store_true",
@@ -152,7 +154,8 @@ def _train(args: argparse.Namespace) -> int:
     train_cfg = settings.train.replace(**_overrides(args, train_fields))
     model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head")))
     result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
-                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from, init=args.init)
+                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from,
+                   init=args.init)
     last = result.history[-1] if result.history else {}
     print(f"checkpoint: {result.checkpoint} (best: {result.best_checkpoint}); last epoch: "
           + ", ".join(f"{k} {v:.4g}" for k, v in last.items()))

@@ -67,7 +67,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]} (default: none)')
     add("--from-dir", type=Path,
         help="upload: the vehicle_<ID>.plan/.waypoints files of this folder (default: none)")
-    add("--out", type=Path, help="export/download: folder for vehicle_<ID> files (required there; default: none)")
+    add("--out", type=Path,
+        help="export/download: folder for vehicle_<ID> files (required there; default: none)")
     add("--format", choices=tuple(_SUFFIX), default="plan", help="mission file format (default: %(default)s)")
     add(
         "--autopilot",

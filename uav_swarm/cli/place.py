@@ -66,7 +66,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help=".geojson (WGS84 Polygon, MultiPolygon or FeatureCollection) or .json/.csv/.txt vertices (m)")
     add("--out", required=True, type=Path, help="output folder")
     add("--method", choices=METHODS, default="refined", help="placement method")
-    add("--checkpoint", help="network for learned/refined (default: the shipped uav_swarm/checkpoints/<task>.pt)")
+    add("--checkpoint",
+        help="network for learned/refined (default: the shipped uav_swarm/checkpoints/<task>.pt)")
     add("--max-pixel-m", type=number(float, gt=0.0), default=10.0,
         help="coarsest raster the network sees; wider buildings are shown in tiles")
     config_flag(parser, "--witness-spacing-m", sight + "witness_spacing_m", key="")
@@ -189,14 +190,19 @@ def _missions(args: argparse.Namespace, bridge: Any, footprint: Any, guards_m: n
 
 def run(args: argparse.Namespace) -> int:
     """Place every building's guards and write the outputs; unplaceable input exits with code 2."""
+    from bridge.config import BridgeConfig
     from bridge.errors import BridgeError
     from bridge.missions.files import save_mission
     from learning.checkpoint import CheckpointError
     from learning.files import write_json_atomic
-    from typed_config import ConfigError
-    from bridge.config import BridgeConfig
-    from typed_config import load_toml
-    from uav_swarm.cli.place_output import centroid_lonlat, frame_record, plot_site, site_geojson, swap_warning
+    from typed_config import ConfigError, load_toml
+    from uav_swarm.cli.place_output import (
+        centroid_lonlat,
+        frame_record,
+        plot_site,
+        site_geojson,
+        swap_warning,
+    )
     from uav_swarm.missions.monitoring.footprint import FootprintError, read_site
     from uav_swarm.missions.monitoring.outline import OutlineError
     from uav_swarm.missions.monitoring.outline_guards import SightConfig
@@ -251,7 +257,8 @@ def run(args: argparse.Namespace) -> int:
         "task": task.name, "method": args.method, "judged_on": "the input outline in metres", "sight": {
             "witness_spacing_m": sight.witness_spacing_m, "min_clearance_m": sight.min_clearance_m,
             "standoff_m": sight.standoff_m},
-        "frame": frame_record(site[0]), "n_guards": len(guards_m), "fully_covered": all(r["fully_covered"] for r in records),
+        "frame": frame_record(site[0]), "n_guards": len(guards_m),
+        "fully_covered": all(r["fully_covered"] for r in records),
         "buildings": records, "time_ms": (time.perf_counter() - start) * 1e3, "files": files}
     write_json_atomic(args.out / "placement.json", summary)
     n_seen = sum(r["n_witnesses"] - r["n_unseen"] for r in records)

@@ -49,7 +49,7 @@ def centroid_lonlat(footprint: Footprint) -> tuple[float, float] | None:
 
 
 def frame_record(footprint: Footprint) -> dict[str, Any]:
-    """The frame of ``guards_m`` in placement.json: East-North metres from a geodetic origin, or the input's."""
+    """The frame of ``guards_m`` in placement.json: East-North metres from an origin, or the input's."""
     origin = footprint.origin
     if origin is None:
         return {"guards_m": "x, y metres of the input (no geodetic origin: the building was given in metres)",
@@ -80,8 +80,8 @@ def swap_warning(footprints: list[Footprint], home: Any | None = None) -> str | 
 
         far, swapped = distance_m(lat, lon), distance_m(lon, lat) if abs(lon) <= 90.0 else np.inf
         if far > NEAR_HOME_M and swapped <= NEAR_HOME_M:
-            return (f"the site's centroid (lat {lat:.5f}, lon {lon:.5f}) is {far / 1e3:.0f} km from the bridge's "
-                    f"home, but {swapped / 1e3:.1f} km with latitude and longitude swapped: {hint}")
+            return (f"the site's centroid (lat {lat:.5f}, lon {lon:.5f}) is {far / 1e3:.0f} km from the "
+                    f"bridge's home, but {swapped / 1e3:.1f} km with latitude and longitude swapped: {hint}")
     if abs(lat) > POLAR_LAT_DEG:
         return (f"the site's centroid is at latitude {lat:.5f} (beyond {POLAR_LAT_DEG:g} degrees, where few "
                 f"buildings stand) and longitude {lon:.5f}: {hint}")

@@ -29,8 +29,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     train.add_argument("--out", type=Path, required=True, help="output folder")
     train.add_argument("--config", type=Path, help="MappoConfig TOML (default: none, the defaults below)")
     train.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.pt")
-    for flag in ("seed", "num-envs", "total-frames", "frames-per-batch", "max-minutes", "max-cycles", "strategy",
-                 "n-uavs", "lr", "torch-threads"):
+    for flag in ("seed", "num-envs", "total-frames", "frames-per-batch", "max-minutes", "max-cycles",
+                 "strategy", "n-uavs", "lr", "torch-threads"):
         config_flag(train, f"--{flag}", f"uav_swarm.marl.mappo:MappoConfig.{flag.replace('-', '_')}")
     train.set_defaults(func=run_train)
 

@@ -50,7 +50,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                 key="[train] max_steps")
     config_flag(parser, "--batch-size", train_cfg + "batch_size", key="[train] batch_size")
     config_flag(parser, "--lr", train_cfg + "lr", key="[train] lr")
-    config_flag(parser, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"), key="[train] device")
+    config_flag(parser, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"),
+                key="[train] device")
     config_flag(parser, "--torch-threads", grid + "threads", key="")
     parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where trials run")
     parser.add_argument("--address", help="Ray cluster to join (with --executor ray), e.g. ray://head:10001 "

@@ -1,8 +1,8 @@
-"""``uav-swarm expert-stability``: how far an expert agrees with itself (the ceiling of learning from it).
+r"""``uav-swarm expert-stability``: how far an expert agrees with itself (the ceiling of learning from it).
 
 Example::
 
-    uav-swarm expert-stability --task wifi-s2 --config configs/tasks/wifi-s2.toml --probe jitter \\
+    uav-swarm expert-stability --task wifi-s2 --config configs/tasks/wifi-s2.toml --probe jitter \
         --scale-m 0.05 --n 200 --seed 3 --out results/expert-stability/wifi-s2-jitter.json
 """
 

@@ -4,7 +4,8 @@
 replanning every ``replan_every`` steps with the configured planner (:mod:`uav_swarm.planning.planner`),
 and records per step the QoS of both strategies and the mean user throughput, and per replan the
 planning latency. One untimed replan before the first step compiles and loads what the planner needs
-(numba kernels, the network's first call), so the latencies are those of a warm planner. The same sequence is then flown with the expert planner: the environment is reset
+(numba kernels, the network's first call), so the latencies are those of a warm planner. The same
+sequence is then flown with the expert planner: the environment is reset
 with the same seed, and the crowd does not react to the UAVs, so both planners face the same crowd.
 
 While the flown planner runs, UAV states, plans and QoS are published over Zenoh
