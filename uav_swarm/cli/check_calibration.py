@@ -4,7 +4,7 @@ Example::
 
     uav-swarm calibrate-check --task wifi-s1 --config configs/tasks/wifi-s1.toml \
         --checkpoint uav_swarm/checkpoints/wifi-s1.pt --data runs/wifi-s1/data10000 \
-        --out results/wifi-s1/rule-check/calibration.json
+        --out runs/wifi-s1/calibration.json
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Examples::
 
     uav-swarm rl-train --out runs/mappo --max-minutes 55
-    uav-swarm rl-compare --policy runs/mappo/policy.pt --episodes 20 --out results/marl
+    uav-swarm rl-compare --policy runs/mappo/policy.pt --episodes 20 --out runs/marl-compare
 
 ``rl-train`` needs the ``marl`` extra (``pip install uav-swarm[marl]``: TorchRL). Settings come
 from ``--config`` (a TOML file of :class:`uav_swarm.marl.mappo.MappoConfig` fields) and the flags.

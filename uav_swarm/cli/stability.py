@@ -3,7 +3,7 @@ r"""``uav-swarm expert-stability``: how far an expert agrees with itself (the ce
 Example::
 
     uav-swarm expert-stability --task wifi-s2 --config configs/tasks/wifi-s2.toml --probe jitter \
-        --scale-m 0.05 --n 200 --seed 3 --out results/expert-stability/wifi-s2-jitter.json
+        --scale-m 0.05 --n 200 --seed 3 --out runs/expert-stability/wifi-s2-jitter.json
 """
 
 from __future__ import annotations
