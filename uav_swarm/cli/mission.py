@@ -45,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("action", choices=("export", "upload", "download", "clear"))
+    parser.add_argument("action", choices=("export", "upload", "download", "clear"), help="what to do")
     add = parser.add_argument
     add("--config", type=Path, required=True, help="bridge config TOML (configs/bridge/*.toml)")
     add(

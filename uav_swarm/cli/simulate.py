@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(parser, "--duration-s", cfg + "duration_s")
     config_flag(parser, "--n-uavs", cfg + "n_uavs")
     config_flag(parser, "--seed", cfg + "seed")
-    config_flag(parser, "--replan-every-steps", cfg + "replan_every", dest="replan_every")
+    config_flag(parser, "--replan-every-steps", cfg + "replan_every", dest="replan_every", metavar="STEPS")
     config_flag(parser, "--bridge-config", cfg + "bridge_config")
     add("--no-expert", action="store_true", help="do not fly the expert on the same sequence")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
