@@ -1,4 +1,4 @@
-"""The pages read as a user's manual: every page listed, every command documented, nothing to look up elsewhere."""
+"""The pages read as a user's manual: every page listed, every command documented, nothing elsewhere."""
 
 from __future__ import annotations
 
