@@ -45,3 +45,14 @@ def test_the_committed_run_is_the_demos_run():
     assert (summary["n_uavs"], summary["seed"], round(summary["duration_s"])) == (10, 0, 180)
     for name in ("qos.png", "scene.gif", "timeseries.csv", "summary.json"):
         assert (RUN / name).is_file(), name
+
+
+def test_the_readme_and_the_simulate_page_print_the_committed_run():
+    from uav_swarm.cli.simulate import format_summary
+
+    lines = format_summary(_summary()).splitlines()
+    for name in ("README.md", "docs/simulate.md"):
+        text = (ROOT / name).read_text(encoding="utf-8")
+        start = text.index(lines[0] + "\n")  # the table's header, the first of its printed block
+        block = text[start:text.index("```", start)].splitlines()
+        assert sorted(block) == sorted(lines), f"{name}: paste format_summary of results/simulate/summary.json"
