@@ -22,8 +22,9 @@ rounded raster outline is not simple gets no proposals, and the repair covers it
 Outputs in ``--out`` (written only when every building succeeded): ``guards.geojson`` (the buildings as
 given, the raster outlines the network saw, the guards; longitude/latitude for GeoJSON input, metres
 otherwise), ``placement.json`` (per building: its centroid in latitude and longitude, guards in metres,
-witnesses, coverage on the real outline, time; ``frame``: the origin and axes of the guards' metres), ``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with
-``--bridge-config``, one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
+witnesses, coverage on the real outline, time; ``frame``: the origin and axes of the guards' metres),
+``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with ``--bridge-config``,
+one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
 placed in the bridge's local frame around its home; metres are taken as East-North metres from that home).
 
 Each building's line names its centroid in latitude and longitude; a GeoJSON site whose coordinates look
