@@ -55,4 +55,4 @@ def test_the_readme_and_the_simulate_page_print_the_committed_run():
         text = (ROOT / name).read_text(encoding="utf-8")
         start = text.index(lines[0] + "\n")  # the table's header, the first of its printed block
         block = text[start:text.index("```", start)].splitlines()
-        assert sorted(block) == sorted(lines), f"{name}: paste format_summary of results/simulate/summary.json"
+        assert sorted(block) == sorted(lines), f"{name}: paste format_summary of the summary"
