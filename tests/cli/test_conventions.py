@@ -136,7 +136,7 @@ def test_a_mistyped_flag_gets_the_subcommands_usage_and_a_suggestion(path, parse
     assert main([*path, *_required(parser), prefix, "1"]) == 2
     err = capsys.readouterr().err
     assert f"usage: uav-swarm {' '.join(path)}" in err
-    assert re.search(rf"unrecognized arguments: {re.escape(prefix)} 1 \(did you mean --", err), err
+    assert re.search(rf"unrecognized arguments: {re.escape(prefix)} \(did you mean --", err), err
     typo = flag[:3] + flag[4:]  # one letter missing inside
     assert main([*path, *_required(parser), typo, "1"]) == 2
     assert "(did you mean --" in capsys.readouterr().err
@@ -145,3 +145,9 @@ def test_a_mistyped_flag_gets_the_subcommands_usage_and_a_suggestion(path, parse
 def test_a_top_level_flag_after_the_subcommand_is_taken():
     args = PARSER.parse_args(["simulate", "-v", "--n-uavs", "3"])
     assert args.verbose and args.n_uavs == 3
+
+
+def test_a_mistyped_flag_is_named_before_a_missing_required_one(capsys):
+    assert main(["dataset", "--tsk", "wifi-s1", "--n", "5", "--seed", "1", "--out", "d"]) == 2
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: --tsk (did you mean --task?)" in err and "required" not in err

@@ -180,6 +180,13 @@ class CliParser(argparse.ArgumentParser):
     def parse_known_args(self, args: Any = None, namespace: Any = None
                          ) -> tuple[argparse.Namespace, list[str]]:
         """Parse; an argument this parser does not know is an error in its own usage, with a suggestion."""
+        if args is not None and not any(isinstance(a, argparse._SubParsersAction) for a in self._actions):
+            args = list(args)
+            flags = args[:args.index("--")] if "--" in args else args
+            known = self._option_string_actions
+            unknown = [a for a in flags if a.startswith("--") and a.split("=", 1)[0] not in known]
+            if unknown:  # before the check of required arguments, which would hide the typo
+                self.error(f"unrecognized arguments: {' '.join(unknown)}{self._suggestion(unknown)}")
         namespace, extras = super().parse_known_args(args, namespace)
         if extras:
             self.error(f"unrecognized arguments: {' '.join(extras)}{self._suggestion(extras)}")
