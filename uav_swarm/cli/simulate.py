@@ -12,7 +12,7 @@ Examples:
   uav-swarm simulate --out out/sim --checkpoint runs/s1/train/best.pt --config sim.toml
   uav-swarm simulate --out out/sim --bridge-config configs/bridge/px4_sitl_10.toml   # upload the missions
   uav-swarm simulate --out out/sim --record out/sim/run.mcap   # open it in Foxglove
-  uav-swarm simulate --out out/sim --live 8765 --live-wait-s 120 --live-speed 1   # watch it in Foxglove
+  uav-swarm simulate --out out/sim --live 8765 --live-wait-s 120 --speedup 1   # watch it in Foxglove
 
 Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint, telemetry
 endpoint (e.g. "tcp/127.0.0.1:7447 is in use") or live view address, found before the first step and
@@ -65,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
              "address; HOST defaults to 127.0.0.1 (this machine only); works with --record (default: none)")
     add("--live-wait-s", type=number(float, ge=0.0), metavar="SECONDS",
         help="with --live: wait at most this long for a Foxglove client before the first step (default: 0)")
-    add("--live-speed", type=number(float, gt=0.0), metavar="X",
+    add("--speedup", type=number(float, gt=0.0), metavar="X",
         help="with --live: run X simulated seconds per wall-clock second, to watch (1: the crowd's pace; "
              "default: as fast as it computes)")
     parser.set_defaults(func=run)
@@ -129,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_swarm.runs.simulate_config import load_simulate_config
 
     try:
-        live = live_view_option(args.live, args.live_wait_s, args.live_speed)
+        live = live_view_option(args.live, args.live_wait_s, args.speedup)
         config = load_simulate_config(args.config, _overrides(args))
         result = simulate(config, args.out, progress=not args.quiet, record=args.record, live=live)
     except (ConfigError, CheckpointError) as exc:

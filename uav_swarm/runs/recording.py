@@ -360,7 +360,7 @@ def _start_live(live: LiveView, context: foxglove.Context, recorder: RunRecorder
                                        context=context, server_listener=listener,
                                        message_backlog_size=LIVE_BACKLOG_MESSAGES)
     except RuntimeError as exc:
-        raise ConfigError(f"live = {live.host}:{live.port}: the live view cannot listen there: "
+        raise ConfigError(f"--live {live.host}:{live.port}: the live view cannot listen there: "
                           f"{exc}") from exc
     host = f"[{live.host}]" if ":" in live.host else live.host
     logger.info("live view on ws://%s:%d (Foxglove: Open connection, Foxglove WebSocket)", host, server.port)
