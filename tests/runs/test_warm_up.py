@@ -12,7 +12,8 @@ from uav_swarm.runs.simulate_config import SimulateConfig
 def test_one_untimed_replan_then_a_fresh_planner_flies_the_same_sequence():
     config = SimulateConfig(duration_s=3.0, n_uavs=4, seed=2, gif=False, publish_telemetry=False,
                             compare_expert=False, static_reference=False)
-    planner = make_planner("expert", config.n_uavs, config.task, config=config.planning, uav_config=config.uav)
+    planner = make_planner("expert", config.n_uavs, config.task, config=config.planning,
+                           uav_config=config.uav)
     calls: list[str] = []
     plan, reset = planner.plan, planner.reset
     planner.plan = lambda *args, **kwargs: (calls.append("plan"), plan(*args, **kwargs))[1]
