@@ -324,8 +324,8 @@ def _resolve(fleet: _Fleet, conflicted: np.ndarray, need: np.ndarray, config: UA
     k = len(fleet.start)
     free = np.setdiff1d(np.arange(k), conflicted)
     flights = _paths(fleet, np.zeros(k), np.arange(k))
-    here = path_distances_m(np.repeat(fleet.start[:, None], 2, 1), flights) < need  # (K, K): my position on their path
-    there = path_distances_m(np.repeat(fleet.end[:, None], 2, 1), flights) < need  # my target on their path
+    here = path_distances_m(np.repeat(fleet.start[:, None], 2, 1), flights) < need  # I sit on their path
+    there = path_distances_m(np.repeat(fleet.end[:, None], 2, 1), flights) < need  # my target is on it
     blocking = here.sum(axis=1) - there.sum(axis=1)
     order = [int(j) for j in conflicted[np.argsort(-blocking[conflicted], kind="stable")]]
     best: tuple[int, float, np.ndarray] | None = None
@@ -380,8 +380,9 @@ def _first_clear(fleet: _Fleet, delays: np.ndarray, j: int, ids: np.ndarray, can
     times = _grid(max(float(_finish_s(fleet, delays, ids, config).max()), float(candidates.max()) + flight_s),
                   sample_s)
     held = candidates > 0
-    legs = _Legs(np.repeat(fleet.start[j:j + 1], len(candidates), 0),
-                 np.where(held[:, None], fleet.turn[j], fleet.end[j]), np.repeat(fleet.end[j:j + 1], len(held), 0),
+    n = len(candidates)
+    legs = _Legs(np.repeat(fleet.start[j:j + 1], n, 0), np.where(held[:, None], fleet.turn[j], fleet.end[j]),
+                 np.repeat(fleet.end[j:j + 1], n, 0),
                  np.where(held, fleet.speed0[j], fleet.speed0_direct[j]), np.where(held, candidates, np.inf))
     gaps = closest_approach_m(_positions(legs, times, config)[:, None],
                               _positions(_chosen(fleet, delays, ids), times, config)[None])  # (C, S)

@@ -361,7 +361,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                 logger.warning("no telemetry subscriber after %.1f s: flying anyway",
                                config.wait_for_subscriber_s)
         scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
-                          coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
+                          coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home,
+                          min_separation_m=config.uav.min_separation_m)
         for kind, planner in planners.items():
             flown = kind == config.planner
             with open_recorder(scene, record=record if flown else None, live=live if flown else None,
