@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 
 from uav_swarm.planning.assignment import assign_targets
-from uav_swarm.planning.transitions import (
-    closest_approach_m,
-    plan_transition,
-    predict_positions_m,
-    squared_assignment,
-)
+from uav_swarm.planning.trajectory import closest_approach_m
+from uav_swarm.planning.transitions import plan_transition, predict_positions_m, squared_assignment
 from uav_swarm.world.separation import closest_distances_m
 from uav_swarm.world.uav import UAVConfig, fly_step, waypoint_velocity
 
@@ -68,14 +64,15 @@ def test_a_forced_head_on_swap_holds_one_uav_until_the_other_has_passed():
     assert transition.held.tolist() == [False, True]  # the one whose target is the other's start waits
 
 
-def test_a_head_on_swap_on_one_line_passes_in_altitude_layers():
-    config = UAVConfig(min_separation_m=5.0, layer_step_m=6.0)
+def test_a_head_on_swap_on_one_line_detours_or_passes_in_altitude_layers():
     starts = np.array([[20.0, 50.0], [80.0, 50.0]])
-    targets = starts[::-1].copy()
-    flat = plan_transition(starts, np.zeros((2, 2)), targets, CONFIG)
-    assert len(flat.unresolved) == 1  # on one altitude no delay lets them pass
-    transition = check(starts, targets, config=config, altitudes_m=config.altitudes_m(2))
-    assert not transition.held.any()
+    targets = starts[::-1].copy()  # on one line: no delay lets them pass
+    flat = check(starts, targets)
+    detour = flat.hold_m[flat.held][0]
+    assert flat.held.sum() == 1 and abs(detour[1] - 50.0) >= CONFIG.min_separation_m  # beside the line
+    config = UAVConfig(min_separation_m=5.0, layer_step_m=6.0)
+    layered = check(starts, targets, config=config, altitudes_m=config.altitudes_m(2))
+    assert not layered.held.any()  # 6 m apart in altitude, they pass without waiting
 
 
 def test_four_uavs_converging_on_one_point_keep_the_minimum():

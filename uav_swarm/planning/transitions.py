@@ -13,12 +13,16 @@ between the two plans keep ``[uav] min_separation_m`` (3-D with altitude layers,
    and instants at once). A UAV's speed across its line (it was flying elsewhere) adds its stopping
    distance ``v^2 / 2a`` to the distance its pairs need.
 3. **Closest approach.** Every pair's least distance over the predicted flights, sampled every
-   ``sample_s`` and exact between samples for the linear motion in between.
+   ``sample_s`` and exact between samples for the linear motion in between
+   (:mod:`uav_swarm.planning.trajectory`).
 4. **Resolution.** UAVs in no conflict leave at once. A UAV in conflict *holds*: it brakes to a stop
-   on its current heading (the hold point) and waits there until its departure, the first of
-   ``0, brake time + k * delay_step_s`` that keeps the minimum (plus ``margin_m``) to every UAV already
-   scheduled, over the whole flight and at the targets. A UAV that no delay clears (its hold point lies
-   on another's path) is scheduled first in a second pass, the other then waits for it. Pairs that
+   on its current heading (the hold point) and waits there until its departure, the first of 0 and
+   the brake time plus a wait (steps of ``delay_step_s`` for 3 s, then growing by 40 %, at most until
+   all have arrived) that keeps the minimum (plus ``margin_m``) to every UAV already
+   scheduled, over the whole flight and at the targets. A UAV that no delay clears (another UAV sits on
+   its path, or their paths overlap head-on) *detours*: its hold point moves beside the first UAV on its
+   path (1.25 or 2 times the distance needed, either side, inside the area), it flies there and on after
+   the same choice of waits. A UAV still in conflict is scheduled first in a second pass. Pairs that
    neither pass clears are reported in :attr:`Transition.unresolved`; the step guard of
    :func:`uav_swarm.world.separation.guard_commands` is the last safety net for them.
 
@@ -35,15 +39,16 @@ Examples:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from uav_swarm.planning.trajectory import Legs, arrival_s, closest_approach_m, tracks_m
 from uav_swarm.world.separation import pair_distances_m, path_distances_m, required_distances_m
 from uav_swarm.world.uav import UAVConfig
 
-__all__ = ["Transition", "closest_approach_m", "plan_transition", "predict_positions_m", "squared_assignment"]
+__all__ = ["Transition", "plan_transition", "predict_positions_m", "squared_assignment"]
 
 
 @dataclass(frozen=True)
@@ -86,81 +91,6 @@ def squared_assignment(starts_m: np.ndarray, goals_m: np.ndarray) -> tuple[np.nd
     return linear_sum_assignment(np.einsum("ijc,ijc->ij", diff, diff))
 
 
-@dataclass(frozen=True)
-class _Legs:
-    """Predicted flights: a first leg (braking to the hold point, or the whole flight), then maybe a second.
-
-    ``start``, ``turn``, ``end``: ``(K, 2)``; ``speed0``: speed along the first leg; ``depart``: when the
-    second leg (turn -> end, from rest) starts (inf: no second leg, the first leg ends at ``end``).
-    """
-
-    start: np.ndarray
-    turn: np.ndarray
-    end: np.ndarray
-    speed0: np.ndarray
-    depart: np.ndarray
-
-
-def _along_m(distance_m: np.ndarray, speed0_m_s: np.ndarray, t_s: np.ndarray, config: UAVConfig
-             ) -> np.ndarray:
-    """Distance flown after ``t_s`` along a leg of ``distance_m`` entered at ``speed0_m_s`` (broadcast).
-
-    Accelerate to the peak speed, cruise, brake to a stop at the end; an entry too fast to stop in the leg
-    brakes uniformly onto its end.
-    """
-    a, d = config.max_accel_m_s2, np.maximum(distance_m, 0.0)
-    u0 = np.clip(speed0_m_s, 0.0, config.max_speed_m_s)
-    t = np.maximum(t_s, 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        overshoot = u0 * u0 >= 2.0 * a * d
-        a_stop = np.where(d > 0, u0 * u0 / (2.0 * np.where(d > 0, d, 1.0)), a)
-        t_stop = np.where(a_stop > 0, u0 / a_stop, 0.0)
-        braking = np.where(t < t_stop, u0 * t - 0.5 * a_stop * t * t, d)
-        peak = np.minimum(config.max_speed_m_s, np.sqrt(a * d + 0.5 * u0 * u0))
-        t1, d1 = (peak - u0) / a, (peak * peak - u0 * u0) / (2.0 * a)
-        d2 = np.maximum(d - d1 - peak * peak / (2.0 * a), 0.0)
-        t2 = np.where(peak > 0, d2 / np.where(peak > 0, peak, 1.0), 0.0)
-        tau = t - t1 - t2
-        cruise = np.where(t < t1, u0 * t + 0.5 * a * t * t,
-                          np.where(tau < 0, d1 + peak * (t - t1), d1 + d2 + peak * tau - 0.5 * a * tau * tau))
-        cruise = np.where(tau >= peak / a, d, cruise)
-    return np.where(overshoot, braking, np.minimum(cruise, d))
-
-
-def _arrival_s(distance_m: np.ndarray, speed0_m_s: np.ndarray, config: UAVConfig) -> np.ndarray:
-    """Seconds to fly a leg of :func:`_along_m` to its end."""
-    a, d = config.max_accel_m_s2, np.maximum(distance_m, 0.0)
-    u0 = np.clip(speed0_m_s, 0.0, config.max_speed_m_s)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        braking = np.where(u0 > 0, 2.0 * d / np.where(u0 > 0, u0, 1.0), 0.0)
-        peak = np.minimum(config.max_speed_m_s, np.sqrt(a * d + 0.5 * u0 * u0))
-        d2 = np.maximum(d - (peak * peak - u0 * u0) / (2.0 * a) - peak * peak / (2.0 * a), 0.0)
-        cruise = (peak - u0) / a + np.where(peak > 0, d2 / np.where(peak > 0, peak, 1.0), 0.0) + peak / a
-    return np.where(u0 * u0 >= 2.0 * a * d, braking, cruise)
-
-
-def _leg_positions(start: np.ndarray, end: np.ndarray, speed0: np.ndarray, t_s: np.ndarray,
-                   config: UAVConfig) -> np.ndarray:
-    """``(..., T, 2)`` positions along straight legs ``start -> end`` (``(..., 2)``) at times ``t_s`` (T,)."""
-    offset = end - start
-    length = np.hypot(offset[..., 0], offset[..., 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        unit = np.where(length[..., None] > 1e-12, offset / length[..., None], 0.0)
-    s = _along_m(length[..., None], speed0[..., None], t_s, config)  # (..., T)
-    return start[..., None, :] + s[..., None] * unit[..., None, :]
-
-
-def _positions(legs: _Legs, t_s: np.ndarray, config: UAVConfig) -> np.ndarray:
-    """``(N, T, 2)`` predicted positions of the N UAVs of ``legs`` at times ``t_s`` (T,)."""
-    first = _leg_positions(legs.start, legs.turn, legs.speed0, t_s, config)
-    finite = np.isfinite(legs.depart)
-    depart = np.where(finite, legs.depart, 0.0)
-    second = _leg_positions(legs.turn, legs.end, np.zeros_like(legs.speed0), t_s[None, :] - depart[:, None],
-                            config)
-    later = finite[:, None] & (t_s[None, :] >= depart[:, None])
-    return np.where(later[..., None], second, first)
-
-
 def predict_positions_m(positions_m: np.ndarray, velocities_m_s: np.ndarray, targets_m: np.ndarray,
                         t_s: np.ndarray, config: UAVConfig, delays_s: np.ndarray | None = None) -> np.ndarray:
     """``(K, T, 2)`` where each UAV is predicted at times ``t_s`` (T,) in the transition (module docstring).
@@ -178,17 +108,18 @@ def predict_positions_m(positions_m: np.ndarray, velocities_m_s: np.ndarray, tar
                    np.asarray(targets_m, np.float64).reshape(-1, 2), config)
     k = len(fleet.start)
     delays = np.zeros(k) if delays_s is None else np.asarray(delays_s, np.float64)
-    return _positions(_chosen(fleet, delays, np.arange(k)), np.asarray(t_s, np.float64), config)
+    return tracks_m(_chosen(fleet, delays, np.arange(k)), np.asarray(t_s, np.float64), config)
 
 
 @dataclass(frozen=True)
 class _Fleet:
-    """The quantities of one transition: both ways a UAV may fly (at once, or after a hold)."""
+    """The quantities of one transition: both ways a UAV may fly (at once, or by its hold point)."""
 
     start: np.ndarray
-    turn: np.ndarray  # the hold point
+    turn: np.ndarray  # the hold point (its braking point, or a detour's)
     end: np.ndarray
-    speed0: np.ndarray  # speed when braking to the hold point
+    velocity: np.ndarray
+    speed0: np.ndarray  # speed along the leg to the hold point
     speed0_direct: np.ndarray  # speed along the line to the target when leaving at once
     lateral_m: np.ndarray  # stopping distance of the speed across that line
     brake_s: np.ndarray  # time to stop on the hold point
@@ -206,32 +137,14 @@ def _fleet(p: np.ndarray, v: np.ndarray, targets: np.ndarray, config: UAVConfig)
     along = np.maximum(np.einsum("kc,kc->k", v, unit), 0.0)
     across = np.abs(v[:, 0] * unit[:, 1] - v[:, 1] * unit[:, 0])
     turn = p + heading * (speed * speed / (2.0 * a))[:, None]
-    return _Fleet(p, turn, targets, speed, np.minimum(along, config.max_speed_m_s),
+    return _Fleet(p, turn, targets, v, speed, np.minimum(along, config.max_speed_m_s),
                   np.minimum(across, config.max_speed_m_s) ** 2 / (2.0 * a), speed / a)
-
-
-def closest_approach_m(a_m: np.ndarray, b_m: np.ndarray) -> np.ndarray:
-    """Least distance between sampled tracks ``a_m`` and ``b_m`` (``(..., T, 2)``), linear between samples.
-
-    Examples:
-        >>> a = np.array([[0.0, 0.0], [10.0, 0.0]])  # passes (5, 3) at 3 m between its two samples
-        >>> float(closest_approach_m(a, np.array([[5.0, 3.0], [5.0, 3.0]])))
-        3.0
-    """
-    rel = np.asarray(a_m, np.float64) - np.asarray(b_m, np.float64)
-    r0, step = rel[..., :-1, :], rel[..., 1:, :] - rel[..., :-1, :]
-    length2 = np.einsum("...c,...c->...", step, step)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.clip(np.where(length2 > 0, -np.einsum("...c,...c->...", r0, step) / length2, 0.0), 0.0, 1.0)
-    nearest = r0 + s[..., None] * step
-    gaps = np.sqrt(np.einsum("...c,...c->...", nearest, nearest))
-    last = np.hypot(rel[..., -1, 0], rel[..., -1, 1])
-    return np.minimum(gaps.min(axis=-1), last) if gaps.shape[-1] else last
 
 
 def plan_transition(positions_m: np.ndarray, velocities_m_s: np.ndarray, targets_m: np.ndarray,
                     config: UAVConfig, altitudes_m: np.ndarray | None = None, *, margin_m: float = 1.0,
-                    sample_s: float = 0.2, delay_step_s: float = 0.5) -> Transition:
+                    sample_s: float = 0.2, delay_step_s: float = 0.5, area_m: np.ndarray | None = None
+                    ) -> Transition:
     """Departure times that keep every pair apart between the current state and the new targets.
 
     Args:
@@ -243,6 +156,7 @@ def plan_transition(positions_m: np.ndarray, velocities_m_s: np.ndarray, targets
         margin_m: Kept beyond the minimum in the prediction (the controller does not fly the model exactly).
         sample_s: Sampling period of the predicted flights (exact between samples for linear motion).
         delay_step_s: Granularity of the departure delays.
+        area_m: ``(2,)`` the area's upper corner: detours stay inside it (None: no border).
 
     Returns:
         The :class:`Transition` (module docstring).
@@ -263,7 +177,7 @@ def plan_transition(positions_m: np.ndarray, velocities_m_s: np.ndarray, targets
     gaps = _gaps(fleet, delays, need, config, sample_s)
     conflicted = np.flatnonzero((gaps < need).any(axis=1))
     if len(conflicted):
-        delays = _resolve(fleet, conflicted, need, config, sample_s, delay_step_s)
+        delays, fleet = _resolve(fleet, conflicted, need, config, sample_s, delay_step_s, area_m)
         gaps = _gaps(fleet, delays, need, config, sample_s)
     unresolved = np.argwhere(np.triu(gaps < need, 1)).astype(np.int64)
     if altitudes_m is not None:
@@ -279,8 +193,8 @@ def _grid(horizon_s: float, sample_s: float) -> np.ndarray:
 
 def _finish_s(fleet: _Fleet, delays: np.ndarray, ids: np.ndarray, config: UAVConfig) -> np.ndarray:
     """When UAVs ``ids`` are predicted on their targets with these delays."""
-    direct = _arrival_s(np.hypot(*(fleet.end[ids] - fleet.start[ids]).T), fleet.speed0_direct[ids], config)
-    after_hold = delays[ids] + _arrival_s(np.hypot(*(fleet.end[ids] - fleet.turn[ids]).T), 0.0, config)
+    direct = arrival_s(np.hypot(*(fleet.end[ids] - fleet.start[ids]).T), fleet.speed0_direct[ids], config)
+    after_hold = delays[ids] + arrival_s(np.hypot(*(fleet.end[ids] - fleet.turn[ids]).T), 0.0, config)
     return np.where(delays[ids] > 0, after_hold, direct)
 
 
@@ -307,7 +221,7 @@ def _gaps(fleet: _Fleet, delays: np.ndarray, need: np.ndarray, config: UAVConfig
     near = np.flatnonzero((gaps < need).any(axis=1))
     if len(near):
         times = _grid(float(_finish_s(fleet, delays, near, config).max()), sample_s)
-        tracks = _positions(_chosen(fleet, delays, ids[near]), times, config)
+        tracks = tracks_m(_chosen(fleet, delays, ids[near]), times, config)
         close = closest_approach_m(tracks[:, None], tracks[None, :])
         gaps[np.ix_(near, near)] = np.maximum(gaps[np.ix_(near, near)], close)
     np.fill_diagonal(gaps, np.inf)
@@ -315,8 +229,8 @@ def _gaps(fleet: _Fleet, delays: np.ndarray, need: np.ndarray, config: UAVConfig
 
 
 def _resolve(fleet: _Fleet, conflicted: np.ndarray, need: np.ndarray, config: UAVConfig, sample_s: float,
-             delay_step_s: float, passes: int = 2) -> np.ndarray:
-    """Departure delays (module docstring, step 4); the UAVs left over go first in the next pass.
+             delay_step_s: float, area_m: np.ndarray | None, passes: int = 2) -> tuple[np.ndarray, _Fleet]:
+    """Departure delays and detours (module docstring, step 4); UAVs left over go first in the next pass.
 
     The first order lets a UAV whose position lies on others' paths leave before them, and one whose
     target lies on others' paths leave after them.
@@ -328,21 +242,27 @@ def _resolve(fleet: _Fleet, conflicted: np.ndarray, need: np.ndarray, config: UA
     there = path_distances_m(np.repeat(fleet.end[:, None], 2, 1), flights) < need  # my target is on it
     blocking = here.sum(axis=1) - there.sum(axis=1)
     order = [int(j) for j in conflicted[np.argsort(-blocking[conflicted], kind="stable")]]
-    best: tuple[int, float, np.ndarray] | None = None
+    best: tuple[int, float, np.ndarray, _Fleet] | None = None
     for _ in range(passes):
-        delays, stuck = _schedule(fleet, free, order, need, config, sample_s, delay_step_s)
+        planned = replace(fleet, turn=fleet.turn.copy(), speed0=fleet.speed0.copy())  # detours change these
+        delays, stuck = _schedule(planned, free, order, need, config, sample_s, delay_step_s, area_m)
         if best is None or (len(stuck), float(delays.sum())) < best[:2]:
-            best = (len(stuck), float(delays.sum()), delays)
+            best = (len(stuck), float(delays.sum()), delays, planned)
         if not stuck:
             break
         order = stuck + [j for j in order if j not in stuck]
     assert best is not None
-    return best[2]
+    return best[2], best[3]
 
 
 def _schedule(fleet: _Fleet, free: np.ndarray, order: list[int], need: np.ndarray, config: UAVConfig,
-              sample_s: float, delay_step_s: float) -> tuple[np.ndarray, list[int]]:
-    """Schedule the UAVs of ``order`` one by one against the free ones and those scheduled before."""
+              sample_s: float, delay_step_s: float, area_m: np.ndarray | None
+              ) -> tuple[np.ndarray, list[int]]:
+    """Schedule the UAVs of ``order`` one by one against the free ones and those scheduled before.
+
+    A UAV that no delay clears tries a detour around the first UAV whose position or target lies on its
+    path (its hold point moved beside it, on either side); its chosen hold point is written into ``fleet``.
+    """
     delays = np.zeros(len(fleet.start))
     scheduled = [int(i) for i in free]
     stuck: list[int] = []
@@ -354,20 +274,83 @@ def _schedule(fleet: _Fleet, free: np.ndarray, order: list[int], need: np.ndarra
             others = others[reach < need[j, others]]
         if len(others):
             done_s = float(_finish_s(fleet, delays, others, config).max())
-            candidates = np.concatenate([[0.0], fleet.brake_s[j] + delay_step_s * np.arange(
-                int(np.ceil(done_s / delay_step_s)) + 2)])
-            choice = _first_clear(fleet, delays, j, others, candidates, need, config, sample_s)
+            waits = _waits_s(done_s, delay_step_s)
+            choice = _first_clear(fleet, delays, j, others, np.concatenate([[0.0], fleet.brake_s[j] + waits]),
+                                  need, config, sample_s)
+            detours = [] if choice is not None else _detours(fleet, delays, j, others, need, area_m)
+            for via, speed0 in detours:
+                fleet.turn[j], fleet.speed0[j] = via, speed0
+                reach_s = float(arrival_s(np.hypot(*(via - fleet.start[j])), speed0, config))
+                choice = _first_clear(fleet, delays, j, others, reach_s + waits, need, config, sample_s)
+                if choice is not None:
+                    break
             if choice is None:
                 stuck.append(j)
+                fleet.turn[j], fleet.speed0[j] = _braking_point(fleet, j, config)
             delays[j] = 0.0 if choice is None else choice
         scheduled.append(j)
     return delays, stuck
 
 
-def _chosen(fleet: _Fleet, delays: np.ndarray, ids: np.ndarray) -> _Legs:
+def _braking_point(fleet: _Fleet, j: int, config: UAVConfig) -> tuple[np.ndarray, float]:
+    """UAV ``j``'s hold point when it brakes on its heading, and its speed on the way (module docstring)."""
+    speed = fleet.brake_s[j] * config.max_accel_m_s2
+    return fleet.start[j] + fleet.velocity[j] * speed / (2.0 * config.max_accel_m_s2), float(speed)
+
+
+def _detours(fleet: _Fleet, delays: np.ndarray, j: int, others: np.ndarray, need: np.ndarray,
+             area_m: np.ndarray | None) -> list[tuple[np.ndarray, float]]:
+    """Hold points beside the first obstacle on UAV ``j``'s straight path, and the speed to enter the leg.
+
+    Obstacles are the others' hold points (or starts) and targets that lie within ``need`` of the path.
+    """
+    start, end = fleet.start[j], fleet.end[j]
+    line = end - start
+    length = float(np.hypot(*line))
+    if length < 1e-9:
+        return []
+    unit = line / length
+    held = (delays[others] > 0)[:, None]
+    points = np.concatenate([np.where(held, fleet.turn[others], fleet.start[others]), fleet.end[others]])
+    gap = np.concatenate([need[j, others], need[j, others]])
+    along = np.clip((points - start) @ unit, 0.0, length)
+    off = np.hypot(*(points - start - along[:, None] * unit).T)
+    blocking = np.flatnonzero(off < gap)
+    if len(blocking) == 0:
+        return []
+    first = blocking[np.argmin(along[blocking])]
+    normal = np.array([-unit[1], unit[0]])
+    out = []
+    for scale in (1.25, 2.0):
+        for side in (1.0, -1.0):
+            via = points[first] + side * scale * gap[first] * normal
+            if area_m is not None and not (np.all(via >= 0.0) and np.all(via <= area_m)):
+                continue
+            toward = via - start
+            entry = fleet.velocity[j] @ toward / max(float(np.hypot(*toward)), 1e-9)
+            out.append((via, float(np.clip(entry, 0.0, fleet.speed0[j]))))
+    return out
+
+
+def _waits_s(done_s: float, step_s: float, fine: int = 6, growth: float = 1.4) -> np.ndarray:
+    """Waits to try after braking: ``fine`` steps of ``step_s``, then growing by ``growth``, then ``done_s``.
+
+    Examples:
+        >>> _waits_s(10.0, 0.5).tolist()
+        [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.5, 6.5, 9.5, 10.0]
+    """
+    waits = list(step_s * np.arange(fine + 1))
+    while waits[-1] * growth < done_s:
+        waits.append(step_s * np.ceil(waits[-1] * growth / step_s))
+    if waits[-1] < done_s:
+        waits.append(done_s)
+    return np.array(waits)
+
+
+def _chosen(fleet: _Fleet, delays: np.ndarray, ids: np.ndarray) -> Legs:
     """The legs of UAVs ``ids`` with their delays (0: straight to the target at once)."""
     held = delays[ids] > 0
-    return _Legs(fleet.start[ids], np.where(held[:, None], fleet.turn[ids], fleet.end[ids]), fleet.end[ids],
+    return Legs(fleet.start[ids], np.where(held[:, None], fleet.turn[ids], fleet.end[ids]), fleet.end[ids],
                  np.where(held, fleet.speed0[ids], fleet.speed0_direct[ids]),
                  np.where(held, delays[ids], np.inf))
 
@@ -376,15 +359,15 @@ def _first_clear(fleet: _Fleet, delays: np.ndarray, j: int, ids: np.ndarray, can
                  need: np.ndarray, config: UAVConfig, sample_s: float) -> float | None:
     """The first delay of ``candidates`` with which UAV ``j`` keeps ``need`` to the UAVs ``ids``, or None."""
     flight_s = float(max(_finish_s(fleet, np.zeros(len(fleet.start)), np.array([j]), config)[0],
-                         _arrival_s(np.hypot(*(fleet.end[j] - fleet.turn[j])), 0.0, config)))
+                         arrival_s(np.hypot(*(fleet.end[j] - fleet.turn[j])), 0.0, config)))
     times = _grid(max(float(_finish_s(fleet, delays, ids, config).max()), float(candidates.max()) + flight_s),
                   sample_s)
     held = candidates > 0
     n = len(candidates)
-    legs = _Legs(np.repeat(fleet.start[j:j + 1], n, 0), np.where(held[:, None], fleet.turn[j], fleet.end[j]),
+    legs = Legs(np.repeat(fleet.start[j:j + 1], n, 0), np.where(held[:, None], fleet.turn[j], fleet.end[j]),
                  np.repeat(fleet.end[j:j + 1], n, 0),
                  np.where(held, fleet.speed0[j], fleet.speed0_direct[j]), np.where(held, candidates, np.inf))
-    gaps = closest_approach_m(_positions(legs, times, config)[:, None],
-                              _positions(_chosen(fleet, delays, ids), times, config)[None])  # (C, S)
+    gaps = closest_approach_m(tracks_m(legs, times, config)[:, None],
+                              tracks_m(_chosen(fleet, delays, ids), times, config)[None])  # (C, S)
     clear = (gaps >= need[j, ids][None, :]).all(axis=1)
     return float(candidates[int(np.argmax(clear))]) if clear.any() else None

@@ -48,11 +48,14 @@ class SeparationWatch:
     Args:
         config: The UAVs' limits, ``min_separation_m`` and ``layer_step_m``.
         n_uavs: Number of UAVs.
+        area_m: ``(width, height)`` of the area: detours stay inside it (None: no border).
         keep_tracks: Keep every observed position (:attr:`tracks_m`), for a check after the run.
     """
 
-    def __init__(self, config: UAVConfig, n_uavs: int, keep_tracks: bool = True) -> None:
+    def __init__(self, config: UAVConfig, n_uavs: int, area_m: tuple[float, float] | None = None,
+                 keep_tracks: bool = True) -> None:
         self.config = config
+        self._area_m = None if area_m is None else np.asarray(area_m, dtype=np.float64)
         self.altitudes_m = config.altitudes_m(n_uavs)
         """``(K,)`` each UAV's flight altitude (one value unless ``layer_step_m`` > 0)."""
         self._layers = self.altitudes_m if config.layer_step_m > 0 else None
@@ -70,7 +73,8 @@ class SeparationWatch:
     def replan(self, time_s: float, positions_m: np.ndarray, velocities_m_s: np.ndarray,
                targets_m: np.ndarray) -> None:
         """Plan the transition from the UAVs' state at ``time_s`` to the new ``targets_m``."""
-        self._transition = plan_transition(positions_m, velocities_m_s, targets_m, self.config, self._layers)
+        self._transition = plan_transition(positions_m, velocities_m_s, targets_m, self.config, self._layers,
+                                           area_m=self._area_m)
         self._replan_s = float(time_s)
         self.transition_holds += int(np.count_nonzero(self._transition.held))
         self.unresolved += len(self._transition.unresolved)
