@@ -136,7 +136,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     distance_m = 0.0
     result = None
     area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
-    watch = SeparationWatch(config.uav, config.n_uavs, area_m)  # transitions between plans; how close they came
+    watch = SeparationWatch(config.uav, config.n_uavs, area_m)  # transitions between plans, closest approach
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
         if step % config.replan_every == 0:
             result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
