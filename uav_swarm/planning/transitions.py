@@ -44,7 +44,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from uav_swarm.planning.trajectory import Legs, arrival_s, closest_approach_m, tracks_m
+from uav_swarm.planning.trajectory import Legs, arrival_s, first_clear, pair_closest_m, tracks_m
 from uav_swarm.world.separation import pair_distances_m, path_distances_m, required_distances_m
 from uav_swarm.world.uav import UAVConfig
 
@@ -123,6 +123,8 @@ class _Fleet:
     speed0_direct: np.ndarray  # speed along the line to the target when leaving at once
     lateral_m: np.ndarray  # stopping distance of the speed across that line
     brake_s: np.ndarray  # time to stop on the hold point
+    direct_s: np.ndarray  # flight time straight to the target, leaving at once
+    after_s: np.ndarray  # flight time from the hold point to the target, from rest
 
 
 def _fleet(p: np.ndarray, v: np.ndarray, targets: np.ndarray, config: UAVConfig) -> _Fleet:
@@ -138,7 +140,9 @@ def _fleet(p: np.ndarray, v: np.ndarray, targets: np.ndarray, config: UAVConfig)
     across = np.abs(v[:, 0] * unit[:, 1] - v[:, 1] * unit[:, 0])
     turn = p + heading * (speed * speed / (2.0 * a))[:, None]
     return _Fleet(p, turn, targets, v, speed, np.minimum(along, config.max_speed_m_s),
-                  np.minimum(across, config.max_speed_m_s) ** 2 / (2.0 * a), speed / a)
+                  np.minimum(across, config.max_speed_m_s) ** 2 / (2.0 * a), speed / a,
+                  arrival_s(np.hypot(*(targets - p).T), np.minimum(along, config.max_speed_m_s), config),
+                  arrival_s(np.hypot(*(targets - turn).T), 0.0, config))
 
 
 def plan_transition(positions_m: np.ndarray, velocities_m_s: np.ndarray, targets_m: np.ndarray,
@@ -193,9 +197,7 @@ def _grid(horizon_s: float, sample_s: float) -> np.ndarray:
 
 def _finish_s(fleet: _Fleet, delays: np.ndarray, ids: np.ndarray, config: UAVConfig) -> np.ndarray:
     """When UAVs ``ids`` are predicted on their targets with these delays."""
-    direct = arrival_s(np.hypot(*(fleet.end[ids] - fleet.start[ids]).T), fleet.speed0_direct[ids], config)
-    after_hold = delays[ids] + arrival_s(np.hypot(*(fleet.end[ids] - fleet.turn[ids]).T), 0.0, config)
-    return np.where(delays[ids] > 0, after_hold, direct)
+    return np.where(delays[ids] > 0, delays[ids] + fleet.after_s[ids], fleet.direct_s[ids])
 
 
 def _paths(fleet: _Fleet, delays: np.ndarray, ids: np.ndarray) -> np.ndarray:
@@ -222,7 +224,7 @@ def _gaps(fleet: _Fleet, delays: np.ndarray, need: np.ndarray, config: UAVConfig
     if len(near):
         times = _grid(float(_finish_s(fleet, delays, near, config).max()), sample_s)
         tracks = tracks_m(_chosen(fleet, delays, ids[near]), times, config)
-        close = closest_approach_m(tracks[:, None], tracks[None, :])
+        close = pair_closest_m(tracks)
         gaps[np.ix_(near, near)] = np.maximum(gaps[np.ix_(near, near)], close)
     np.fill_diagonal(gaps, np.inf)
     return gaps
@@ -244,7 +246,8 @@ def _resolve(fleet: _Fleet, conflicted: np.ndarray, need: np.ndarray, config: UA
     order = [int(j) for j in conflicted[np.argsort(-blocking[conflicted], kind="stable")]]
     best: tuple[int, float, np.ndarray, _Fleet] | None = None
     for _ in range(passes):
-        planned = replace(fleet, turn=fleet.turn.copy(), speed0=fleet.speed0.copy())  # detours change these
+        planned = replace(fleet, turn=fleet.turn.copy(), speed0=fleet.speed0.copy(),  # detours change these
+                          after_s=fleet.after_s.copy())
         delays, stuck = _schedule(planned, free, order, need, config, sample_s, delay_step_s, area_m)
         if best is None or (len(stuck), float(delays.sum())) < best[:2]:
             best = (len(stuck), float(delays.sum()), delays, planned)
@@ -280,6 +283,7 @@ def _schedule(fleet: _Fleet, free: np.ndarray, order: list[int], need: np.ndarra
             detours = [] if choice is not None else _detours(fleet, delays, j, others, need, area_m)
             for via, speed0 in detours:
                 fleet.turn[j], fleet.speed0[j] = via, speed0
+                fleet.after_s[j] = float(arrival_s(np.hypot(*(fleet.end[j] - via)), 0.0, config))
                 reach_s = float(arrival_s(np.hypot(*(via - fleet.start[j])), speed0, config))
                 choice = _first_clear(fleet, delays, j, others, reach_s + waits, need, config, sample_s)
                 if choice is not None:
@@ -287,6 +291,7 @@ def _schedule(fleet: _Fleet, free: np.ndarray, order: list[int], need: np.ndarra
             if choice is None:
                 stuck.append(j)
                 fleet.turn[j], fleet.speed0[j] = _braking_point(fleet, j, config)
+                fleet.after_s[j] = float(arrival_s(np.hypot(*(fleet.end[j] - fleet.turn[j])), 0.0, config))
             delays[j] = 0.0 if choice is None else choice
         scheduled.append(j)
     return delays, stuck
@@ -358,8 +363,7 @@ def _chosen(fleet: _Fleet, delays: np.ndarray, ids: np.ndarray) -> Legs:
 def _first_clear(fleet: _Fleet, delays: np.ndarray, j: int, ids: np.ndarray, candidates: np.ndarray,
                  need: np.ndarray, config: UAVConfig, sample_s: float) -> float | None:
     """The first delay of ``candidates`` with which UAV ``j`` keeps ``need`` to the UAVs ``ids``, or None."""
-    flight_s = float(max(_finish_s(fleet, np.zeros(len(fleet.start)), np.array([j]), config)[0],
-                         arrival_s(np.hypot(*(fleet.end[j] - fleet.turn[j])), 0.0, config)))
+    flight_s = float(max(fleet.direct_s[j], fleet.after_s[j]))
     times = _grid(max(float(_finish_s(fleet, delays, ids, config).max()), float(candidates.max()) + flight_s),
                   sample_s)
     held = candidates > 0
@@ -367,7 +371,6 @@ def _first_clear(fleet: _Fleet, delays: np.ndarray, j: int, ids: np.ndarray, can
     legs = Legs(np.repeat(fleet.start[j:j + 1], n, 0), np.where(held[:, None], fleet.turn[j], fleet.end[j]),
                  np.repeat(fleet.end[j:j + 1], n, 0),
                  np.where(held, fleet.speed0[j], fleet.speed0_direct[j]), np.where(held, candidates, np.inf))
-    gaps = closest_approach_m(tracks_m(legs, times, config)[:, None],
-                              tracks_m(_chosen(fleet, delays, ids), times, config)[None])  # (C, S)
-    clear = (gaps >= need[j, ids][None, :]).all(axis=1)
-    return float(candidates[int(np.argmax(clear))]) if clear.any() else None
+    theirs = tracks_m(_chosen(fleet, delays, ids), times, config)
+    index = first_clear(legs, theirs, need[j, ids], times, config)
+    return None if index < 0 else float(candidates[index])

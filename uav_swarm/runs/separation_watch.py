@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from uav_swarm.planning.trajectory import warm_up
 from uav_swarm.planning.transitions import Transition, plan_transition
 from uav_swarm.world.separation import SeparationMonitor, pair_distances_m
 from uav_swarm.world.uav import UAVConfig
@@ -67,6 +68,7 @@ class SeparationWatch:
         self.unresolved = 0
         """Pairs a transition left predicted below the minimum (the env's step guard is their safety net)."""
         self._keep = keep_tracks
+        warm_up()  # the transition's compiled kernels, loaded now rather than at the first replan
         self._tracks: list[np.ndarray] = []
         self.times_s: list[float] = []
 
