@@ -57,7 +57,8 @@ class Transition:
 
     Attributes:
         targets_m: ``(K, 2)`` the new targets.
-        hold_m: ``(K, 2)`` where each UAV waits before it leaves (its braking point; its position at rest).
+        hold_m: ``(K, 2)`` where each UAV flies first and waits until it leaves: its braking point (its
+            position at rest), or a detour beside a UAV on its path.
         delays_s: ``(K,)`` seconds from the replan until the UAV leaves its hold point (0: at once).
         closest_m: The predicted closest approach of any pair over the transition (3-D with layers).
         unresolved: ``(M, 2)`` pairs ``i < j`` still predicted closer than their minimum.
