@@ -105,6 +105,9 @@ def format_summary(summary: dict[str, Any]) -> str:
     if paper:
         lines.append("the same flights, QoS S2 on the paper's radio: "
                      + ", ".join(f"{kind} {value:.3f}" for kind, value in paper.items()))
+    for kind, s in summary["planners"].items():
+        if s.get("separation"):
+            lines.append(_separation_line(kind, s["separation"]))
     ratios = summary.get("ratios_learned_over_expert")
     if ratios:
         def show(value: float | None) -> str:
@@ -116,6 +119,19 @@ def format_summary(summary: dict[str, Any]) -> str:
     if "inference_engine" in summary:
         lines.append(f"learned network: {summary['inference_engine']} engine, {summary['network_precision']}")
     return "\n".join(lines)
+
+
+def _separation_line(kind: str, figures: dict[str, Any]) -> str:
+    """One planner's separation: the closest pair (which, when), conflicts, time below the minimum, holds."""
+    if figures["closest_m"] is None:
+        closest = "no pair flew"
+    else:
+        first, second = figures["closest_pair"]
+        closest = (f"closest pair {figures['closest_m']:.2f} m (UAVs {first} and {second} at "
+                   f"{figures['closest_t_s']:.1f} s)")
+    return (f"{kind} separation (minimum {figures['min_separation_m']:g} m): {closest}, "
+            f"{figures['conflicts']} conflicts, {figures['time_below_min_s']:.1f} s below the minimum, "
+            f"{figures['holds']} holds")
 
 
 def run(args: argparse.Namespace) -> int:
