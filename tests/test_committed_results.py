@@ -17,7 +17,7 @@ PAGE = (ROOT / "docs" / "simulate.md").read_text(encoding="utf-8")
 PER_PLANNER = ("mean_qos_s1", "min_qos_s1", "mean_qos_s2", "min_qos_s2", "mean_throughput_mbps",
                "median_latency_ms", "p95_latency_ms", "n_replans", "mean_target_changes_per_replan",
                "flown_qos", "static_reference_qos", "flown_over_static", "target_jumps_per_replan",
-               "metres_per_uav_minute", "association")
+               "metres_per_uav_minute", "association", "separation")
 TOP_LEVEL = ("static_reference", "ratios_learned_over_expert", "checkpoint", "config")
 
 
