@@ -38,8 +38,10 @@ from uav_swarm.world.raster import density_maps
 from uav_swarm.world.scenario import Scenario, random_scenario
 from uav_swarm.world.separation import (
     closest_distances_m,
+    draw_apart_m,
     guard_commands,
     pair_distances_m,
+    required_distances_m,
     separation_penalty,
 )
 from uav_swarm.world.uav import fly_step, waypoint_velocity
@@ -88,6 +90,9 @@ class SwarmCore:
         # The radio sees each UAV's own altitude when the layers differ and 3D distances are on.
         self._radio_altitudes_m = self.altitudes_m if cfg.use_3d_distance and layered else None
         self._guard_altitudes_m = self.altitudes_m if layered else None
+        # UAVs start apart: a draw closer than the minimum is drawn again (world/separation.draw_apart_m).
+        self._start_gaps_m = required_distances_m(cfg.uav.min_separation_m, self._guard_altitudes_m,
+                                                  cfg.n_uavs)
         self._stacked = stacked_crowd
         # Admission control keeps per-world association state; the paper's model is computed for all at once.
         self._links: list[Association] | None = [Association(self.radio) for _ in range(b)] \
@@ -159,8 +164,7 @@ class SwarmCore:
             rng = self.rngs[c]
             scenario = self.scene if self.scene is not None else random_scenario(rng, cfg.scenario)
             sims.append(CrowdSim(scenario, cfg.crowd, rng))
-            start = rng.uniform(0.0, self.area_m, size=(cfg.n_uavs, 2))
-            self.positions_m[c] = np.clip(start, 0.0, self.area_m)
+            self.positions_m[c] = draw_apart_m(rng, cfg.n_uavs, self.area_m, self._start_gaps_m)
         if not self._stacked:
             self._crowd = sims[0]
         elif self._batched_crowd is None or len(worlds) == self.num_worlds:

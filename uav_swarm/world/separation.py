@@ -43,7 +43,7 @@ from uav_swarm.world.uav import UAVConfig, fly_step
 
 __all__ = [
     "ClosestPair", "SeparationMonitor", "braking_paths", "check_fleet_fits", "closest_distances_m",
-    "closest_pair", "guard_commands", "max_spread_m", "pair_distances_m", "path_distances_m",
+    "closest_pair", "draw_apart_m", "guard_commands", "max_spread_m", "pair_distances_m", "path_distances_m",
     "required_distances_m", "separation_penalty", "stopping_distance_m",
 ]
 
@@ -185,6 +185,34 @@ uav.min_separation_m <= 84.2
         raise ConfigError(
             f"{field} = {min_separation_m:g} m cannot be kept by {n_uavs} UAVs in a "
             f"{width_m:g} x {height_m:g} m area: allowed 0 <= {field} <= {math.floor(spread * 10) / 10:g}")
+
+
+def draw_apart_m(rng: np.random.Generator, n_uavs: int, area_m: np.ndarray, required_m: np.ndarray, *,
+                 max_tries: int = 10_000) -> np.ndarray:
+    """(K, 2) uniform positions in ``[0, area_m]``, redrawn one UAV at a time until pairs keep ``required_m``.
+
+    The first draw is ``rng.uniform(0, area_m, (K, 2))``; only a UAV closer than ``required_m`` (K, K) to an
+    earlier one is drawn again, so a draw that already keeps its distances costs nothing more.
+
+    Raises:
+        ValueError: No such positions were found in ``max_tries`` draws (the minimum barely fits).
+
+    Examples:
+        >>> p = draw_apart_m(np.random.default_rng(0), 10, np.array([30.0, 30.0]), np.full((10, 10), 5.0))
+        >>> bool(closest_distances_m(p) >= 5.0)
+        True
+    """
+    area = np.asarray(area_m, dtype=np.float64)
+    positions = rng.uniform(0.0, area, size=(n_uavs, 2))
+    tries = 0
+    for uav in range(1, n_uavs):
+        while np.any(np.linalg.norm(positions[:uav] - positions[uav], axis=1) < required_m[uav, :uav]):
+            tries += 1
+            if tries > max_tries:
+                raise ValueError(f"no start positions {required_m.max():g} m apart for {n_uavs} UAVs "
+                                 f"in {max_tries} draws")
+            positions[uav] = rng.uniform(0.0, area)
+    return positions
 
 
 def stopping_distance_m(speed_m_s: np.ndarray, max_accel_m_s2: float, dt_s: float) -> np.ndarray:
