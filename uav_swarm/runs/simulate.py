@@ -28,6 +28,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -37,6 +38,7 @@ from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
+from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import Frame, SequenceRun
 from uav_swarm.runs.service import StaticReference, metres_per_uav_minute, static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -44,10 +46,10 @@ from uav_swarm.world.comms import evaluate_coverage
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
-    from bridge.telemetry import SwarmPublisher
     from bridge.telemetry.schema import Plan, Qos, UavState
     from uav_swarm.runs.live_view import LiveView
-    from uav_swarm.runs.recording import RunRecorder
+    from uav_swarm.runs.ros2.node import RunNode
+    from uav_swarm.runs.steering import OperatorTargets
 
 __all__ = ["SimulationResult", "run_sequence", "simulate", "summarise_run"]
 
@@ -90,17 +92,18 @@ def _plan(planner: Planner, targets_m: np.ndarray, alt_m: float, latency_ms: flo
                 latency_ms=float(latency_ms))
 
 
-def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
-                 publisher: SwarmPublisher | None = None, recorder: RunRecorder | None = None,
-                 frame_every: int = 0, progress: bool = False) -> SequenceRun:
+def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs: RunOutputs | None = None,
+                 steering: OperatorTargets | None = None, frame_every: int = 0,
+                 progress: bool = False) -> SequenceRun:
     """Fly one planner over the sequence of ``config`` (same seed, same crowd, for every planner).
 
     Args:
         config: The sequence (seed, duration, UAVs, replanning period, world).
         planner: The planner, for ``config.n_uavs`` UAVs.
         kind: Its label in the results (``"learned"`` or ``"expert"``).
-        publisher: Publish states and QoS every ``config.telemetry_every`` steps and every plan.
-        recorder: Record them too, with the scene (:mod:`uav_swarm.runs.recording`), at simulated time.
+        outputs: The run's sinks (Zenoh, Foxglove, ROS 2): states and QoS every ``config.telemetry_every``
+            steps, every plan, the scene, at simulated time (:mod:`uav_swarm.runs.outputs`).
+        steering: Operator targets that replace the planner's for the UAVs they name, from the next step.
         frame_every: Keep a :class:`Frame` every this many steps (and the last); 0 keeps none.
         progress: Show a progress bar.
 
@@ -112,8 +115,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     env = parallel_env(config=config.env_config())
     env.reset(seed=config.seed)
     planner.reset()
-    if recorder is not None:
-        recorder.static_scene(env.scenario.obstacles)
+    outputs = outputs or RunOutputs()
+    outputs.static_scene(env.scenario.obstacles)
     agents = list(env.possible_agents)
     steps, alt_m = config.n_steps, float(config.uav.alt_m)
     qos_s1, qos_s2, rate = (np.zeros(steps) for _ in range(3))
@@ -137,42 +140,42 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
             targets = result.targets_m
             plans.append(targets.copy())
             latencies.append(result.latency_ms)
-            if publisher is not None or recorder is not None:
-                plan = _plan(planner, targets, alt_m, result.latency_ms, len(latencies) - 1)
-                if publisher is not None:
-                    publisher.publish_plan(plan)
-                if recorder is not None:
-                    recorder.plan(step * env.dt_s, plan)
+            if steering is not None:
+                steering.planned(dict(enumerate(map(tuple, targets))))
+            if outputs.active:
+                outputs.plan(step * env.dt_s, _plan(planner, _steered(targets, steering), alt_m, result.latency_ms,
+                                                    len(latencies) - 1))
+        flown = _steered(targets, steering)
         before = np.array(env.uav_positions_m)
-        env.step(dict(zip(agents, targets, strict=True)))
+        env.step(dict(zip(agents, flown, strict=True)))
         distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
         cov = env.coverage
         qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
         if admission:  # the same flight judged with the paper's radio, for the paper's table and qos.png
             qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
                                                    paper_radio).qos_s2
-        if (publisher is not None or recorder is not None) and step % config.telemetry_every == 0:
-            states, qos = _telemetry(env, targets, alt_m, step)
-            if publisher is not None:
-                for state in states:
-                    publisher.publish_state(state)
-                publisher.publish_qos(qos)
-            if recorder is not None:
-                recorder.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
+        if outputs.active and step % config.telemetry_every == 0:
+            states, qos = _telemetry(env, flown, alt_m, step)
+            outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
             frames.append(Frame(
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
-                covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=targets.copy(),
+                covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=np.array(flown),
                 peaks_m=result.peaks_m.copy(), utility=result.utility, qos_s1=float(cov.qos_s1),
                 qos_s2=float(cov.qos_s2)))
     return SequenceRun(
         planner=kind, planner_name=planner.name, times_s=np.arange(1, steps + 1) * env.dt_s, qos_s1=qos_s1,
         qos_s2=qos_s2, throughput_mbps=rate, latency_ms=np.asarray(latencies),
-        target_changes=np.asarray(changes, dtype=np.int64), final_targets_m=np.array(targets),
+        target_changes=np.asarray(changes, dtype=np.int64), final_targets_m=np.array(flown),
         final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
         target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
         association=cov.model)
+
+
+def _steered(targets_m: np.ndarray, steering: OperatorTargets | None) -> np.ndarray:
+    """The planner's targets with the operator's in place for the UAVs it holds."""
+    return targets_m if steering is None else steering.apply_array(targets_m)
 
 
 def sequence_crowds(config: SimulateConfig, every_s: float
@@ -254,6 +257,28 @@ def _load_bridge(config: SimulateConfig) -> BridgeConfig:
     corners = [(0.0, 0.0, alt_m), (width_m, 0.0, alt_m), (0.0, height_m, alt_m), (width_m, height_m, alt_m)]
     check_geofence([(0.0, 0.0, takeoff_altitude(corners, bridge.mission)), *corners], bridge.geofence)
     return bridge
+
+
+def _open_ros(config: SimulateConfig, bridge: BridgeConfig, stack: ExitStack
+              ) -> tuple[RunNode, OperatorTargets]:
+    """The run's ROS 2 node (closed with ``stack``), at simulated time, and the operator's targets it fills."""
+    from uav_swarm.runs.ros2 import open_run_node
+    from uav_swarm.runs.steering import OperatorTargets
+
+    area, uav = config.task.scenario, config.uav
+    steering = OperatorTargets(width_m=area.width_m, height_m=area.height_m, alt_m=uav.alt_m,
+                               min_separation_m=uav.min_separation_m, n_uavs=config.n_uavs,
+                               geofence=bridge.geofence)
+    ros = open_run_node(config.ros2, swarm=config.telemetry.swarm, n_uavs=config.n_uavs,
+                        node_name="uav_swarm_simulate", sim_time=True, width_m=area.width_m,
+                        height_m=area.height_m, coverage_radius_m=config.task.radio.coverage_radius_m,
+                        min_separation_m=uav.min_separation_m, association=config.task.radio.association_name,
+                        steering=steering)
+    stack.callback(ros.close)
+    if config.ros2.wait_for_subscriber_s > 0 and not ros.wait_for_subscriber(config.ros2.wait_for_subscriber_s):
+        logger.warning("no ROS 2 subscriber of the poses after %.1f s: flying anyway",
+                       config.ros2.wait_for_subscriber_s)
+    return ros, steering
 
 
 def _checkpoint_name(path: Path) -> str:
@@ -340,26 +365,26 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                                    config=config.planning, uav_config=config.uav) for kind in kinds}
     frame_every = -(-config.n_steps // (config.gif_max_frames - 1)) if config.gif else 0
     runs: dict[str, SequenceRun] = {}
-    publisher = SwarmPublisher(config.telemetry, home=bridge.home) if config.publish_telemetry else None
-    if publisher is not None:
-        publisher.open()
-    try:
+    scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
+                      coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
+    with ExitStack() as stack:
+        publisher = ros = steering = None
+        if config.publish_telemetry:
+            publisher = stack.enter_context(SwarmPublisher(config.telemetry, home=bridge.home))
+        if config.ros2.enabled:
+            ros, steering = _open_ros(config, bridge, stack)
         if publisher is not None and config.wait_for_subscriber_s > 0:
             if not publisher.wait_for_subscriber(config.wait_for_subscriber_s):
                 logger.warning("no telemetry subscriber after %.1f s: flying anyway",
                                config.wait_for_subscriber_s)
-        scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
-                          coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
         for kind, planner in planners.items():
             flown = kind == config.planner
             with open_recorder(scene, record=record if flown else None, live=live if flown else None,
                                command="simulate", config=config.to_dict()) as recorder:
-                runs[kind] = run_sequence(config, planner, kind, publisher=publisher if flown else None,
-                                          recorder=recorder, frame_every=frame_every if flown else 0,
-                                          progress=progress)
-    finally:
-        if publisher is not None:
-            publisher.close()
+                outputs = RunOutputs(publisher, recorder, ros) if flown else None
+                runs[kind] = run_sequence(config, planner, kind, outputs=outputs,
+                                          steering=steering if flown else None,
+                                          frame_every=frame_every if flown else 0, progress=progress)
     reference = (static_reference(sequence_crowds(config, config.static_every_s), config.task, config.n_uavs,
                                   config.static_every_s) if config.static_reference else None)
 
