@@ -42,6 +42,8 @@ class FlyConfig(Config):
     replan_every_s: float = param(1.0, ge=0.1, le=600.0, doc="simulated seconds between two replans")
     record_every_s: float = param(0.5, ge=0.1, le=60.0,
                                   doc="simulated seconds between two QoS / track records (and /qos messages)")
+    static_every_s: float = param(10.0, gt=0.0, le=3600.0,
+                                  doc="crowd seconds between static reference instants (summary.json)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
     checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
     mode: Literal["guided", "mission"] = param(

@@ -87,7 +87,7 @@ class RunOutputs:
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
              covered: np.ndarray) -> None:
-        """One recorded step at run time ``time_s``: the UAVs' states, the QoS, the crowd and who is served."""
+        """One recorded step at run time ``time_s``: the UAVs' states, the QoS, the crowd, who is served."""
         if self.publisher is not None:
             if not self.states_on_arrival:
                 for state in states:

@@ -48,7 +48,6 @@ if TYPE_CHECKING:
     from bridge.config import BridgeConfig
     from bridge.telemetry.schema import Plan, Qos, UavState
     from uav_swarm.runs.live_view import LiveView
-    from uav_swarm.runs.ros2.node import RunNode
     from uav_swarm.runs.steering import OperatorTargets
 
 __all__ = ["SimulationResult", "run_sequence", "simulate", "summarise_run"]
@@ -143,8 +142,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
             if steering is not None:
                 steering.planned(dict(enumerate(map(tuple, targets))))
             if outputs.active:
-                outputs.plan(step * env.dt_s, _plan(planner, _steered(targets, steering), alt_m, result.latency_ms,
-                                                    len(latencies) - 1))
+                plan = _plan(planner, _steered(targets, steering), alt_m, result.latency_ms,
+                             len(latencies) - 1)
+                outputs.plan(step * env.dt_s, plan)
         flown = _steered(targets, steering)
         before = np.array(env.uav_positions_m)
         env.step(dict(zip(agents, flown, strict=True)))
@@ -259,28 +259,6 @@ def _load_bridge(config: SimulateConfig) -> BridgeConfig:
     return bridge
 
 
-def _open_ros(config: SimulateConfig, bridge: BridgeConfig, stack: ExitStack
-              ) -> tuple[RunNode, OperatorTargets]:
-    """The run's ROS 2 node (closed with ``stack``), at simulated time, and the operator's targets it fills."""
-    from uav_swarm.runs.ros2 import open_run_node
-    from uav_swarm.runs.steering import OperatorTargets
-
-    area, uav = config.task.scenario, config.uav
-    steering = OperatorTargets(width_m=area.width_m, height_m=area.height_m, alt_m=uav.alt_m,
-                               min_separation_m=uav.min_separation_m, n_uavs=config.n_uavs,
-                               geofence=bridge.geofence)
-    ros = open_run_node(config.ros2, swarm=config.telemetry.swarm, n_uavs=config.n_uavs,
-                        node_name="uav_swarm_simulate", sim_time=True, width_m=area.width_m,
-                        height_m=area.height_m, coverage_radius_m=config.task.radio.coverage_radius_m,
-                        min_separation_m=uav.min_separation_m, association=config.task.radio.association_name,
-                        steering=steering)
-    stack.callback(ros.close)
-    if config.ros2.wait_for_subscriber_s > 0 and not ros.wait_for_subscriber(config.ros2.wait_for_subscriber_s):
-        logger.warning("no ROS 2 subscriber of the poses after %.1f s: flying anyway",
-                       config.ros2.wait_for_subscriber_s)
-    return ros, steering
-
-
 def _checkpoint_name(path: Path) -> str:
     """The checkpoint as a user can name it on any machine: the shipped one by its package path."""
     from learning.checkpoint import checkpoint_label
@@ -356,6 +334,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     from learning.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
+    from uav_swarm.runs.ros2 import open_run_node
 
     out_dir = Path(out_dir)
     bridge = _load_bridge(config)
@@ -372,7 +351,9 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
         if config.publish_telemetry:
             publisher = stack.enter_context(SwarmPublisher(config.telemetry, home=bridge.home))
         if config.ros2.enabled:
-            ros, steering = _open_ros(config, bridge, stack)
+            ros, steering = open_run_node(config.ros2, stack, swarm=config.telemetry.swarm,
+                                          n_uavs=config.n_uavs, command="simulate", sim_time=True,
+                                          task=config.task, uav=config.uav, geofence=bridge.geofence)
         if publisher is not None and config.wait_for_subscriber_s > 0:
             if not publisher.wait_for_subscriber(config.wait_for_subscriber_s):
                 logger.warning("no telemetry subscriber after %.1f s: flying anyway",

@@ -4,7 +4,8 @@ A TOML file (``uav-swarm simulate --config file.toml``) holds the top-level keys
 tables ``[task]`` (:class:`uav_swarm.missions.wifi.task.WifiConfig`: raster, scenario, crowd, radio,
 expert; the same table as a task settings file), ``[uav]`` (flight limits), ``[planning]``
 (:class:`uav_swarm.planning.planner.PlannerConfig`), ``[telemetry]``
-(:class:`bridge.telemetry.config.TelemetryConfig`) and ``[ros2]`` (:class:`uav_swarm.runs.ros2.config.Ros2Config`).
+(:class:`bridge.telemetry.config.TelemetryConfig`) and ``[ros2]``
+(:class:`uav_swarm.runs.ros2.config.Ros2Config`).
 Every key is optional.
 
 Examples:

@@ -101,7 +101,7 @@ class OperatorTargets:
         return {uav_id: held.get(uav_id, xy) for uav_id, xy in targets_m.items()}
 
     def apply_array(self, targets_m: np.ndarray) -> np.ndarray:
-        """``(n, 2)`` targets of UAVs ``0 .. n - 1`` with the operator's in place (a copy when any is held)."""
+        """``(n, 2)`` targets of UAVs ``0 .. n - 1`` with the operator's in place (a copy if any is held)."""
         held = self.held()
         if not held:
             return targets_m
@@ -127,13 +127,13 @@ class OperatorTargets:
             except GeofenceError as exc:
                 return str(exc)
         if not (0.0 <= x_m <= self.width_m and 0.0 <= y_m <= self.height_m):
-            return (f"target ({x_m:.2f}, {y_m:.2f}) is outside the area: allowed 0 <= x_m <= {self.width_m:g}, "
-                    f"0 <= y_m <= {self.height_m:g}")
+            return (f"target ({x_m:.2f}, {y_m:.2f}) is outside the area: allowed 0 <= x_m <= "
+                    f"{self.width_m:g}, 0 <= y_m <= {self.height_m:g}")
         with self._lock:
             others = {**self._planned, **self._held}
         for other, (ox, oy) in sorted(others.items()):
             distance_m = math.hypot(x_m - ox, y_m - oy)
             if other != uav_id and distance_m < self.min_separation_m:
-                return (f"target ({x_m:.2f}, {y_m:.2f}) is {distance_m:.2f} m from UAV {other}'s target: allowed "
-                        f"at least uav.min_separation_m = {self.min_separation_m:g} m")
+                return (f"target ({x_m:.2f}, {y_m:.2f}) is {distance_m:.2f} m from UAV {other}'s target: "
+                        f"allowed at least uav.min_separation_m = {self.min_separation_m:g} m")
         return None

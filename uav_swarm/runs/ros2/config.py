@@ -15,7 +15,7 @@ Examples:
     >>> Ros2Config(namespace="bad name")
     Traceback (most recent call last):
     ...
-    typed_config.ConfigError: Ros2Config.namespace = 'bad name': a ROS 2 namespace: '/' then names of A-Z a-z 0-9 _
+    typed_config.ConfigError: Ros2Config.namespace = 'bad name': '/' then names of A-Z a-z 0-9 _
 """
 
 from __future__ import annotations
@@ -56,8 +56,7 @@ class Ros2Config(Config):
     def check(self) -> None:
         """The namespace is a ROS 2 name."""
         if self.namespace and not _NAMESPACE.match(self.namespace):
-            raise ConfigError(f"Ros2Config.namespace = {self.namespace!r}: a ROS 2 namespace: '/' then names "
-                              "of A-Z a-z 0-9 _")
+            raise ConfigError(f"Ros2Config.namespace = {self.namespace!r}: '/' then names of A-Z a-z 0-9 _")
 
     def namespace_for(self, swarm: str) -> str:
         """The namespace of the swarm's topics: the configured one, else ``/uav_swarm/<swarm>``."""

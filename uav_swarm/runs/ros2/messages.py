@@ -91,35 +91,37 @@ def plan_info(at: Time, plan: Plan) -> DiagnosticArray:
     """The plan's figures: ``seq``, ``planner``, ``latency_ms``, ``uav_ids`` (comma-separated, pose order)."""
     values = {"seq": plan.seq, "planner": plan.planner, "latency_ms": repr(plan.latency_ms),
               "uav_ids": ",".join(str(t.uav_id) for t in plan.targets)}
-    return DiagnosticArray(header=_header(at), status=[_status("plan", DiagnosticStatus.OK, plan.planner, values)])
+    status = _status("plan", DiagnosticStatus.OK, plan.planner, values)
+    return DiagnosticArray(header=_header(at), status=[status])
 
 
 def qos_status(at: Time, qos: Qos, association: str) -> DiagnosticArray:
-    """The QoS figures (``seq``, ``qos_s1``, ``qos_s2``, ``mean_throughput_mbps``, ``n_users``, ``association``).
+    """The QoS: ``seq``, ``qos_s1``, ``qos_s2``, ``mean_throughput_mbps``, ``n_users``, ``association``.
 
     Floats are written with ``repr``: they read back to the very value the run computed.
     """
     values = {"seq": qos.seq, "qos_s1": repr(qos.qos_s1), "qos_s2": repr(qos.qos_s2),
               "mean_throughput_mbps": repr(qos.mean_throughput_mbps), "n_users": qos.n_users,
               "association": association}
-    return DiagnosticArray(header=_header(at), status=[_status("qos", DiagnosticStatus.OK, association, values)])
+    status = _status("qos", DiagnosticStatus.OK, association, values)
+    return DiagnosticArray(header=_header(at), status=[status])
 
 
 def operator_status(at: Time, uav_id: int, accepted: bool, message: str, target_m: Vec3 | None
                     ) -> DiagnosticArray:
-    """An operator target's outcome: level OK (accepted or released) or ERROR (refused: ``message`` says why)."""
+    """An operator target's outcome: OK (accepted or released) or ERROR (refused: ``message`` says why)."""
     values: dict[str, object] = {"uav_id": uav_id, "accepted": str(accepted).lower()}
     if target_m is not None:
         values |= {"x_m": repr(target_m[0]), "y_m": repr(target_m[1]), "z_m": repr(target_m[2])}
     level = DiagnosticStatus.OK if accepted else DiagnosticStatus.ERROR
-    return DiagnosticArray(header=_header(at), status=[_status(f"uav_{uav_id}/operator_target", level, message,
-                                                               values)])
+    status = _status(f"uav_{uav_id}/operator_target", level, message, values)
+    return DiagnosticArray(header=_header(at), status=[status])
 
 
 def _marker(at: Time, ns: str, marker_id: int, kind: int, color: ColorRGBA, scale: Vec3,
             position_m: Vec3 = (0.0, 0.0, 0.0)) -> Marker:
-    return Marker(header=_header(at), ns=ns, id=marker_id, type=kind, action=Marker.ADD, pose=_pose(position_m),
-                  scale=Vector3(x=scale[0], y=scale[1], z=scale[2]), color=color)
+    return Marker(header=_header(at), ns=ns, id=marker_id, type=kind, action=Marker.ADD,
+                  pose=_pose(position_m), scale=Vector3(x=scale[0], y=scale[1], z=scale[2]), color=color)
 
 
 def static_scene(at: Time, width_m: float, height_m: float, obstacles_m: np.ndarray) -> MarkerArray:
@@ -154,8 +156,8 @@ def swarm_markers(at: Time, uavs_m: dict[int, Vec3], pedestrians_m: np.ndarray, 
     diameter_m, separation_m = 2.0 * coverage_radius_m, max(min_separation_m, 1e-3)
     for uav_id, (x, y, z) in sorted(uavs_m.items()):
         markers += [_marker(at, "uavs", uav_id, Marker.SPHERE, _UAV, (1.0, 1.0, 1.0), (x, y, z)),
-                    _marker(at, "coverage", uav_id, Marker.CYLINDER, _COVERAGE, (diameter_m, diameter_m, _FLAT_M),
-                            (x, y, 0.0)),
+                    _marker(at, "coverage", uav_id, Marker.CYLINDER, _COVERAGE,
+                            (diameter_m, diameter_m, _FLAT_M), (x, y, 0.0)),
                     _marker(at, "separation", uav_id, Marker.CYLINDER, _SEPARATION,
                             (separation_m, separation_m, _FLAT_M), (x, y, z))]
     return MarkerArray(markers=markers)

@@ -33,8 +33,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
-from bridge.telemetry.schema import Plan, Qos, UavState
 import uav_swarm.runs.ros2.messages as msg
+from bridge.telemetry.schema import Plan, Qos, UavState
 from uav_swarm.runs.ros2.config import Ros2Config, import_rclpy, ros2_environment
 
 if TYPE_CHECKING:
@@ -94,8 +94,8 @@ class RunNode:
         self.namespace = config.namespace_for(swarm)
         self.n_uavs, self.node_name, self.sim_time = n_uavs, node_name, sim_time
         self.width_m, self.height_m = width_m, height_m
-        self.coverage_radius_m, self.min_separation_m, self.association = (coverage_radius_m, min_separation_m,
-                                                                           association)
+        self.coverage_radius_m, self.min_separation_m = coverage_radius_m, min_separation_m
+        self.association = association
         self.steering = steering
         self._rclpy = import_rclpy()
         self._context: Any = None
@@ -190,7 +190,8 @@ class RunNode:
 
     def static_scene(self, obstacles_m: np.ndarray, time_s: float = 0.0) -> None:
         """The area and the obstacles, latched on ``scene`` for every subscriber, also late ones."""
-        self._pub["scene"].publish(msg.static_scene(self._stamp(time_s), self.width_m, self.height_m, obstacles_m))
+        scene = msg.static_scene(self._stamp(time_s), self.width_m, self.height_m, obstacles_m)
+        self._pub["scene"].publish(scene)
 
     def plan(self, time_s: float, plan: Plan) -> None:
         """A plan on ``plan`` and ``plan/info``."""
@@ -206,8 +207,8 @@ class RunNode:
         self._pub[f"pose{state.uav_id}"].publish(msg.pose_stamped(at, state.position_enu_m))
         fix = state.position_wgs84
         if fix is not None and f"fix{state.uav_id}" in self._pub:
-            self._pub[f"fix{state.uav_id}"].publish(msg.nav_sat_fix(at, state.uav_id, fix.lat_deg, fix.lon_deg,
-                                                                    fix.alt_m))
+            fix_message = msg.nav_sat_fix(at, state.uav_id, fix.lat_deg, fix.lon_deg, fix.alt_m)
+            self._pub[f"fix{state.uav_id}"].publish(fix_message)
         target = state.target_enu_m
         if target is not None:
             with self._lock:
@@ -236,8 +237,9 @@ class RunNode:
         self.qos(time_s, qos)
         if self._pub["markers"].get_subscription_count():
             uavs = {s.uav_id: s.position_enu_m for s in states if s.position_enu_m is not None}
-            self._pub["markers"].publish(msg.swarm_markers(at, uavs, pedestrians_m, covered, self.coverage_radius_m,
-                                                           self.min_separation_m))
+            markers = msg.swarm_markers(at, uavs, pedestrians_m, covered, self.coverage_radius_m,
+                                        self.min_separation_m)
+            self._pub["markers"].publish(markers)
 
     def _keep_pace(self, time_s: float) -> None:
         if not (self.sim_time and self.config.speed):
@@ -268,4 +270,5 @@ class RunNode:
 
     def _status(self, uav_id: int, accepted: bool, message: str, target: tuple[float, float, float] | None
                 ) -> None:
-        self._pub["status"].publish(msg.operator_status(msg.stamp(time.time()), uav_id, accepted, message, target))
+        status = msg.operator_status(msg.stamp(time.time()), uav_id, accepted, message, target)
+        self._pub["status"].publish(status)
