@@ -12,6 +12,7 @@ import math
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -205,3 +206,45 @@ def test_the_strace_reading_sees_multicast_and_other_hosts(tmp_path):
         'sin_addr=inet_addr("127.0.0.1")}, 16) = 1\n'
         '7 bind(3, {sa_family=AF_INET, sin_port=htons(0), sin_addr=inet_addr("192.0.2.2")}, 16) = 0\n')
     assert destinations(trace) == ({"239.255.0.1", "2001:db8::1", "127.0.0.1"}, 3)
+
+
+def test_telemetry_ros2_republishes_a_swarm_flown_elsewhere(tmp_path):
+    from bridge.telemetry import SwarmPublisher
+    from bridge.telemetry.schema import PlanTarget
+
+    domain, endpoint = domain_id(), f"tcp/127.0.0.1:{free_tcp_port()}"
+    env = ros_env(domain)
+    peer = start_peer({"namespace": "/uav_swarm/elsewhere", "n_uavs": 2, "timeout_s": 300.0},
+                      tmp_path / "peer.json", env)
+    sent: dict[int, tuple] = {}  # by stamp, nanoseconds
+    try:
+        with SwarmPublisher(TelemetryConfig(swarm="elsewhere", listen=(endpoint,))) as publisher:
+            republisher = subprocess.Popen(
+                [sys.executable, "-m", "uav_swarm", "telemetry", "ros2", "--swarm", "elsewhere", "--connect",
+                 endpoint, "--n-uavs", "2", "--count", "300",
+                 "--wait-for-subscriber-s", "120"], env=env, stderr=subprocess.PIPE, text=True)
+            seq = 0
+            while republisher.poll() is None:  # until it has republished its 300 messages
+                stamp_s = 1_700_000_000.0 + seq * 0.25
+                position = (float(seq), 2.0 * seq, 10.0)
+                sent[round(stamp_s * 1e9)] = position
+                publisher.publish_state(UavState(stamp_s=stamp_s, seq=seq, source="vehicle", uav_id=seq % 2,
+                                                 position_enu_m=position, velocity_enu_m_s=(1.0, 0.0, 0.0),
+                                                 target_enu_m=(50.0, 60.0, 10.0)))
+                publisher.publish_plan(Plan(stamp_s=stamp_s, seq=seq, source="vehicle", planner="expert",
+                                            targets=(PlanTarget(uav_id=1, target_enu_m=(50.0, 60.0, 10.0)),)))
+                publisher.publish_qos(Qos(stamp_s=stamp_s, seq=seq, source="vehicle", qos_s1=0.5, qos_s2=0.25,
+                                          mean_throughput_mbps=3.0, n_users=4))
+                seq += 1
+                time.sleep(0.02)
+            assert republisher.wait() == 0, republisher.stderr.read()
+        assert peer.wait(timeout=120) == 0
+    finally:
+        peer.kill()
+    got = json.loads((tmp_path / "peer.json").read_text())
+    poses = got["poses"]["0"] + got["poses"]["1"]
+    assert poses and got["plans"] and got["qos"]
+    for stamp_ns, frame, *position in poses:  # each at the stamp its payload was produced with
+        assert frame == "map" and tuple(position) == sent[stamp_ns]
+    assert got["plans"][-1][2] == [[50.0, 60.0, 10.0]] and got["plan_info"][-1]["values"]["uav_ids"] == "1"
+    assert float(got["qos"][-1]["values"]["qos_s2"]) == 0.25

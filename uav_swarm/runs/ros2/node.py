@@ -175,27 +175,39 @@ class RunNode:
         self._node = None
 
     def wait_for_subscriber(self, timeout_s: float) -> bool:
-        """Wait until every UAV's pose has a subscriber; True when they do within ``timeout_s``."""
+        """Wait until every UAV's pose has a subscriber and every subscriber the graph knows is matched.
+
+        The second half means a node that subscribes to the poses and the plan gets the first plan too.
+        True when so within ``timeout_s``.
+        """
         deadline_s = time.monotonic() + timeout_s
-        poses = [self._pub[f"pose{i}"] for i in range(self.n_uavs)]
-        while not all(p.get_subscription_count() > 0 for p in poses):
+        while not self._subscribers_matched():
             if time.monotonic() >= deadline_s:
                 return False
             time.sleep(0.01)
         return True
 
+    def _subscribers_matched(self) -> bool:
+        poses = [self._pub[f"pose{i}"] for i in range(self.n_uavs)]
+        if not all(p.get_subscription_count() > 0 and self._node.count_subscribers(p.topic_name) > 0
+                   for p in poses):
+            return False
+        return all(p.get_subscription_count() >= self._node.count_subscribers(p.topic_name)
+                   for p in self._pub.values())
+
     # -- what a run publishes ------------------------------------------------------------------
-    def _stamp(self, time_s: float) -> Any:
-        return msg.stamp(time_s if self.sim_time else time.time())
+    def _stamp(self, time_s: float | None, stamp_s: float) -> Any:
+        """Run time ``time_s`` under simulated time, else the payload's UNIX time ``stamp_s``."""
+        return msg.stamp(time_s if self.sim_time and time_s is not None else stamp_s)
 
     def static_scene(self, obstacles_m: np.ndarray, time_s: float = 0.0) -> None:
         """The area and the obstacles, latched on ``scene`` for every subscriber, also late ones."""
-        scene = msg.static_scene(self._stamp(time_s), self.width_m, self.height_m, obstacles_m)
+        scene = msg.static_scene(self._stamp(time_s, time.time()), self.width_m, self.height_m, obstacles_m)
         self._pub["scene"].publish(scene)
 
-    def plan(self, time_s: float, plan: Plan) -> None:
-        """A plan on ``plan`` and ``plan/info``."""
-        at = self._stamp(time_s)
+    def plan(self, time_s: float | None, plan: Plan) -> None:
+        """A plan on ``plan`` and ``plan/info`` (``time_s``: its run time, used under simulated time)."""
+        at = self._stamp(time_s, plan.stamp_s)
         self._pub["plan"].publish(msg.plan_poses(at, plan))
         self._pub["plan/info"].publish(msg.plan_info(at, plan))
 
@@ -203,7 +215,7 @@ class RunNode:
         """One UAV's state: its pose, its fix (a vehicle's) and its target when it changed."""
         if not 0 <= state.uav_id < self.n_uavs or state.position_enu_m is None:
             return
-        at = self._stamp(state.stamp_s if time_s is None else time_s)
+        at = self._stamp(time_s, state.stamp_s)
         self._pub[f"pose{state.uav_id}"].publish(msg.pose_stamped(at, state.position_enu_m))
         fix = state.position_wgs84
         if fix is not None and f"fix{state.uav_id}" in self._pub:
@@ -217,9 +229,9 @@ class RunNode:
             if changed:
                 self._pub[f"target{state.uav_id}"].publish(msg.pose_stamped(at, target))
 
-    def qos(self, time_s: float, qos: Qos) -> None:
+    def qos(self, time_s: float | None, qos: Qos) -> None:
         """The QoS figures on ``qos``."""
-        self._pub["qos"].publish(msg.qos_status(self._stamp(time_s), qos, self.association))
+        self._pub["qos"].publish(msg.qos_status(self._stamp(time_s, qos.stamp_s), qos, self.association))
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
              covered: np.ndarray, *, with_states: bool = True) -> None:
@@ -228,7 +240,7 @@ class RunNode:
         ``simulate`` keeps the ``[ros2] speed`` pace here (simulated seconds per wall-clock second).
         """
         self._keep_pace(time_s)
-        at = self._stamp(time_s)
+        at = self._stamp(time_s, qos.stamp_s)
         if "clock" in self._pub:
             self._pub["clock"].publish(Clock(clock=at))
         if with_states:
