@@ -28,7 +28,8 @@ from uav_swarm.world.comms import Association, Coverage
 from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.raster import density_map
 from uav_swarm.world.scenario import Scenario, random_scenario
-from uav_swarm.world.uav import UAVFleet, separation_penalty
+from uav_swarm.world.separation import separation_penalty
+from uav_swarm.world.uav import UAVFleet
 
 __all__ = ["raw_env", "parallel_env", "env", "EnvConfig"]
 
@@ -338,7 +339,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         half, (h, w) = cfg.patch_px // 2, cfg.density_shape
         self._padded_share_map[half:half + h, half:half + w] = self._share_map
         self._coverage = self._association.update(peds, self._fleet.positions_m)
-        self._separation = separation_penalty(self._fleet.positions_m, cfg.uav.min_separation_m)
+        self._separation = float(separation_penalty(self._fleet.positions_m, cfg.uav.min_separation_m))
         qos = self._coverage.qos_s1 if cfg.strategy == 1 else self._coverage.qos_s2
         self._reward = float(qos - cfg.separation_weight * self._separation)
 
