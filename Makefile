@@ -10,7 +10,7 @@ $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet torch==2.13.0
-	$(PY) -m pip install --quiet torch==2.13.0 -e ".[test,distributed,marl,docs,inference]"
+	$(PY) -m pip install --quiet torch==2.13.0 -e ".[test,distributed,marl,docs,inference,ros2]"
 	touch $(STAMP)
 
 install: $(STAMP)

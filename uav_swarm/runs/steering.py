@@ -4,20 +4,21 @@
 fly them instead of the planner's for those UAVs until the operator hands the UAV back
 (:meth:`OperatorTargets.release`). A target is validated like every other input before it is
 accepted: frame ``map`` (East-North-Up metres from the run's home), finite values, inside the area and
-the geofence at the run's cruise altitude, and at least ``min_separation_m`` from every other UAV's
-target (the operator's and the planner's latest). A refused target changes nothing; the reason is
-returned for the caller to log and publish. The UAVs fly at the run's altitude ``alt_m``: an operator
-target sets where, not how high.
+the geofence at the UAV's altitude, and far enough from every other UAV's target (the operator's and the
+planner's latest): ``min_separation_m`` apart, less between two altitude layers
+(:func:`uav_swarm.world.separation.required_distances_m`). A refused target changes nothing; the reason
+is returned for the caller to log and publish. Each UAV flies at its own altitude
+(:meth:`uav_swarm.world.uav.UAVConfig.altitudes_m`): an operator target sets where, not how high.
 
 It is filled from another thread (the ROS 2 executor) and read by the loop: every method takes a lock.
 
 Examples:
-    >>> targets = OperatorTargets(width_m=100.0, height_m=80.0, alt_m=10.0, min_separation_m=5.0,
-    ...                           n_uavs=3)
+    >>> from uav_swarm.world.uav import UAVConfig
+    >>> targets = OperatorTargets(width_m=100.0, height_m=80.0, uav=UAVConfig(min_separation_m=5.0), n_uavs=3)
     >>> targets.planned({0: (10.0, 10.0), 1: (50.0, 40.0), 2: (90.0, 70.0)})
     >>> targets.offer(0, "map", 20.0, 20.0, 10.0)
     >>> targets.offer(2, "map", 21.0, 22.0, 10.0)
-    "target (21.00, 22.00) is 2.24 m from UAV 0's target: allowed at least uav.min_separation_m = 5 m"
+    "target (21.00, 22.00) is 2.24 m from UAV 0's target: allowed at least 5 m (uav.min_separation_m = 5 m)"
     >>> targets.apply({0: (10.0, 10.0), 1: (50.0, 40.0), 2: (90.0, 70.0)})
     {0: (20.0, 20.0), 1: (50.0, 40.0), 2: (90.0, 70.0)}
     >>> targets.release(0), targets.held()
@@ -33,8 +34,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from uav_swarm.world.separation import required_distances_m
+
 if TYPE_CHECKING:
     from bridge.geofence import GeofenceConfig
+    from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["OperatorTargets", "TARGET_FRAME"]
 
@@ -50,17 +54,19 @@ class OperatorTargets:
     Args:
         width_m: East extent of the area (metres from the home).
         height_m: North extent of the area.
-        alt_m: The run's cruise altitude, checked against the geofence with the target.
-        min_separation_m: The least distance between two UAVs' targets (``uav.min_separation_m``).
+        uav: The UAVs' altitudes (checked against the geofence with the target) and separation.
         n_uavs: UAV ids are ``0 .. n_uavs - 1``.
         geofence: The bridge's geofence, or None (the area alone).
     """
 
-    def __init__(self, *, width_m: float, height_m: float, alt_m: float, min_separation_m: float, n_uavs: int,
+    def __init__(self, *, width_m: float, height_m: float, uav: UAVConfig, n_uavs: int,
                  geofence: GeofenceConfig | None = None) -> None:
-        self.width_m, self.height_m, self.alt_m = float(width_m), float(height_m), float(alt_m)
-        self.min_separation_m = float(min_separation_m)
+        self.width_m, self.height_m = float(width_m), float(height_m)
+        self.min_separation_m = float(uav.min_separation_m)
         self.n_uavs = int(n_uavs)
+        self.altitudes_m = uav.altitudes_m(self.n_uavs)
+        self._required_m = required_distances_m(self.min_separation_m,
+                                                self.altitudes_m if uav.layer_step_m else None, self.n_uavs)
         self.geofence = geofence
         self._held: dict[int, XY] = {}
         self._planned: dict[int, XY] = {}
@@ -123,7 +129,8 @@ class OperatorTargets:
             from bridge.geofence import check_geofence
 
             try:
-                check_geofence([(x_m, y_m, self.alt_m)], self.geofence, labels=["target at uav.alt_m"])
+                check_geofence([(x_m, y_m, float(self.altitudes_m[uav_id]))], self.geofence,
+                               labels=[f"target at UAV {uav_id}'s altitude"])
             except GeofenceError as exc:
                 return str(exc)
         if not (0.0 <= x_m <= self.width_m and 0.0 <= y_m <= self.height_m):
@@ -133,7 +140,8 @@ class OperatorTargets:
             others = {**self._planned, **self._held}
         for other, (ox, oy) in sorted(others.items()):
             distance_m = math.hypot(x_m - ox, y_m - oy)
-            if other != uav_id and distance_m < self.min_separation_m:
+            if other != uav_id and other < self.n_uavs and distance_m < self._required_m[uav_id, other]:
                 return (f"target ({x_m:.2f}, {y_m:.2f}) is {distance_m:.2f} m from UAV {other}'s target: "
-                        f"allowed at least uav.min_separation_m = {self.min_separation_m:g} m")
+                        f"allowed at least {self._required_m[uav_id, other]:g} m (uav.min_separation_m = "
+                        f"{self.min_separation_m:g} m)")
         return None

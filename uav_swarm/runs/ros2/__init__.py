@@ -51,8 +51,8 @@ def open_run_node(config: Ros2Config, stack: ExitStack, *, swarm: str, n_uavs: i
     from uav_swarm.runs.ros2.node import RunNode
 
     area = task.scenario
-    steering = OperatorTargets(width_m=area.width_m, height_m=area.height_m, alt_m=uav.alt_m,
-                               min_separation_m=uav.min_separation_m, n_uavs=n_uavs, geofence=geofence)
+    steering = OperatorTargets(width_m=area.width_m, height_m=area.height_m, uav=uav, n_uavs=n_uavs,
+                               geofence=geofence)
     node = RunNode(config, swarm=swarm, n_uavs=n_uavs, node_name=f"uav_swarm_{command}", sim_time=sim_time,
                    width_m=area.width_m, height_m=area.height_m,
                    coverage_radius_m=task.radio.coverage_radius_m,
