@@ -76,7 +76,8 @@ class RunNode:
         n_uavs: UAV ids ``0 .. n_uavs - 1`` get their topics.
         node_name: The node's name (``uav_swarm_simulate``, ``uav_swarm_fly``, ...).
         sim_time: Stamps are the run times handed in, and ``/clock`` is published; else UNIX time.
-        width_m, height_m: The area (metres from the home).
+        width_m: East extent of the area (metres from the home).
+        height_m: North extent of the area.
         coverage_radius_m: Radius of a UAV's coverage disc.
         min_separation_m: ``uav.min_separation_m``, drawn as each UAV's separation circle.
         association: Which radio association the QoS uses (in words).
