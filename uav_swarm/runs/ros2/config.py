@@ -50,6 +50,9 @@ class Ros2Config(Config):
         "environment's discovery range (ROS 2's default reaches the subnet)")
     speed: float = param(0.0, ge=0.0, le=1000.0,
                          doc="simulate: simulated seconds per wall-clock second (0: as fast as it computes)")
+    markers_max_rate_hz: float = param(
+        10.0, ge=0.0, le=1000.0, doc="most marker arrays per wall-clock second (0: one per published step); "
+        "an unpaced simulate publishes hundreds of steps a second, more than a viewer draws")
     wait_for_subscriber_s: float = param(
         0.0, ge=0.0, le=600.0, doc="wait this long for a ROS 2 subscriber of the poses before the first step")
 

@@ -5,7 +5,8 @@ a vehicle's fix is a ``sensor_msgs/NavSatFix`` in its own frame ``uav_<id>/base_
 ``geometry_msgs/PoseArray`` (one pose per planned UAV, in the order of the UAV ids that
 ``plan/info`` lists). The QoS and the plan's figures are ``diagnostic_msgs/DiagnosticArray``
 key-value pairs; the scene and the swarm are ``visualization_msgs/MarkerArray`` for RViz and
-Foxglove. No ``/tf``: the ``tf2_msgs`` messages have no wheel; every pose names its frame.
+Foxglove, the crowd a ``sensor_msgs/PointCloud2`` (built from one numpy buffer: hundreds of people cost
+no more than a few markers). No ``/tf``: the ``tf2_msgs`` messages have no wheel; every pose names its frame.
 
 Examples:
     >>> pose = pose_stamped(stamp(12.25), (1.0, 2.0, 10.0))
@@ -21,14 +22,14 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3
-from sensor_msgs.msg import NavSatFix, NavSatStatus
+from sensor_msgs.msg import NavSatFix, NavSatStatus, PointCloud2, PointField
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from bridge.telemetry.schema import Plan, Qos
 
 __all__ = ["MAP_FRAME", "stamp", "pose_stamped", "nav_sat_fix", "plan_poses", "plan_info", "qos_status",
-           "operator_status", "static_scene", "swarm_markers", "uav_frame"]
+           "operator_status", "static_scene", "swarm_markers", "crowd_cloud", "uav_frame"]
 
 MAP_FRAME = "map"
 """The run's fixed frame: East-North-Up metres from the home (REP 103 / 105)."""
@@ -38,8 +39,8 @@ _FLAT_M = 0.05  # thickness of the discs drawn on the ground and at the UAVs' al
 _UAV = ColorRGBA(r=0.1, g=0.4, b=0.9, a=1.0)
 _COVERAGE = ColorRGBA(r=0.1, g=0.7, b=0.3, a=0.2)
 _SEPARATION = ColorRGBA(r=0.9, g=0.5, b=0.1, a=0.35)
-_SERVED = ColorRGBA(r=0.1, g=0.7, b=0.3, a=1.0)
-_UNSERVED = ColorRGBA(r=0.5, g=0.5, b=0.5, a=1.0)
+_CROWD_FIELDS = [PointField(name=name, offset=4 * i, datatype=PointField.FLOAT32, count=1)
+                 for i, name in enumerate(("x", "y", "z", "served"))]
 _OUTLINE = ColorRGBA(r=0.2, g=0.2, b=0.2, a=1.0)
 _OBSTACLE = ColorRGBA(r=0.8, g=0.1, b=0.1, a=1.0)
 
@@ -139,20 +140,26 @@ def static_scene(at: Time, width_m: float, height_m: float, obstacles_m: np.ndar
     return MarkerArray(markers=markers)
 
 
-def swarm_markers(at: Time, uavs_m: dict[int, Vec3], pedestrians_m: np.ndarray, covered: np.ndarray,
-                  coverage_radius_m: float, min_separation_m: float) -> MarkerArray:
-    """The swarm now: a ``DELETEALL``, then the crowd, each UAV, its coverage and its separation circle.
+def crowd_cloud(at: Time, pedestrians_m: np.ndarray, covered: np.ndarray) -> PointCloud2:
+    """The crowd on the ground: float fields ``x``, ``y``, ``z``, ``served`` (1 for a user a UAV serves)."""
+    positions = np.asarray(pedestrians_m, np.float32).reshape(-1, 2)
+    points = np.zeros((len(positions), 4), np.float32)
+    points[:, :2] = positions
+    points[:, 3] = np.asarray(covered, bool)
+    return PointCloud2(header=_header(at), height=1, width=len(points), fields=_CROWD_FIELDS,
+                       is_bigendian=False, point_step=16, row_step=16 * len(points), data=points.tobytes(),
+                       is_dense=True)
 
-    Namespaces: ``crowd`` (``POINTS``, green when served), ``uavs`` (a sphere per UAV, id = UAV id),
-    ``coverage`` (the disc a UAV serves, on the ground), ``separation`` (a disc of radius
-    ``min_separation_m / 2`` at the UAV: two discs overlap when the pair is too close).
+
+def swarm_markers(at: Time, uavs_m: dict[int, Vec3], coverage_radius_m: float, min_separation_m: float
+                  ) -> MarkerArray:
+    """The swarm now: a ``DELETEALL``, then each UAV, its coverage and its separation circle.
+
+    Namespaces: ``uavs`` (a sphere per UAV, id = UAV id), ``coverage`` (the disc a UAV serves, on the
+    ground), ``separation`` (a disc of radius ``min_separation_m / 2`` at the UAV: two discs overlap when
+    the pair is too close).
     """
     markers = [Marker(header=_header(at), action=Marker.DELETEALL)]
-    crowd = _marker(at, "crowd", 0, Marker.POINTS, _SERVED, (0.6, 0.6, 0.0))
-    served = np.asarray(covered, bool)
-    crowd.points = [Point(x=float(x), y=float(y), z=0.0) for x, y in np.asarray(pedestrians_m).reshape(-1, 2)]
-    crowd.colors = [_SERVED if s else _UNSERVED for s in served]
-    markers.append(crowd)
     diameter_m, separation_m = 2.0 * coverage_radius_m, max(min_separation_m, 1e-3)
     for uav_id, (x, y, z) in sorted(uavs_m.items()):
         markers += [_marker(at, "uavs", uav_id, Marker.SPHERE, _UAV, (1.0, 1.0, 1.0), (x, y, z)),

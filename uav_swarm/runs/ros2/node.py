@@ -8,7 +8,8 @@ Topics, under the run's namespace (``/uav_swarm/<swarm>`` unless ``[ros2] namesp
 - ``uav_<id>/target`` (``geometry_msgs/PoseStamped``), reliable, transient local: its current target;
 - ``plan`` (``geometry_msgs/PoseArray``) and ``plan/info`` (``diagnostic_msgs/DiagnosticArray``), reliable;
 - ``qos`` (``diagnostic_msgs/DiagnosticArray``), reliable;
-- ``markers`` (``visualization_msgs/MarkerArray``): the crowd, the UAVs, coverage and separation circles;
+- ``markers`` (``visualization_msgs/MarkerArray``): the UAVs, their coverage and separation circles;
+- ``crowd`` (``sensor_msgs/PointCloud2``): the people, field ``served``;
 - ``scene`` (``visualization_msgs/MarkerArray``), reliable, transient local: the area and the obstacles;
 - ``operator/status`` (``diagnostic_msgs/DiagnosticArray``), reliable: each operator target accepted,
   refused (with the reason) or released;
@@ -60,7 +61,7 @@ RELIABLE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability
 
 MARKER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.VOLATILE)
-"""The swarm's markers: reliable (RViz's default) but only the newest is kept for a slow viewer."""
+"""The swarm's markers and the crowd: reliable (RViz's default), only the newest kept for a slow viewer."""
 
 CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
                        durability=DurabilityPolicy.VOLATILE)
@@ -106,6 +107,7 @@ class RunNode:
         self._pub: dict[str, Any] = {}
         self._targets: dict[int, tuple[float, float, float]] = {}
         self._start_wall_s: float | None = None
+        self._next_markers_s = 0.0
         self._lock = threading.Lock()
 
     # -- life ----------------------------------------------------------------------------------
@@ -128,7 +130,7 @@ class RunNode:
         node = self._node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context)
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import PoseArray
-        from sensor_msgs.msg import NavSatFix
+        from sensor_msgs.msg import NavSatFix, PointCloud2
         from visualization_msgs.msg import MarkerArray
 
         pub = self._pub
@@ -141,6 +143,7 @@ class RunNode:
         pub["plan/info"] = node.create_publisher(DiagnosticArray, "plan/info", RELIABLE_QOS)
         pub["qos"] = node.create_publisher(DiagnosticArray, "qos", RELIABLE_QOS)
         pub["markers"] = node.create_publisher(MarkerArray, "markers", MARKER_QOS)
+        pub["crowd"] = node.create_publisher(PointCloud2, "crowd", MARKER_QOS)
         pub["scene"] = node.create_publisher(MarkerArray, "scene", LATCHED_QOS)
         if self.sim_time:
             pub["clock"] = node.create_publisher(Clock, "/clock", CLOCK_QOS)
@@ -236,7 +239,7 @@ class RunNode:
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
              covered: np.ndarray, *, with_states: bool = True) -> None:
-        """One published step: ``/clock``, the states (``with_states``), the QoS and the markers.
+        """One published step: ``/clock``, the states (``with_states``), the QoS, markers and crowd when due.
 
         ``simulate`` keeps the ``[ros2] speed`` pace here (simulated seconds per wall-clock second).
         """
@@ -248,11 +251,22 @@ class RunNode:
             for state in states:
                 self.state(state, time_s)
         self.qos(time_s, qos)
-        if self._pub["markers"].get_subscription_count():
+        markers, crowd = self._pub["markers"], self._pub["crowd"]
+        if (markers.get_subscription_count() or crowd.get_subscription_count()) and self._markers_due():
             uavs = {s.uav_id: s.position_enu_m for s in states if s.position_enu_m is not None}
-            markers = msg.swarm_markers(at, uavs, pedestrians_m, covered, self.coverage_radius_m,
-                                        self.min_separation_m)
-            self._pub["markers"].publish(markers)
+            markers.publish(msg.swarm_markers(at, uavs, self.coverage_radius_m, self.min_separation_m))
+            crowd.publish(msg.crowd_cloud(at, pedestrians_m, covered))
+
+    def _markers_due(self) -> bool:
+        """Whether this step's markers go out (at most ``markers_max_rate_hz`` per wall-clock second)."""
+        rate_hz = self.config.markers_max_rate_hz
+        if not rate_hz:
+            return True
+        now_s = time.monotonic()
+        if now_s < self._next_markers_s:
+            return False
+        self._next_markers_s = now_s + 1.0 / rate_hz
+        return True
 
     def _keep_pace(self, time_s: float) -> None:
         if not (self.sim_time and self.config.speed):
