@@ -14,6 +14,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from uav_swarm.runs.ros2.config import Ros2Config, ros2_environment
 
 ros2_environment(Ros2Config())
@@ -23,6 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import PoseArray, PoseStamped  # noqa: E402
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
+from sensor_msgs.msg import PointCloud2  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from visualization_msgs.msg import MarkerArray  # noqa: E402
 
@@ -52,13 +55,21 @@ def _markers(array: MarkerArray) -> list[dict]:
              "points": [[p.x, p.y, p.z] for p in m.points], "n_colors": len(m.colors)} for m in array.markers]
 
 
+def _cloud(cloud: PointCloud2) -> dict:
+    points = np.frombuffer(bytes(cloud.data), np.float32).reshape(-1, 4)
+    return {"stamp_ns": _ns(cloud.header.stamp), "frame_id": cloud.header.frame_id, "width": cloud.width,
+            "fields": [(f.name, f.offset, f.datatype) for f in cloud.fields], "point_step": cloud.point_step,
+            "n_bytes": len(cloud.data), "served": points[:, 3].tolist(),
+            "z": sorted(set(points[:, 2].tolist()))}
+
+
 def main() -> int:
     spec = json.loads(Path(sys.argv[1]).read_text())
     out = Path(sys.argv[2])
     ns, n_uavs = spec["namespace"], spec["n_uavs"]
     got: dict = {"poses": {str(i): [] for i in range(n_uavs)}, "targets": {str(i): [] for i in range(n_uavs)},
                  "plans": [], "plan_info": [], "qos": [], "markers": [], "scene": [], "late_scene": [],
-                 "statuses": [], "clock": [], "releases": []}
+                 "statuses": [], "clock": [], "releases": [], "crowd": []}
     rclpy.init()
     node = rclpy.create_node("uav_swarm_test_peer")
     def pose(key: str, i: int):
@@ -79,6 +90,7 @@ def main() -> int:
     node.create_subscription(MarkerArray, f"{ns}/markers", lambda m: got["markers"].append(_markers(m)),
                              RELIABLE)
     node.create_subscription(MarkerArray, f"{ns}/scene", lambda m: got["scene"].append(_markers(m)), LATCHED)
+    node.create_subscription(PointCloud2, f"{ns}/crowd", lambda m: got["crowd"].append(_cloud(m)), RELIABLE)
     node.create_subscription(Clock, "/clock", lambda m: got["clock"].append(_ns(m.clock)), BEST_EFFORT)
     steer = [node.create_publisher(PoseStamped, f"{ns}/uav_{i}/operator_target", RELIABLE)
              for i in range(n_uavs)]

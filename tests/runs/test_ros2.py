@@ -122,7 +122,17 @@ def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves
             assert float(values[key]) == pytest.approx(float(rows[seq + 1][key]), abs=1e-6)
         assert values["association"] == "paper (no admission control)"
 
-    # markers are valid messages: a DELETEALL, the crowd with a colour per point, three circles per UAV
+    # the crowd: one point per user, served exactly where the QoS says (S1 is the served share)
+    assert got["crowd"], "no PointCloud2 arrived"
+    qos_at = {status["stamp_ns"]: status["values"] for status in got["qos"]}
+    for cloud in got["crowd"]:
+        n_users = int(qos_at[cloud["stamp_ns"]]["n_users"])
+        assert cloud["frame_id"] == "map" and cloud["width"] == n_users and cloud["point_step"] == 16
+        assert cloud["fields"] == [["x", 0, 7], ["y", 4, 7], ["z", 8, 7], ["served", 12, 7]]  # FLOAT32
+        assert cloud["n_bytes"] == 16 * n_users and cloud["z"] == [0.0] and set(cloud["served"]) <= {0.0, 1.0}
+        assert sum(cloud["served"]) / n_users == pytest.approx(float(qos_at[cloud["stamp_ns"]]["qos_s1"]))
+
+    # markers are valid messages: a DELETEALL, then three per UAV
     assert got["markers"], "no MarkerArray arrived"
     for markers in got["markers"]:
         assert markers[0]["action"] == 3 and all(m["action"] == 0 for m in markers[1:])
@@ -132,8 +142,6 @@ def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves
             assert m["frame_id"] == "map" and 0.0 < m["color"][3] <= 1.0
             assert math.isclose(sum(q * q for q in m["orientation"]), 1.0)
             assert all(s > 0 for s in m["scale"][:2])
-        crowd = by_ns["crowd"][0]
-        assert crowd["type"] == 8 and len(crowd["points"]) == crowd["n_colors"] > 0
         assert [len(by_ns[ns]) for ns in ("uavs", "coverage", "separation")] == [n_uavs] * 3
         assert {m["scale"][0] for m in by_ns["coverage"]} == {60.0}  # 2 x the 30 m coverage radius
         assert {m["scale"][0] for m in by_ns["separation"]} == {5.0}  # uav.min_separation_m
