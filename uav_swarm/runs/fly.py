@@ -43,7 +43,7 @@ from uav_swarm.runs.flight_loop import Flight
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import QosTrace
-from uav_swarm.runs.service import flight_figures
+from uav_swarm.runs.summary import summarise_flight
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
@@ -169,13 +169,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
 
         files += [write_qos_figure({"flown": trace}, out_dir / "qos.png"),
                   write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]
-        summary |= {"duration_s": float(trace.times_s[-1]), "planner": trace.planner_name,
-                    "mean_qos_s1": float(trace.qos_s1.mean()), "mean_qos_s2": float(trace.qos_s2.mean()),
-                    "mean_throughput_mbps": float(trace.throughput_mbps.mean()),
-                    "association": config.task.radio.association_name}
-        flown = trace.qos_s1 if config.task.strategy == 1 else trace.qos_s2
-        summary["service"] = flight_figures(flown, flight.plans, track, flight.crowd_samples, config.task, n,
-                                            float(trace.times_s[-1]))
+        summary |= summarise_flight(trace, config, n, flight.plans, track, flight.crowd_samples)
     files.append(_write_track(track, out_dir / "track.csv"))
     if error is not None:
         summary["error"] = f"{type(error).__name__}: {error}"

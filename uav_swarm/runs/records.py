@@ -52,6 +52,8 @@ class SequenceRun:
         qos_s2_paper: ``(T,)`` strategy 2's QoS of the same UAVs judged with the paper's radio (no admission
             control), when the run flew under admission control; empty otherwise.
         association: Which radio association the run's QoS used.
+        crowd_samples: ``(time_s, positions, velocities)`` of the crowd every ``static_every_s`` from 0, for
+            the static reference (empty unless asked for).
     """
 
     planner: str
@@ -71,6 +73,7 @@ class SequenceRun:
     distance_m: float = 0.0
     qos_s2_paper: np.ndarray = field(default_factory=lambda: np.zeros(0))
     association: str = "paper (no admission control)"
+    crowd_samples: list[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=list)
 
 
 @dataclass

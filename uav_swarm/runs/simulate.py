@@ -40,8 +40,9 @@ from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import Frame, SequenceRun
-from uav_swarm.runs.service import StaticReference, metres_per_uav_minute, static_reference, target_jumps
+from uav_swarm.runs.service import static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
+from uav_swarm.runs.summary import ratios_learned_over_expert, reference_record, summarise_run
 from uav_swarm.world.comms import evaluate_coverage
 
 if TYPE_CHECKING:
@@ -50,7 +51,7 @@ if TYPE_CHECKING:
     from uav_swarm.runs.live_view import LiveView
     from uav_swarm.runs.steering import OperatorTargets
 
-__all__ = ["SimulationResult", "run_sequence", "simulate", "summarise_run"]
+__all__ = ["SimulationResult", "run_sequence", "sequence_crowds", "simulate"]
 
 logger = logging.getLogger(__name__)
 
@@ -92,7 +93,7 @@ def _plan(planner: Planner, targets_m: np.ndarray, alt_m: float, latency_ms: flo
 
 
 def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs: RunOutputs | None = None,
-                 steering: OperatorTargets | None = None, frame_every: int = 0,
+                 steering: OperatorTargets | None = None, frame_every: int = 0, sample_every_s: float = 0.0,
                  progress: bool = False) -> SequenceRun:
     """Fly one planner over the sequence of ``config`` (same seed, same crowd, for every planner).
 
@@ -104,6 +105,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
             steps, every plan, the scene, at simulated time (:mod:`uav_swarm.runs.outputs`).
         steering: Operator targets that replace the planner's for the UAVs they name, from the next step.
         frame_every: Keep a :class:`Frame` every this many steps (and the last); 0 keeps none.
+        sample_every_s: Keep the crowd every this many simulated seconds from 0 (the static reference's
+            instants); 0 keeps none.
         progress: Show a progress bar.
 
     Raises:
@@ -127,6 +130,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     frames: list[Frame] = []
     targets = np.asarray(env.uav_positions_m).copy()
     plans: list[np.ndarray] = []
+    samples: list[tuple[float, np.ndarray, np.ndarray]] = []
+    sample_every = max(1, round(sample_every_s / env.dt_s)) if sample_every_s else 0
     distance_m = 0.0
     result = None
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
@@ -146,6 +151,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                              len(latencies) - 1)
                 outputs.plan(step * env.dt_s, plan)
         flown = _steered(targets, steering)
+        if sample_every and step % sample_every == 0:  # the crowd walks the same whatever the UAVs do
+            samples.append((step * env.dt_s, np.array(env.pedestrian_positions_m),
+                            np.array(env.pedestrian_velocities_m_s)))
         before = np.array(env.uav_positions_m)
         env.step(dict(zip(agents, flown, strict=True)))
         distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
@@ -170,7 +178,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
         target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
-        association=cov.model)
+        association=cov.model, crowd_samples=samples)
 
 
 def _steered(targets_m: np.ndarray, steering: OperatorTargets | None) -> np.ndarray:
@@ -193,53 +201,6 @@ def sequence_crowds(config: SimulateConfig, every_s: float
             yield (step * env.dt_s, np.array(env.pedestrian_positions_m),
                    np.array(env.pedestrian_velocities_m_s))
         env.step(hold)
-
-
-def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
-                  reference: StaticReference | None = None) -> dict[str, float | int | str | None]:
-    """Mean/min QoS S1 and S2, mean throughput, median/p95 latency, churn and service figures of one run.
-
-    With the run's ``config`` and the sequence's static ``reference``: the strategy's flown QoS over the
-    static reference, target jumps per replan and metres flown per UAV-minute
-    (:mod:`uav_swarm.runs.service`).
-    """
-    changes = float(run.target_changes.mean()) if run.target_changes.size else 0.0
-    figures: dict[str, float | None] = {}
-    if config is not None:
-        flown = run.qos_s1 if config.task.strategy == 1 else run.qos_s2
-        figures = {
-            "flown_qos": float(flown.mean()),
-            "static_reference_qos": None if reference is None else reference.mean,
-            "flown_over_static": (float(flown.mean()) / reference.mean
-                                  if reference is not None and reference.mean > 0 else None),
-            "target_jumps_per_replan": float(run.target_jumps.mean()) if run.target_jumps.size else 0.0,
-            "metres_per_uav_minute": metres_per_uav_minute(
-                run.distance_m, config.n_uavs, float(run.times_s[-1]) if run.times_s.size else 0.0),
-        }
-    return {**figures,
-        "planner": run.planner_name,
-        "mean_qos_s1": float(run.qos_s1.mean()), "min_qos_s1": float(run.qos_s1.min()),
-        "mean_qos_s2": float(run.qos_s2.mean()), "min_qos_s2": float(run.qos_s2.min()),
-        "mean_throughput_mbps": float(run.throughput_mbps.mean()),
-        "median_latency_ms": float(np.median(run.latency_ms)),
-        "p95_latency_ms": float(np.percentile(run.latency_ms, 95)),
-        "n_replans": int(run.latency_ms.size), "n_pedestrians": run.n_pedestrians,
-        "mean_target_changes_per_replan": changes, "association": run.association,
-        **({"mean_qos_s2_paper_radio": float(run.qos_s2_paper.mean())} if run.qos_s2_paper.size else {}),
-    }
-
-
-def _ratios(learned: dict[str, Any], expert: dict[str, Any]) -> dict[str, float | None]:
-    def ratio(a: float, b: float) -> float | None:
-        return float(a / b) if b > 0 else None
-
-    return {
-        "mean_qos_s1": ratio(learned["mean_qos_s1"], expert["mean_qos_s1"]),
-        "mean_qos_s2": ratio(learned["mean_qos_s2"], expert["mean_qos_s2"]),
-        "mean_throughput_mbps": ratio(learned["mean_throughput_mbps"], expert["mean_throughput_mbps"]),
-        "expert_over_learned_median_latency": ratio(expert["median_latency_ms"],
-                                                    learned["median_latency_ms"]),
-    }
 
 
 def _load_bridge(config: SimulateConfig) -> BridgeConfig:
@@ -363,10 +324,12 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
             with open_recorder(scene, record=record if flown else None, live=live if flown else None,
                                command="simulate", config=config.to_dict()) as recorder:
                 outputs = RunOutputs(publisher, recorder, ros) if flown else None
+                sample_every_s = config.static_every_s if flown and config.static_reference else 0.0
                 runs[kind] = run_sequence(config, planner, kind, outputs=outputs,
                                           steering=steering if flown else None,
-                                          frame_every=frame_every if flown else 0, progress=progress)
-    reference = (static_reference(sequence_crowds(config, config.static_every_s), config.task, config.n_uavs,
+                                          frame_every=frame_every if flown else 0,
+                                          sample_every_s=sample_every_s, progress=progress)
+    reference = (static_reference(runs[config.planner].crowd_samples, config.task, config.n_uavs,
                                   config.static_every_s) if config.static_reference else None)
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -375,12 +338,10 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                                "flown": config.planner, "duration_s": config.n_steps * config.dt_s,
                                "n_uavs": config.n_uavs, "seed": config.seed, "config": config.to_dict()}
     if reference is not None:
-        summary["static_reference"] = {"mean_qos": reference.mean, "every_s": reference.every_s,
-                                       "experts": list(reference.experts), "strategy": config.task.strategy,
-                                       "times_s": reference.times_s.tolist(), "qos": reference.qos.tolist()}
+        summary["static_reference"] = reference_record(reference, config.task.strategy)
     if "learned" in runs and "expert" in runs:
-        summary["ratios_learned_over_expert"] = _ratios(summary["planners"]["learned"],
-                                                        summary["planners"]["expert"])
+        summary["ratios_learned_over_expert"] = ratios_learned_over_expert(summary["planners"]["learned"],
+                                                                           summary["planners"]["expert"])
     learned = planners.get("learned")
     if learned is not None:
         summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
