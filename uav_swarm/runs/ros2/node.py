@@ -24,23 +24,28 @@ node's own executor thread; publishing never waits on a subscriber.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseArray, PoseStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import NavSatFix, PointCloud2
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import MarkerArray
 
 import uav_swarm.runs.ros2.messages as msg
 from bridge.telemetry.schema import Plan, Qos, UavState
-from uav_swarm.runs.ros2.config import Ros2Config, import_rclpy, ros2_environment
+from uav_swarm.runs.ros2.config import Ros2Config, ros2_environment
 
 if TYPE_CHECKING:
-    from geometry_msgs.msg import PoseStamped
-
     from uav_swarm.runs.steering import OperatorTargets
 
 __all__ = ["RunNode", "STATE_QOS", "LATCHED_QOS", "RELIABLE_QOS", "MARKER_QOS", "CLOCK_QOS"]
@@ -84,8 +89,8 @@ class RunNode:
         association: Which radio association the QoS uses (in words).
         steering: Operator targets to fill, or None (no operator topics).
 
-    Raises:
-        ConfigError: The ``ros2`` extra is not installed (its name in the message).
+    Use :func:`uav_swarm.runs.ros2.open_run_node`, which says which extra to install when ``rclpy`` is
+    missing.
     """
 
     def __init__(self, config: Ros2Config, *, swarm: str, n_uavs: int, node_name: str, sim_time: bool,
@@ -99,7 +104,6 @@ class RunNode:
         self.coverage_radius_m, self.min_separation_m = coverage_radius_m, min_separation_m
         self.association = association
         self.steering = steering
-        self._rclpy = import_rclpy()
         self._context: Any = None
         self._node: Any = None
         self._executor: Any = None
@@ -120,18 +124,10 @@ class RunNode:
 
     def open(self) -> None:
         """Set the environment, start the node, declare every topic and service, spin its executor."""
-        from geometry_msgs.msg import PoseStamped
-        from std_srvs.srv import Trigger
-
-        rclpy = self._rclpy
         ros2_environment(self.config)
         self._context = rclpy.Context()
         rclpy.init(context=self._context)
         node = self._node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context)
-        from diagnostic_msgs.msg import DiagnosticArray
-        from geometry_msgs.msg import PoseArray
-        from sensor_msgs.msg import NavSatFix, PointCloud2
-        from visualization_msgs.msg import MarkerArray
 
         pub = self._pub
         for uav_id in range(self.n_uavs):
@@ -158,8 +154,9 @@ class RunNode:
         self._executor.add_node(node)
         self._thread = threading.Thread(target=self._spin, name="ros2-executor", daemon=True)
         self._thread.start()
-        logger.info("ROS 2 node %s/%s up (ROS_DOMAIN_ID %s)", self.namespace, self.node_name,
-                    __import__("os").environ.get("ROS_DOMAIN_ID", "0"))
+        logger.info("ROS 2 node %s/%s up (ROS_DOMAIN_ID %s, discovery range %s)", self.namespace,
+                    self.node_name, os.environ.get("ROS_DOMAIN_ID", "0"),
+                    os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET"))
 
     def _spin(self) -> None:
         try:
@@ -175,7 +172,7 @@ class RunNode:
         if self._thread is not None:
             self._thread.join(timeout=2.0)
         self._node.destroy_node()
-        self._rclpy.shutdown(context=self._context)
+        rclpy.shutdown(context=self._context)
         self._node = None
 
     def wait_for_subscriber(self, timeout_s: float) -> bool:
