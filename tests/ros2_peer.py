@@ -25,7 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import PoseArray, PoseStamped  # noqa: E402
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
-from sensor_msgs.msg import PointCloud2  # noqa: E402
+from sensor_msgs.msg import NavSatFix, PointCloud2  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from visualization_msgs.msg import MarkerArray  # noqa: E402
 
@@ -69,7 +69,8 @@ def main() -> int:
     ns, n_uavs = spec["namespace"], spec["n_uavs"]
     got: dict = {"poses": {str(i): [] for i in range(n_uavs)}, "targets": {str(i): [] for i in range(n_uavs)},
                  "plans": [], "plan_info": [], "qos": [], "markers": [], "scene": [], "late_scene": [],
-                 "statuses": [], "clock": [], "releases": [], "crowd": []}
+                 "statuses": [], "clock": [], "releases": [], "crowd": [],
+           "fixes": {str(i): [] for i in range(n_uavs)}}
     rclpy.init()
     node = rclpy.create_node("uav_swarm_test_peer")
     def pose(key: str, i: int):
@@ -79,6 +80,8 @@ def main() -> int:
     for i in range(n_uavs):
         node.create_subscription(PoseStamped, f"{ns}/uav_{i}/pose", pose("poses", i), BEST_EFFORT)
         node.create_subscription(PoseStamped, f"{ns}/uav_{i}/target", pose("targets", i), LATCHED)
+        node.create_subscription(NavSatFix, f"{ns}/uav_{i}/fix", lambda m, i=i: got["fixes"][str(i)].append(
+            [_ns(m.header.stamp), m.header.frame_id, m.latitude, m.longitude, m.altitude]), BEST_EFFORT)
     node.create_subscription(PoseArray, f"{ns}/plan", lambda m: got["plans"].append(
         [_ns(m.header.stamp), m.header.frame_id,
          [[p.position.x, p.position.y, p.position.z] for p in m.poses]]), RELIABLE)

@@ -18,6 +18,7 @@ from lossy_relay import free_udp_port
 from px4_vehicle import Px4Vehicle
 from sim_vehicle import endpoint_pair
 
+from bridge.geo import Home
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
 
@@ -84,3 +85,9 @@ def test_a_ros2_operator_flies_a_px4_and_an_ardupilot_vehicle_to_its_targets(tmp
     for sid, vehicle in ((3, vehicles[2]), (4, vehicles[3])):
         assert vehicle.reposition_frames, sid  # they were sent the planner's targets
     assert {len(p[2]) for p in got["plans"]} == {4}
+    home = Home()
+    for uav_id in range(4):  # each vehicle's pose in map and its WGS84 fix in its own frame
+        assert got["poses"][str(uav_id)] and {p[1] for p in got["poses"][str(uav_id)]} == {"map"}
+        fixes = got["fixes"][str(uav_id)]
+        assert fixes and {f[1] for f in fixes} == {f"uav_{uav_id}/base_link"}
+        assert all(abs(f[2] - home.lat_deg) < 0.01 and abs(f[3] - home.lon_deg) < 0.01 for f in fixes)
