@@ -86,10 +86,15 @@ def import_rclpy() -> ModuleType:
     """``rclpy``, or a :class:`ConfigError` that names the ``ros2`` extra when it is not installed.
 
     Raises:
-        ConfigError: :data:`MISSING_EXTRA`.
+        ConfigError: :data:`MISSING_EXTRA`; or rclpy is there but its libraries do not load (e.g. Python
+            started with ``-S``, which skips the wheels' start-up hook that sets their library path).
     """
     try:
         import rclpy
     except ImportError as exc:
-        raise ConfigError(MISSING_EXTRA) from exc
+        if isinstance(exc, ModuleNotFoundError) and exc.name in ("rclpy", None):
+            raise ConfigError(MISSING_EXTRA) from exc
+        first_line = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise ConfigError(f"ROS 2 (rclpy) is installed but does not load: {first_line}; reinstall "
+                          "'uav-swarm[ros2]' and start Python without -S") from exc
     return rclpy
