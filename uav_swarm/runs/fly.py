@@ -88,7 +88,7 @@ def load_flight_bridge(config: FlyConfig) -> BridgeConfig:
 
 
 def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
-    from learning.files import write_bytes_atomic
+    from typed_config.files import write_bytes_atomic
 
     columns = ["time_s", "uav_id", "system_id", "status", "x_m", "y_m", "z_m", "target_x_m", "target_y_m",
                "target_z_m"]
@@ -123,7 +123,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     """
     from bridge.flight.fleet import Fleet
     from bridge.telemetry import SwarmPublisher
-    from learning.files import write_bytes_atomic
+    from typed_config.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
     from uav_swarm.runs.ros2 import open_run_node

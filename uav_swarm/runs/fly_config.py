@@ -45,7 +45,7 @@ class FlyConfig(Config):
     static_every_s: float = param(10.0, gt=0.0, le=3600.0,
                                   doc="crowd seconds between static reference instants (summary.json)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
-    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     mode: Literal["guided", "mission"] = param(
         "guided", doc="how targets reach the vehicles: 'guided' (MAV_CMD_DO_REPOSITION) or 'mission' "
                       "(a new mission uploaded and flown in AUTO)")
@@ -60,7 +60,7 @@ class FlyConfig(Config):
     def check(self) -> None:
         """A bridge config is required; strategy 2 takes admission control unless told; the radio is 2-D."""
         if not self.bridge_config:
-            raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
+            raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
         if self.task.strategy == 2 and self.task.radio.station_limit is None:
             # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);

@@ -3,7 +3,9 @@
 :func:`simulate` runs ``uav_swarm_v0`` in waypoint mode for ``duration_s`` of simulated time,
 replanning every ``replan_every`` steps with the configured planner (:mod:`uav_swarm.planning.planner`),
 and records per step the QoS of both strategies and the mean user throughput, and per replan the
-planning latency. The same sequence is then flown with the expert planner: the environment is reset
+planning latency. One untimed replan before the first step compiles and loads what the planner needs
+(numba kernels, the network's first call), so the latencies are those of a warm planner. The same
+sequence is then flown with the expert planner: the environment is reset
 with the same seed, and the crowd does not react to the UAVs, so both planners face the same crowd.
 
 While the flown planner runs, UAV states, plans and QoS are published over Zenoh
@@ -40,6 +42,7 @@ from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import Frame, SequenceRun
+from uav_swarm.runs.separation_watch import SeparationWatch
 from uav_swarm.runs.service import static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.runs.summary import ratios_learned_over_expert, reference_record, summarise_run
@@ -65,17 +68,24 @@ class SimulationResult:
     files: list[Path]
 
 
-def _telemetry(env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> tuple[list[UavState], Qos]:
-    """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them."""
+def _telemetry(env: Any, targets_m: np.ndarray, altitudes_m: np.ndarray, step: int,
+               guard: tuple[np.ndarray, np.ndarray]) -> tuple[list[UavState], Qos]:
+    """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them.
+
+    ``guard``: each UAV's distance to its nearest other UAV and whether it is held (SeparationWatch.observe).
+    """
     from bridge.telemetry.schema import Qos, UavState
 
     stamp_s = time.time()
     positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
+    nearest, held = guard
     states = [UavState(
         stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
-        position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), alt_m),
+        position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), float(altitudes_m[uav_id])),
         velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
-        target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), alt_m))
+        target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), float(altitudes_m[uav_id])),
+        separation_held=bool(held[uav_id]),
+        nearest_uav_m=float(nearest[uav_id]) if np.isfinite(nearest[uav_id]) else None)
         for uav_id in range(len(positions))]
     cov = env.coverage
     qos = Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1), qos_s2=float(cov.qos_s2),
@@ -116,6 +126,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         raise ValueError(f"the planner is for {planner.n_uavs} UAVs, the sequence has {config.n_uavs}")
     env = parallel_env(config=config.env_config())
     env.reset(seed=config.seed)
+    # One untimed replan first: compilation (numba) and first calls (the network) land here, not in the
+    # latencies; the planner then forgets it (planning draws no random numbers, the sequence is unchanged).
+    planner.plan(env.pedestrian_positions_m, env.uav_positions_m, env.pedestrian_velocities_m_s)
     planner.reset()
     outputs = outputs or RunOutputs()
     outputs.static_scene(env.scenario.obstacles)
@@ -134,6 +147,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     sample_every = max(1, round(sample_every_s / env.dt_s)) if sample_every_s else 0
     distance_m = 0.0
     result = None
+    area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
+    watch = SeparationWatch(config.uav, config.n_uavs, area_m)  # transitions between plans, closest approach
+    steered = 0  # the operator targets' version the transition was planned for
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
         if step % config.replan_every == 0:
             result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
@@ -150,12 +166,16 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                 plan = _plan(planner, _steered(targets, steering), alt_m, result.latency_ms,
                              len(latencies) - 1)
                 outputs.plan(step * env.dt_s, plan)
-        flown = _steered(targets, steering)
+        if step % config.replan_every == 0 or (steering is not None and steering.version != steered):
+            steered = steering.version if steering is not None else 0  # an operator's change: a transition
+            flown = _steered(targets, steering)
+            watch.replan(step * env.dt_s, env.uav_positions_m, env.uav_velocities_m_s, flown)
         if sample_every and step % sample_every == 0:  # the crowd walks the same whatever the UAVs do
             samples.append((step * env.dt_s, np.array(env.pedestrian_positions_m),
                             np.array(env.pedestrian_velocities_m_s)))
         before = np.array(env.uav_positions_m)
-        env.step(dict(zip(agents, flown, strict=True)))
+        infos = env.step(dict(zip(agents, watch.commands(step * env.dt_s), strict=True)))[-1]
+        guard = watch.observe((step + 1) * env.dt_s, env.uav_positions_m, infos)
         distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
         cov = env.coverage
         qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
@@ -163,7 +183,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
             qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
                                                    paper_radio).qos_s2
         if outputs.active and step % config.telemetry_every == 0:
-            states, qos = _telemetry(env, flown, alt_m, step)
+            states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard)
             outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
             frames.append(Frame(
@@ -178,7 +198,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
         target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
-        association=cov.model, crowd_samples=samples)
+        association=cov.model, separation=watch.summary(), uav_tracks_m=watch.tracks_m,
+        crowd_samples=samples)
 
 
 def _steered(targets_m: np.ndarray, steering: OperatorTargets | None) -> np.ndarray:
@@ -292,7 +313,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     """
     from bridge.errors import BridgeError
     from bridge.telemetry import SwarmPublisher
-    from learning.files import write_bytes_atomic
+    from typed_config.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
     from uav_swarm.runs.ros2 import open_run_node
@@ -306,7 +327,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     frame_every = -(-config.n_steps // (config.gif_max_frames - 1)) if config.gif else 0
     runs: dict[str, SequenceRun] = {}
     scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
-                      coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
+                      coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home,
+                      min_separation_m=config.uav.min_separation_m)
     with ExitStack() as stack:
         publisher = ros = steering = None
         if config.publish_telemetry:

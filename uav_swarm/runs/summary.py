@@ -64,7 +64,8 @@ def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
             "p95_latency_ms": float(np.percentile(run.latency_ms, 95)),
             "n_replans": int(run.latency_ms.size), "n_pedestrians": run.n_pedestrians,
             "mean_target_changes_per_replan": changes, "association": run.association,
-            **({"mean_qos_s2_paper_radio": float(run.qos_s2_paper.mean())} if run.qos_s2_paper.size else {})}
+            **({"mean_qos_s2_paper_radio": float(run.qos_s2_paper.mean())} if run.qos_s2_paper.size else {}),
+            "separation": run.separation}
 
 
 def ratios_learned_over_expert(learned: dict[str, Any], expert: dict[str, Any]) -> dict[str, float | None]:

@@ -72,8 +72,12 @@ def pair_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None = N
     return d
 
 
-def closest_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None = None) -> np.ndarray:
+def closest_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None = None, *,
+                        distances_m: np.ndarray | None = None) -> np.ndarray:
     """(...) distance of the closest pair of UAVs (``inf`` with fewer than two UAVs).
+
+    ``distances_m``, the :func:`pair_distances_m` of the same positions when the caller has them, saves
+    computing them again.
 
     Examples:
         >>> float(closest_distances_m(np.array([[0.0, 0.0], [3.0, 4.0], [20.0, 0.0]])))
@@ -82,7 +86,8 @@ def closest_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None 
     p = np.asarray(positions_m, dtype=np.float64)
     if p.shape[-2] < 2:
         return np.full(p.shape[:-2], np.inf)
-    return pair_distances_m(p, altitudes_m).min(axis=(-2, -1))
+    d = pair_distances_m(p, altitudes_m) if distances_m is None else distances_m
+    return d.min(axis=(-2, -1))
 
 
 @dataclass(frozen=True)
@@ -105,11 +110,13 @@ def closest_pair(positions_m: np.ndarray, altitudes_m: np.ndarray | None = None)
 
 
 def separation_penalty(positions_m: np.ndarray, min_separation_m: float,
-                       altitudes_m: np.ndarray | None = None) -> np.ndarray:
+                       altitudes_m: np.ndarray | None = None, *, distances_m: np.ndarray | None = None
+                       ) -> np.ndarray:
     """(...) total intrusion of pairs closer than ``min_separation_m``: ``sum(1 - d / d_min)`` over them.
 
     Each pair at distance ``d < min_separation_m`` adds ``1 - d / min_separation_m`` (1 when they
-    coincide); 0 disables the penalty. The result lies in ``[0, K (K - 1) / 2]``.
+    coincide); 0 disables the penalty. The result lies in ``[0, K (K - 1) / 2]``. ``distances_m``, the
+    :func:`pair_distances_m` of the same positions when the caller has them, saves computing them again.
 
     Examples:
         >>> float(separation_penalty(np.array([[0.0, 0.0], [2.5, 0.0]]), 5.0))
@@ -118,7 +125,7 @@ def separation_penalty(positions_m: np.ndarray, min_separation_m: float,
     p = np.asarray(positions_m, dtype=np.float64)
     if p.shape[-2] < 2 or min_separation_m <= 0:
         return np.zeros(p.shape[:-2])
-    d = pair_distances_m(p, altitudes_m)
+    d = pair_distances_m(p, altitudes_m) if distances_m is None else distances_m
     intrusion = np.where(d < min_separation_m, 1.0 - d / min_separation_m, 0.0)
     return intrusion.sum(axis=(-2, -1)) / 2.0
 
@@ -278,7 +285,7 @@ def guard_commands(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_
     v = np.asarray(velocities_m_s, dtype=np.float64)
     wanted = np.asarray(command_m_s, dtype=np.float64)
     k = p.shape[-2]
-    held = np.zeros(p.shape[:-1], dtype=bool)
+    held: np.ndarray = np.zeros(p.shape[:-1], dtype=bool)
     if k < 2 or config.min_separation_m <= 0:
         return wanted.copy(), held
     batch = p.shape[:-2]
