@@ -272,7 +272,8 @@ class Flight:
         """Operator targets changed: send each live vehicle the operator's target, or its planned one back."""
         live = self._live()
         planned = self.plans[-1] if self.plans else {}
-        targets = self._steered(live, [(*planned.get(v.uav_id, (s.x_m, s.y_m)), self.alt_m) for v, s in live])
+        here = [planned.get(v.uav_id, (float(s.x_m or 0.0), float(s.y_m or 0.0))) for v, s in live]
+        targets = self._steered(live, [(x, y, self.alt_m) for x, y in here])
         self._send(live, targets)
 
     def _send(self, live: list[tuple[_Vehicle, VehicleState]], targets: list[tuple[float, float, float]]

@@ -38,7 +38,7 @@ def qos_figures(qos_s1: np.ndarray, qos_s2: np.ndarray, throughput_mbps: np.ndar
 
 
 def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
-                  reference: StaticReference | None = None) -> dict[str, float | int | str | None]:
+                  reference: StaticReference | None = None) -> dict[str, Any]:
     """Mean/min QoS S1 and S2, mean throughput, median/p95 latency, churn and service figures of one run.
 
     With the run's ``config`` and the sequence's static ``reference``: the strategy's flown QoS over the

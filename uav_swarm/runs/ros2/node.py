@@ -23,6 +23,7 @@ node's own executor thread; publishing never waits on a subscriber.
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import threading
@@ -147,9 +148,9 @@ class RunNode:
             pub["status"] = node.create_publisher(DiagnosticArray, "operator/status", RELIABLE_QOS)
             for uav_id in range(self.n_uavs):
                 node.create_subscription(PoseStamped, f"uav_{uav_id}/operator_target",
-                                         lambda m, i=uav_id: self._on_target(i, m), RELIABLE_QOS)
+                                         functools.partial(self._on_target, uav_id), RELIABLE_QOS)
                 node.create_service(Trigger, f"uav_{uav_id}/release",
-                                    lambda req, res, i=uav_id: self._on_release(i, res))
+                                    functools.partial(self._on_release, uav_id))
         self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(node)
         self._thread = threading.Thread(target=self._spin, name="ros2-executor", daemon=True)
@@ -283,7 +284,7 @@ class RunNode:
             logger.warning("UAV %d: operator target refused: %s", uav_id, reason)
         self._status(uav_id, reason is None, "accepted" if reason is None else reason, target)
 
-    def _on_release(self, uav_id: int, response: Any) -> Any:
+    def _on_release(self, uav_id: int, request: Any, response: Any) -> Any:
         held = self.steering.release(uav_id)  # type: ignore[union-attr]
         response.success = held
         response.message = "back to the planner" if held else "no operator target was held"
