@@ -23,7 +23,7 @@ $(VENV)/.demo-installed: pyproject.toml | $(PY)
 	touch $@
 
 $(VENV)/.test-installed: pyproject.toml $(VENV)/.demo-installed
-	$(PIP) -e ".[test,distributed,marl,docs,inference]" "$(TORCH)"  # torch pinned: no extra may move it
+	$(PIP) -e ".[test,distributed,marl,docs,inference,ros2]" "$(TORCH)"  # torch pinned: no extra may move it
 	touch $@
 
 install: $(VENV)/.demo-installed

@@ -30,6 +30,8 @@ CASES: list[tuple[list[str], str]] = [
     (["telemetry", "watch", "--duration-s", "0"], "--duration-s"),
     (["telemetry", "watch", "--config", "missing.toml"], "missing.toml"),
     (["telemetry", "record", "--out", "out/run.jsonl", "--count", "-1"], "--count"),
+    (["telemetry", "ros2", "--n-uavs", "11"], "--n-uavs"),
+    (["telemetry", "ros2", "--namespace", "bad name", "--count", "1"], "namespace"),
     (["mission", "export", "--config", "missing.toml", "--target", "1:4,2", "--out", "out"], "missing.toml"),
     (["mission", "export", "--config", BRIDGE, "--target", "1:40", "--out", "out"], "--target"),
     (["mission", "export", "--config", BRIDGE, "--plans", "missing.json", "--out", "out"],

@@ -14,6 +14,7 @@ Examples:
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
+  uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
 
 Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (outputs
 written), 2 bad configuration, checkpoint or telemetry endpoint (before anything is sent to a vehicle).
@@ -61,6 +62,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(parser, "--n-uavs", cfg + "n_uavs")
     config_flag(parser, "--seed", cfg + "seed")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
+    add("--ros2", action="store_true",
+        help="publish the flight on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
+             "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
     add("--record", type=Path, metavar="FLIGHT.mcap",
         help="record the flight (scene, vehicle states, plans, QoS) as MCAP for Foxglove (default: none)")
     add("--live", metavar="[HOST:]PORT",
@@ -82,6 +86,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         overrides["flight"] = flight
     if args.no_telemetry:
         overrides["publish_telemetry"] = False
+    if args.ros2:
+        overrides["ros2"] = {"enabled": True}
     return overrides
 
 

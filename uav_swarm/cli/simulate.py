@@ -13,6 +13,7 @@ Examples:
   uav-swarm simulate --out out/sim --bridge-config configs/bridge/px4_sitl_10.toml   # upload the missions
   uav-swarm simulate --out out/sim --record out/sim/run.mcap   # open it in Foxglove
   uav-swarm simulate --out out/sim --live 8765 --live-wait-s 120 --speedup 1   # watch it in Foxglove
+  uav-swarm simulate --out out/sim --ros2   # on ROS 2: RViz, Foxglove, operator targets (docs/ros2.md)
 
 Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint, telemetry
 endpoint (e.g. "tcp/127.0.0.1:7447 is in use") or live view address, found before the first step and
@@ -57,6 +58,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(parser, "--bridge-config", cfg + "bridge_config")
     add("--no-expert", action="store_true", help="do not fly the expert on the same sequence")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
+    add("--ros2", action="store_true",
+        help="publish the run on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
+             "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
     add("--no-gif", action="store_true", help="do not write scene.gif")
     add("--record", type=Path, metavar="RUN.mcap",
         help="record the flown run (scene, UAV states, plans, QoS) as MCAP for Foxglove (default: none)")
@@ -83,6 +87,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         overrides["compare_expert"] = False
     if args.no_telemetry:
         overrides["publish_telemetry"] = False
+    if args.ros2:
+        overrides["ros2"] = {"enabled": True}
     if args.no_gif:
         overrides["gif"] = False
     return overrides

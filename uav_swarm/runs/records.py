@@ -54,6 +54,8 @@ class SequenceRun:
         association: Which radio association the run's QoS used.
         separation: How close the UAVs came (:meth:`uav_swarm.runs.separation_watch.SeparationWatch.summary`).
         uav_tracks_m: ``(T, n, 2)`` the UAVs' positions after each step.
+        crowd_samples: ``(time_s, positions, velocities)`` of the crowd every ``static_every_s`` from 0, for
+            the static reference (empty unless asked for).
     """
 
     planner: str
@@ -75,6 +77,7 @@ class SequenceRun:
     association: str = "paper (no admission control)"
     separation: dict = field(default_factory=dict)
     uav_tracks_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
+    crowd_samples: list[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=list)
 
 
 @dataclass
