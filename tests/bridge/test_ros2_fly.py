@@ -11,20 +11,17 @@ import math
 import threading
 from pathlib import Path
 
-import pytest
+import rclpy  # noqa: F401  (the ros2 extra: the test command installs it; missing, the tests fail)
 from fly_measures import live_rows
 from flying_vehicle import FlyingVehicle
 from lossy_relay import free_udp_port
 from px4_vehicle import Px4Vehicle
+from ros2_run import domain_id, ros_env, start_peer
 from sim_vehicle import endpoint_pair
 
 from bridge.geo import Home
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
-
-pytest.importorskip("rclpy", reason="the ros2 extra is not installed: pip install 'uav-swarm[ros2]'")
-
-from ros2_run import domain_id, ros_env, start_peer  # noqa: E402
 
 FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
 

@@ -9,23 +9,20 @@ from __future__ import annotations
 import csv
 import json
 import math
-import shutil
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
+import rclpy  # noqa: F401  (the ros2 extra: the test command installs it; missing, the tests fail)
 from mcap.reader import make_reader
+from ports import free_tcp_port
+from ros2_run import destinations, domain_id, ros_env, start_peer, strace_prefix
 
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 from bridge.telemetry.schema import Plan, Qos, UavState
-
-pytest.importorskip("rclpy", reason="the ros2 extra is not installed: pip install 'uav-swarm[ros2]'")
-
-from ports import free_tcp_port  # noqa: E402
-from ros2_run import destinations, domain_id, ros_env, start_peer, strace_prefix  # noqa: E402
 
 DT_NS = 100_000_000  # the crowd's 0.1 s step
 SMALL = """
@@ -64,7 +61,6 @@ def _mcap_json(path: Path, topic: str) -> list[dict]:
         return [json.loads(m.data) for _, c, m in make_reader(f).iter_messages() if c.topic == topic]
 
 
-@pytest.mark.skipif(shutil.which("strace") is None, reason="needs strace to see where the processes send")
 def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves_loopback(tmp_path):
     n_uavs, duration_s = 3, 4.0
     n_steps = round(duration_s / 0.1)
