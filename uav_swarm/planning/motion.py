@@ -42,8 +42,8 @@ from scipy.spatial import cKDTree
 from typed_config import Config, param
 from uav_swarm.missions.wifi.capacitated import admitted_users
 from uav_swarm.missions.wifi.rules import CoverageRules, assign_users
-from uav_swarm.planning.assignment import separate_spares
 from uav_swarm.planning.horizon import horizon_qos, travelled_m
+from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.uav import UAVConfig
 
@@ -107,7 +107,7 @@ class MotionPlanning:
         area_m: ``(width, height)`` of the area; targets stay inside.
         uav: The UAVs' speed and acceleration limits.
         config: Horizon, lead and switching margin.
-        min_gap_m: Smallest distance between a holding UAV's target and another target.
+        min_gap_m: Smallest distance between two targets (the UAVs' minimum separation).
     """
 
     def __init__(self, n_uavs: int, rules: CoverageRules, radio: RadioConfig, strategy: int,
@@ -323,10 +323,13 @@ class MotionPlanning:
 
     def _finish(self, targets: np.ndarray, index: np.ndarray, kept: np.ndarray, predicted: np.ndarray
                 ) -> np.ndarray:
-        """Targets inside the area; spares (neither following nor flying to a proposal) kept apart.
+        """Targets inside the area, at least ``min_gap_m`` apart; spares parked or holding.
 
-        Under a user cap (strategy 2) a spare parks where no user is within reach, so it never
-        takes users from a planned UAV nor serves more than the cap; without a cap it holds.
+        Under a user cap (strategy 2) a spare (neither following nor flying to a proposal) parks where no
+        user is within reach, so it never takes users from a planned UAV nor serves more than the cap;
+        without a cap it holds. Then the targets are separated in priority order (kept followers, the
+        proposals, the spares): followers that drifted together, or proposals aimed closer than the
+        minimum, are moved apart as little as the search finds.
         """
         out = np.clip(targets, 0.0, self.area_m)
         spare = (index < 0) & ~kept
@@ -335,8 +338,8 @@ class MotionPlanning:
             for j in np.flatnonzero(spare):
                 start = out[j] if self._previous is None else self._previous[j]  # a free spot stays
                 out[j] = self._parking(tree, start, np.delete(out, j, axis=0))
-        separate_spares(out, spare, self.min_gap_m)
-        return out
+        priority = np.lexsort((np.arange(self.n_uavs), spare, ~kept))
+        return separate_targets(out, self.min_gap_m, priority, self.area_m)
 
     def _parking(self, tree: cKDTree, start: np.ndarray, others: np.ndarray) -> np.ndarray:
         """The nearest point to ``start`` (rings of 5 m) with no user within reach, inside the area."""
