@@ -4,8 +4,9 @@ The placements the planners propose are separated by construction (the optimiser
 closer than the minimum as infeasible). What the assignment adds to them is not: a spare UAV holding its
 position, a kept target that drifted with its users, a proposal aimed where its users walk. The
 projection :func:`separate_targets` takes the targets in priority order and moves each one closer than
-the minimum to a target placed before it to the nearest free point (rings of a quarter of the minimum
-around it, inside the area), so every pair of the result is at least the minimum apart.
+the minimum to a target placed before it to the nearest free point it finds (pushed straight away from
+each target it is too close to, else on rings of a quarter of the minimum around it; inside the area), so
+every pair of the result is at least the minimum apart.
 
 Examples:
     >>> import numpy as np
@@ -56,17 +57,24 @@ def separate_targets(targets_m: np.ndarray, min_gap_m: float, order: np.ndarray 
 
 def _nearest_free(wanted: np.ndarray, others: np.ndarray, min_gap_m: float, step: float,
                   upper_m: np.ndarray | None) -> np.ndarray:
-    """The point nearest ``wanted`` at least ``min_gap_m`` from ``others`` (ring search)."""
+    """The point nearest ``wanted`` at least ``min_gap_m`` from ``others``: pushes first, then rings."""
+    away = wanted - others
+    length = np.linalg.norm(away, axis=1)
+    direction = np.where(length[:, None] > 1e-9, away / np.maximum(length, 1e-9)[:, None], [1.0, 0.0])
+    pushes = others + direction * min_gap_m * (1.0 + 1e-9)  # each conflict resolved on its own
+    rings = [pushes]
     for radius in step * np.arange(1, _RINGS + 1):
         count = max(8, int(np.ceil(2.0 * np.pi * radius / step)))
         angles = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
-        ring = wanted + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        rings.append(wanted + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1))
+        points = np.concatenate(rings)
+        rings = []
         if upper_m is not None:
-            ring = np.clip(ring, 0.0, upper_m)
-        free = np.linalg.norm(ring[:, None, :] - others[None], axis=-1).min(axis=1) >= min_gap_m
+            points = np.clip(points, 0.0, upper_m)
+        free = np.linalg.norm(points[:, None, :] - others[None], axis=-1).min(axis=1) >= min_gap_m
         if np.any(free):
-            shift = np.where(free, np.linalg.norm(ring - wanted, axis=1), np.inf)
-            return ring[int(np.argmin(shift))]
+            shift = np.where(free, np.linalg.norm(points - wanted, axis=1), np.inf)
+            return points[int(np.argmin(shift))]
     logger.warning("no free point within %.1f m of target (%.1f, %.1f): it stays closer than %.1f m",
                    _RINGS * step, wanted[0], wanted[1], min_gap_m)
     return wanted
