@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
 
 import numpy as np
@@ -59,8 +60,8 @@ def _closest(placement: np.ndarray) -> float:
     return float(pdist(placement).min()) if len(placement) > 1 else np.inf
 
 
-def run(strategy: str, n: int, seed: int, minimum_m: float) -> list[dict[str, float]]:
-    """One row per placement of ``strategy`` (see the module docstring)."""
+def run(strategy: str, n: int, seed: int, minimum_m: float, progress: int = 0) -> list[dict[str, float]]:
+    """One row per placement of ``strategy`` (module docstring); running means every ``progress`` crowds."""
     config = STRATEGIES[strategy]
     refine = strategy != "s1"
     task = WifiTask(config)
@@ -78,6 +79,10 @@ def run(strategy: str, n: int, seed: int, minimum_m: float) -> list[dict[str, fl
             row["qos"].append(task.qos(scene, task.to_pixels(kept))["qos"])
             row["pulled"] += int(_closest(loose) < minimum_m)
             row["closest"] = min(row["closest"], _closest(kept))
+        if progress and (i + 1) % progress == 0:
+            print(f"{strategy}: {i + 1} crowds: " + "; ".join(
+                f"{name} {100 * np.mean(r['qos0']):.2f} -> {100 * np.mean(r['qos']):.2f} %"
+                for name, r in rows.items()), file=sys.stderr, flush=True)
     out = []
     for name, row in rows.items():
         qos0, qos = float(np.mean(row["qos0"])), float(np.mean(row["qos"]))
@@ -95,6 +100,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=9, help="seed of the held-out crowds (split 'test')")
     parser.add_argument("--min-separation-m", type=float, default=UAVConfig().min_separation_m)
     parser.add_argument("--strategies", nargs="+", default=list(STRATEGIES), choices=list(STRATEGIES))
+    parser.add_argument("--progress", type=int, default=50, help="running means on stderr every N crowds")
     args = parser.parse_args()
     torch.set_num_threads(1)
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -104,7 +110,7 @@ def main() -> None:
           "| crowds pulling a pair closer | closest pair with the minimum | s per crowd (with) |")
     print("|---|---|---|---|---|---|---|---|")
     for strategy in args.strategies:
-        for r in run(strategy, args.n, args.seed, args.min_separation_m):
+        for r in run(strategy, args.n, args.seed, args.min_separation_m, args.progress):
             print(f"| {r['strategy']} | {r['placement']} | {100 * r['qos_without']:.2f} % "
                   f"| {100 * r['qos_with']:.2f} % | {100 * r['cost']:.2f} % | {r['pulled']} / {r['n']} "
                   f"| {r['closest_m']:.2f} m | {r['seconds_per_crowd']:.3f} |", flush=True)
