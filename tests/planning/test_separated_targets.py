@@ -80,3 +80,16 @@ def test_simulate_threads_the_uav_minimum_and_refuses_a_contradiction():
         SimulateConfig.from_dict({"uav": {"min_separation_m": 90.0}})
     assert SimulateConfig.from_dict({"n_uavs": 2, "uav": {"min_separation_m": 90.0},
                                      "task": {"expert": {"max_uavs": 2}}}).task.min_separation_m == 90.0
+
+
+def test_fly_and_the_env_refuse_a_minimum_the_fleet_cannot_keep():
+    from uav_swarm.env.config import EnvConfig
+    from uav_swarm.runs.fly_config import FlyConfig
+
+    with pytest.raises(ConfigError, match=r"uav.min_separation_m = 90 m cannot be kept by 10 UAVs"):
+        FlyConfig.from_dict({"bridge_config": "bridge.toml", "uav": {"min_separation_m": 90.0}})
+    fly = FlyConfig.from_dict({"bridge_config": "bridge.toml", "uav": {"min_separation_m": 9.0}})
+    assert fly.task.min_separation_m == 9.0
+    with pytest.raises(ConfigError, match=r"uav.min_separation_m = 90 m cannot be kept by 10 UAVs"):
+        EnvConfig.from_dict({"n_uavs": 10, "uav": {"min_separation_m": 90.0}})
+    assert EnvConfig.from_dict({"n_uavs": 4, "uav": {"min_separation_m": 90.0}}).uav.min_separation_m == 90.0
