@@ -94,3 +94,14 @@ def test_a_task_minimum_the_fleet_cannot_keep_in_the_area_is_refused():
     with pytest.raises(ConfigError, match=r"task.min_separation_m = 90 m cannot be kept by 10 UAVs"):
         WifiConfig(min_separation_m=90.0)
     assert coverage_rules(WifiConfig(min_separation_m=8.0)).min_separation_m == 8.0
+
+
+def test_a_config_saved_with_the_group_experts_own_minimum_reads_as_the_tasks():
+    from typed_config import ConfigError
+
+    saved = WifiConfig(strategy=2).to_dict()
+    saved.pop("min_separation_m")
+    saved["expert"]["groups"]["min_separation_m"] = 7.0  # as the checkpoints before one minimum kept it
+    assert WifiConfig.from_dict(saved).min_separation_m == 7.0
+    with pytest.raises(ConfigError, match="expert.groups.min_separation_m = 7.0 differs from min_sep"):
+        WifiConfig.from_dict({**saved, "min_separation_m": 5.0})

@@ -42,6 +42,7 @@ Examples:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -81,6 +82,24 @@ class WifiConfig(Config):
     min_separation_m: float = param(
         5.0, ge=0.0, le=1000.0, doc="no two UAV positions of a placement (expert, learned, refined) closer "
         "than this, metres (0: none); simulate, fly and the env take it from [uav] min_separation_m")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> WifiConfig:
+        """:meth:`typed_config.Config.from_dict`, reading the configs saved before the task had one minimum.
+
+        Those (the shipped checkpoints' among them) kept the group expert's own ``[task.expert.groups]
+        min_separation_m``: it becomes the task's ``min_separation_m`` (refused when both differ).
+        """
+        groups = data.get("expert", {}).get("groups") if isinstance(data.get("expert"), Mapping) else None
+        if isinstance(groups, Mapping) and "min_separation_m" in groups:
+            legacy = groups["min_separation_m"]
+            if data.get("min_separation_m", legacy) != legacy:
+                raise ConfigError(
+                    f"{where or cls.__name__}: expert.groups.min_separation_m = {legacy!r} differs from "
+                    f"min_separation_m = {data['min_separation_m']!r}: keep min_separation_m only")
+            rest = {k: v for k, v in groups.items() if k != "min_separation_m"}
+            data = {**data, "expert": {**data["expert"], "groups": rest}, "min_separation_m": legacy}
+        return super().from_dict(data, where=where)
 
     def check(self) -> None:
         """A square area, ordered warm-ups, a radius above the altitude, a separation the budget can keep."""
