@@ -70,7 +70,8 @@ class PlanResult:
     """One replan.
 
     Attributes:
-        targets_m: ``(n, 2)`` float64 target of each UAV, metres, pairwise distinct.
+        targets_m: ``(n, 2)`` float64 target of each UAV, metres, at least the planner's ``min_gap_m`` apart
+            (the minimum separation).
         peaks_m: ``(k, 2)`` float64 candidate positions the planner proposed, best first, ``k <= n``.
         utility: ``(h, w)`` float32 utility map (row 0 = South) of the learned planner, None otherwise.
         candidate_index: ``(n,)`` index into ``peaks_m`` of each UAV's target, -1 where it holds (fallback).
