@@ -40,7 +40,8 @@ class PlannerConfig(Config):
 
     hysteresis_m: float = param(5.0, ge=0.0, le=1000.0,
                                 doc="a UAV keeps its target while a new candidate is this close (m)")
-    min_gap_m: float = param(1.0, ge=0.0, le=100.0, doc="smallest distance between two UAVs' targets (m)")
+    min_gap_m: float = param(1.0, ge=0.0, le=100.0, doc="smallest distance between two UAVs' targets (m); "
+                             "the minimum separation ([uav] min_separation_m) when that is larger")
     torch_threads: int = param(1, ge=0, le=256,
                                doc="learned: CPU threads of torch (the process's) and of the inference "
                                "engine (0: leave their own setting)")
