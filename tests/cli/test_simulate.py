@@ -110,8 +110,8 @@ def test_expert_only_without_gif(tmp_path, tiny_checkpoint):
 
 
 @pytest.mark.parametrize(("extra", "message"), [
-    (["--n-uavs", "11"], "n_uavs = 11 is out of range"),
-    (["--duration-s", "-1"], "duration_s = -1.0 is out of range"),
+    (["--n-uavs", "11"], "argument --n-uavs: 11 is out of range: allowed >= 1 and <= 10"),
+    (["--duration-s", "-1"], "argument --duration-s: -1 is out of range"),
     (["--checkpoint", "/does/not/exist.pt"], "checkpoint not found: /does/not/exist.pt"),
     (["--bridge-config", "/does/not/exist.toml"], "config file not found"),
 ], ids=["uavs", "duration", "checkpoint", "bridge"])

@@ -12,14 +12,14 @@ must stand at least ``--min-separation-m`` apart (3-D; default the UAVs' 5 m): e
 refuse closer targets, naming the pair, before anything is written or sent.
 
 Each vehicle is handled on its own: an absent or failing vehicle does not stop the
-others. Every failure is listed at the end, one line each with its error class.
+others. Every failure is listed at the end, one line each (a vehicle's failure with its error class).
 Exit codes: 0 done, 1 a vehicle failed, 2 bad input or a safety refusal (nothing sent).
 
 Examples:
-  uav-swarm mission export --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --out-dir out/missions
+  uav-swarm mission export --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --out out/missions
   uav-swarm mission upload --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --target 2:-30,10,45
   uav-swarm mission upload --config configs/bridge/ardupilot_sitl_10.toml --from-dir out/missions
-  uav-swarm mission download --config configs/bridge/px4_sitl_10.toml --out-dir out/downloaded
+  uav-swarm mission download --config configs/bridge/px4_sitl_10.toml --out out/downloaded
   uav-swarm mission clear --config configs/bridge/px4_sitl_10.toml --vehicle 1 --vehicle 2
 """
 
@@ -49,7 +49,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("action", choices=("export", "upload", "download", "clear"))
+    parser.add_argument("action", choices=("export", "upload", "download", "clear"), help="what to do")
     add = parser.add_argument
     add("--config", type=Path, required=True, help="bridge config TOML (configs/bridge/*.toml)")
     add(
@@ -57,18 +57,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="ID:X,Y[,Z]",
-        help="the target of one vehicle in ENU metres (once per vehicle; repeat for other vehicles)",
+        help="the target of one vehicle in ENU metres (once per vehicle; repeat for other vehicles; "
+             "default: none)",
     )
     add(
         "--waypoint",
         action="append",
         default=[],
         metavar="ID:X,Y[,Z]",
-        help="an intermediate point of one vehicle, flown before its target (repeatable, in order)",
+        help="an intermediate point of one vehicle, flown before its target (repeatable, in order; "
+             "default: none)",
     )
-    add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]}')
-    add("--from-dir", type=Path, help="upload: the vehicle_<ID>.plan/.waypoints files of this folder")
-    add("--out-dir", type=Path, help="export/download: folder for vehicle_<ID> files")
+    add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]} (default: none)')
+    add("--from-dir", type=Path,
+        help="upload: the vehicle_<ID>.plan/.waypoints files of this folder (default: none)")
+    add("--out", type=Path,
+        help="export/download: folder for vehicle_<ID> files (required there; default: none)")
     add("--format", choices=tuple(_SUFFIX), default="plan", help="mission file format (default: %(default)s)")
     add(
         "--autopilot",
@@ -138,6 +142,8 @@ def read_plans(path: Path) -> dict[int, list[list[float]]]:
     """
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ValueError(f"--plans {path}: cannot read it ({exc.strerror})") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"--plans {path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
     expected = '{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]} with one key per vehicle id'
@@ -253,9 +259,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _say(action: str, exc: BaseException) -> None:
-    """One line on stderr: the action, the error class, the message."""
+    """One line on stderr: the action and the message (a vehicle's failure also its error class)."""
     text = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-    print(f"uav-swarm mission {action}: {type(exc).__name__}: {text}", file=sys.stderr)
+    kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "
+    print(f"uav-swarm mission {action}: {kind}{text}", file=sys.stderr)
 
 
 def _report(action: str, errors: dict[int, BaseException]) -> int:
@@ -287,8 +294,8 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
     from bridge.missions.items import build_mission
 
     plans = _plans(args)
-    if not plans or args.out_dir is None:
-        raise ValueError("export needs --target or --plans, and --out-dir")
+    if not plans or args.out is None:
+        raise ValueError("export needs --target or --plans, and --out")
     _check_ids(plans, config)  # a mission for a vehicle the config does not list is refused, not written
     _check_separation(plans, config, args.min_separation_m)
     missions = {
@@ -301,9 +308,9 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
         )
         for sid, points in plans.items()
     }
-    args.out_dir.mkdir(parents=True, exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     for sid, mission in sorted(missions.items()):
-        path = args.out_dir / f"vehicle_{sid}{_SUFFIX[args.format]}"
+        path = args.out / f"vehicle_{sid}{_SUFFIX[args.format]}"
         save_mission(path, mission)
         print(f"vehicle {sid}: {len(mission.items)} items -> {path}")
     return 0
@@ -370,8 +377,8 @@ def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - Bridge
     from bridge.flight.fleet import Fleet, FleetError
     from bridge.missions.files import save_mission
 
-    if args.out_dir is None:
-        raise ValueError("download needs --out-dir")
+    if args.out is None:
+        raise ValueError("download needs --out")
     _check_ids(args.vehicle, config)
     with Fleet(config) as fleet:
         ids, errors = _present(fleet, args.vehicle or list(fleet.system_ids))
@@ -379,9 +386,9 @@ def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - Bridge
             missions = fleet.download(ids) if ids else {}
         except FleetError as exc:
             missions, errors = exc.results, {**errors, **exc.errors}
-    args.out_dir.mkdir(parents=True, exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     for sid, mission in sorted(missions.items()):
-        path = args.out_dir / f"vehicle_{sid}{_SUFFIX[args.format]}"
+        path = args.out / f"vehicle_{sid}{_SUFFIX[args.format]}"
         save_mission(path, mission)
         print(f"vehicle {sid}: {len(mission.items)} items -> {path}")
     return _report(args.action, errors)

@@ -4,7 +4,7 @@ By default both connect to the publishing side on ``tcp/127.0.0.1:7447`` as a pe
 multicast scouting off. ``--config FILE`` reads a ``[telemetry]`` table (the fields of
 :class:`bridge.telemetry.config.TelemetryConfig`): the keys it sets override these defaults, and
 command-line flags override both.
-``--duration`` and ``--count`` bound a run (for scripts and tests).
+``--duration-s`` and ``--count`` bound a run (for scripts and tests).
 """
 
 from __future__ import annotations
@@ -17,6 +17,8 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
+from uav_swarm.cli.conventions import number
+
 __all__ = ["register", "run"]
 
 
@@ -25,12 +27,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("telemetry", help="watch or record the swarm's Zenoh telemetry",
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    watch = actions.add_parser("watch", help="print a live table of the swarm")
-    watch.add_argument("--refresh-s", type=float, default=0.5, help="table refresh period, seconds")
-    record = actions.add_parser("record", help="record every message to a JSON-lines file")
+    watch = actions.add_parser("watch", help="print a live table of the swarm",
+                               description="Print a live table of the swarm: one row per UAV (position, "
+                               "speed, battery, target), then the last plan and the last QoS.")
+    watch.add_argument("--refresh-s", type=number(float, gt=0.0), default=0.5,
+                       help="table refresh period, seconds")
+    record = actions.add_parser("record", help="record every message to a JSON-lines file",
+                                description="Record every telemetry message to a JSON-lines file (one "
+                                "object per line: key, time received, payload); the file appears when "
+                                "recording ends.")
     record.add_argument("--out", type=Path, required=True, help="the .jsonl file to write")
     for sub in (watch, record):
-        sub.add_argument("--config", type=Path, help="TOML file with a [telemetry] table")
+        sub.add_argument("--config", type=Path, help="TOML file with a [telemetry] table (default: none)")
         sub.add_argument("--swarm", help="swarm name (default: 'default')")
         sub.add_argument("--mode", choices=["peer", "client"], help="Zenoh session mode (default: peer)")
         sub.add_argument("--connect", action="append", metavar="ENDPOINT",
@@ -39,8 +47,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          help="endpoint to listen on, repeatable (default: none)")
         sub.add_argument("--multicast-scouting", action="store_true",
                          help="discover peers by UDP multicast (sends traffic to the network)")
-        sub.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-        sub.add_argument("--count", type=int, metavar="N", help="stop after N messages")
+        sub.add_argument("--duration-s", type=number(float, gt=0.0), metavar="S",
+                         help="stop after S seconds (default: until interrupted)")
+        sub.add_argument("--count", type=number(int, ge=1), metavar="N",
+                         help="stop after N messages (default: until interrupted)")
         sub.set_defaults(func=run)
 
 
@@ -71,11 +81,6 @@ def run(args: argparse.Namespace) -> int:
     from bridge.telemetry import SwarmSubscriber
     from bridge.telemetry.config import TelemetryConnectionError
 
-    for name in ("duration", "count"):
-        value = getattr(args, name)
-        if value is not None and value <= 0:
-            print(f"uav-swarm telemetry: --{name} = {value} must be > 0", file=sys.stderr)
-            return 2
     config = _config(args)
     subscriber = SwarmSubscriber(config)
     try:
@@ -103,7 +108,7 @@ def _record(subscriber: Any, out: Path, args: argparse.Namespace) -> int:
     count = 0
     try:
         with partial.open("w", encoding="utf-8") as stream:
-            for item in subscriber.messages(duration_s=args.duration, count=args.count):
+            for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
                 if isinstance(item, Presence):
                     line = {"key": alive_key(swarm, item.uav_id), "received_s": item.received_s,
                             "presence": "alive" if item.alive else "lost", "uav_id": item.uav_id}
@@ -124,7 +129,7 @@ def _watch(subscriber: Any, args: argparse.Namespace, stream: TextIO) -> None:
     snapshot = subscriber.latest()
     alive = subscriber.alive()
     next_draw = 0.0
-    for item in subscriber.messages(duration_s=args.duration, count=args.count):
+    for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
         if isinstance(item, Presence):
             (alive.add if item.alive else alive.discard)(item.uav_id)
         else:

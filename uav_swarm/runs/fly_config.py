@@ -43,7 +43,7 @@ class FlyConfig(Config):
     record_every_s: float = param(0.5, ge=0.1, le=60.0,
                                   doc="simulated seconds between two QoS / track records (and /qos messages)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
-    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     mode: Literal["guided", "mission"] = param(
         "guided", doc="how targets reach the vehicles: 'guided' (MAV_CMD_DO_REPOSITION) or 'mission' "
                       "(a new mission uploaded and flown in AUTO)")
@@ -60,7 +60,7 @@ class FlyConfig(Config):
         The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area.
         """
         if not self.bridge_config:
-            raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
+            raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
         if self.task.strategy == 2 and self.task.radio.station_limit is None:
             # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);

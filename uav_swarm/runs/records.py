@@ -52,6 +52,8 @@ class SequenceRun:
         qos_s2_paper: ``(T,)`` strategy 2's QoS of the same UAVs judged with the paper's radio (no admission
             control), when the run flew under admission control; empty otherwise.
         association: Which radio association the run's QoS used.
+        separation: How close the UAVs came (:meth:`uav_swarm.runs.separation_watch.SeparationWatch.summary`).
+        uav_tracks_m: ``(T, n, 2)`` the UAVs' positions after each step.
     """
 
     planner: str
@@ -71,6 +73,8 @@ class SequenceRun:
     distance_m: float = 0.0
     qos_s2_paper: np.ndarray = field(default_factory=lambda: np.zeros(0))
     association: str = "paper (no admission control)"
+    separation: dict = field(default_factory=dict)
+    uav_tracks_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
 
 
 @dataclass

@@ -3,7 +3,9 @@
 :func:`simulate` runs ``uav_swarm_v0`` in waypoint mode for ``duration_s`` of simulated time,
 replanning every ``replan_every`` steps with the configured planner (:mod:`uav_swarm.planning.planner`),
 and records per step the QoS of both strategies and the mean user throughput, and per replan the
-planning latency. The same sequence is then flown with the expert planner: the environment is reset
+planning latency. One untimed replan before the first step compiles and loads what the planner needs
+(numba kernels, the network's first call), so the latencies are those of a warm planner. The same
+sequence is then flown with the expert planner: the environment is reset
 with the same seed, and the crowd does not react to the UAVs, so both planners face the same crowd.
 
 While the flown planner runs, UAV states, plans and QoS are published over Zenoh
@@ -39,6 +41,7 @@ from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.records import Frame, SequenceRun
+from uav_swarm.runs.separation_watch import SeparationWatch
 from uav_swarm.runs.service import StaticReference, metres_per_uav_minute, static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.world.comms import evaluate_coverage
@@ -65,17 +68,24 @@ class SimulationResult:
     files: list[Path]
 
 
-def _telemetry(env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> tuple[list[UavState], Qos]:
-    """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them."""
+def _telemetry(env: Any, targets_m: np.ndarray, altitudes_m: np.ndarray, step: int,
+               guard: tuple[np.ndarray, np.ndarray]) -> tuple[list[UavState], Qos]:
+    """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them.
+
+    ``guard``: each UAV's distance to its nearest other UAV and whether it is held (SeparationWatch.observe).
+    """
     from bridge.telemetry.schema import Qos, UavState
 
     stamp_s = time.time()
     positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
+    nearest, held = guard
     states = [UavState(
         stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
-        position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), alt_m),
+        position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), float(altitudes_m[uav_id])),
         velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
-        target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), alt_m))
+        target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), float(altitudes_m[uav_id])),
+        separation_held=bool(held[uav_id]),
+        nearest_uav_m=float(nearest[uav_id]) if np.isfinite(nearest[uav_id]) else None)
         for uav_id in range(len(positions))]
     cov = env.coverage
     qos = Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1), qos_s2=float(cov.qos_s2),
@@ -113,6 +123,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         raise ValueError(f"the planner is for {planner.n_uavs} UAVs, the sequence has {config.n_uavs}")
     env = parallel_env(config=config.env_config())
     env.reset(seed=config.seed)
+    # One untimed replan first: compilation (numba) and first calls (the network) land here, not in the
+    # latencies; the planner then forgets it (planning draws no random numbers, the sequence is unchanged).
+    planner.plan(env.pedestrian_positions_m, env.uav_positions_m, env.pedestrian_velocities_m_s)
     planner.reset()
     if recorder is not None:
         recorder.static_scene(env.scenario.obstacles)
@@ -129,6 +142,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     plans: list[np.ndarray] = []
     distance_m = 0.0
     result = None
+    area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
+    watch = SeparationWatch(config.uav, config.n_uavs, area_m)  # transitions between plans, closest approach
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
         if step % config.replan_every == 0:
             result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
@@ -137,6 +152,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
                 moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
                 changes.append(int(np.count_nonzero(moved)))
             targets = result.targets_m
+            watch.replan(step * env.dt_s, env.uav_positions_m, env.uav_velocities_m_s, targets)
             plans.append(targets.copy())
             latencies.append(result.latency_ms)
             if publisher is not None or recorder is not None:
@@ -146,7 +162,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
                 if recorder is not None:
                     recorder.plan(step * env.dt_s, plan)
         before = np.array(env.uav_positions_m)
-        env.step(dict(zip(agents, targets, strict=True)))
+        infos = env.step(dict(zip(agents, watch.commands(step * env.dt_s), strict=True)))[-1]
+        guard = watch.observe((step + 1) * env.dt_s, env.uav_positions_m, infos)
         distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
         cov = env.coverage
         qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
@@ -154,7 +171,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
             qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
                                                    paper_radio).qos_s2
         if (publisher is not None or recorder is not None) and step % config.telemetry_every == 0:
-            states, qos = _telemetry(env, targets, alt_m, step)
+            states, qos = _telemetry(env, targets, watch.altitudes_m, step, guard)
             if publisher is not None:
                 for state in states:
                     publisher.publish_state(state)
@@ -174,7 +191,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
         target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
-        association=cov.model)
+        association=cov.model, separation=watch.summary(), uav_tracks_m=watch.tracks_m)
 
 
 def sequence_crowds(config: SimulateConfig, every_s: float
@@ -225,6 +242,7 @@ def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
         "n_replans": int(run.latency_ms.size), "n_pedestrians": run.n_pedestrians,
         "mean_target_changes_per_replan": changes, "association": run.association,
         **({"mean_qos_s2_paper_radio": float(run.qos_s2_paper.mean())} if run.qos_s2_paper.size else {}),
+        "separation": run.separation,
     }
 
 
@@ -357,7 +375,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                 logger.warning("no telemetry subscriber after %.1f s: flying anyway",
                                config.wait_for_subscriber_s)
         scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
-                          coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
+                          coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home,
+                          min_separation_m=config.uav.min_separation_m)
         for kind, planner in planners.items():
             flown = kind == config.planner
             with open_recorder(scene, record=record if flown else None, live=live if flown else None,

@@ -42,7 +42,7 @@ class SimulateConfig(Config):
     n_uavs: int = param(MAX_UAVS, ge=1, le=MAX_UAVS, doc="number of UAVs")
     replan_every: int = param(10, ge=1, le=100_000, doc="environment steps between replans (0.1 s each)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner flown (and published)")
-    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     compare_expert: bool = param(True, doc="run the same sequence with the expert planner too")
     static_reference: bool = param(
         True, doc="judge the expert's placement of the crowd every static_every_s as if reached, and report "
