@@ -190,13 +190,13 @@ def test_export_refuses_targets_closer_than_the_minimum_separation_and_writes_no
     out = tmp_path / "o"
     targets = ["--target", "1:5,5", "--target", "2:8,9", "--target", "3:40,5"]  # 1 and 2: 5 m apart
     assert main(["mission", "export", "--config", str(config), *targets, "--min-separation-m", "6",
-                 "--out-dir", str(out)]) == 2
+                 "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "the targets of vehicles 1 and 2 are 5.00 m apart: allowed >= --min-separation-m = 6 m" in err
     assert not out.exists()
     assert main(["mission", "export", "--config", str(config), *targets[:4], "--target", "3:8,9,31",
-                 "--out-dir", str(out)]) == 2  # over 2's target, 1 m above its cruise altitude (30 m)
+                 "--out", str(out)]) == 2  # over 2's target, 1 m above its cruise altitude (30 m)
     assert "the targets of vehicles 2 and 3 are 1.00 m apart" in capsys.readouterr().err
     layered = [*targets[:4], "--target", "3:8,9,40"]  # over 2's target, 10 m above it: 3-D apart
-    assert main(["mission", "export", "--config", str(config), *layered, "--out-dir", str(out)]) == 0
+    assert main(["mission", "export", "--config", str(config), *layered, "--out", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["vehicle_1.plan", "vehicle_2.plan", "vehicle_3.plan"]
