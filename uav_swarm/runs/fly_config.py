@@ -23,6 +23,7 @@ from bridge.telemetry.config import TelemetryConfig
 from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.task import WifiConfig
+from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
 from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
@@ -58,7 +59,10 @@ class FlyConfig(Config):
     flight: FlightConfig = param(FlightConfig(), doc="launch, link and end of the flight ([flight])")
 
     def check(self) -> None:
-        """A bridge config is required; strategy 2 takes admission control unless told; the radio is 2-D."""
+        """A bridge config; strategy 2 under admission control unless told; a 2-D radio; one separation.
+
+        The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area.
+        """
         if not self.bridge_config:
             raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
@@ -70,6 +74,8 @@ class FlyConfig(Config):
         if self.task.radio.altitude_m != 0.0:
             raise ConfigError(f"FlyConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the flight's "
                               "QoS uses 2-D radio distances at uav.alt_m; set altitude_m = 0")
+        fleet = self.n_uavs or MAX_UAVS  # 0: all the bridge's vehicles, at most MAX_UAVS
+        object.__setattr__(self, "task", task_with_uav_separation(self.task, self.uav, fleet))
 
 
 def load_fly_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None) -> FlyConfig:
