@@ -205,11 +205,8 @@ def _check_plans(plans: dict[int, list[list[float]]], config: BridgeConfig) -> N
             raise type(exc)(f"vehicle {sid}: {exc}") from None
 
 
-<<<<<<< HEAD
-def _check_ids(ids: object, config: BridgeConfig) -> None:
-=======
-def _check_separation(plans: dict[int, list[list[float]]], config, min_separation_m: float | None
-                      ) -> None:  # noqa: ANN001 - BridgeConfig
+def _check_separation(plans: dict[int, list[list[float]]], config: BridgeConfig,
+                      min_separation_m: float | None) -> None:
     """Refuse two vehicles' targets (last points, 3-D) closer than ``--min-separation-m``."""
     from uav_swarm.world.uav import UAVConfig
 
@@ -230,8 +227,7 @@ def _check_separation(plans: dict[int, list[list[float]]], config, min_separatio
                     "altitudes)")
 
 
-def _check_ids(ids: object, config) -> None:  # noqa: ANN001 - BridgeConfig
->>>>>>> issue-39p
+def _check_ids(ids: object, config: BridgeConfig) -> None:
     """Refuse vehicle ids the bridge config lacks, naming the configured ones."""
     configured = sorted(v.system_id for v in config.vehicles)
     unknown = sorted(set(ids) - set(configured))

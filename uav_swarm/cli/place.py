@@ -251,7 +251,7 @@ def run(args: argparse.Namespace) -> int:
         if warning:
             print(f"uav-swarm place: warning: {args.building}: {warning}", file=sys.stderr)
         network = None if args.method == "expert" else load_network(task, args.checkpoint)
-        buildings = []
+        buildings: list[Any] = []
         for footprint in site:
             placed = np.concatenate([np.zeros((0, 2)), *(b.placement.guards_m for b in buildings)])
             buildings.append(place_building(task, footprint, args.method, network, sight, args.max_pixel_m,

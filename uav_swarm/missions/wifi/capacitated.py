@@ -42,13 +42,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from typed_config import Config, param
-<<<<<<< HEAD
-from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid
-from uav_swarm.world.admission import admit_stations
-=======
 from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid, far_from, keep_separated
-from uav_swarm.world.comms import admit_stations
->>>>>>> issue-39p
+from uav_swarm.world.admission import admit_stations
 
 __all__ = ["CapacitatedExpertConfig", "admitted_users", "place_uavs_capacitated", "complete_capacitated"]
 
