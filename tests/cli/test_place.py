@@ -201,3 +201,27 @@ def test_a_fence_refusal_writes_nothing(tmp_path, capsys):
     assert main(["place", "--task", "fp", "--building", str(BUILDINGS / "urban_market.geojson"), "--out",
                  str(out), "--bridge-config", str(bridge)]) == 2
     assert "Geofence" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_peaks_table_moves_the_learned_proposals_and_placement_json_names_it(tmp_path, capsys):
+    building = tmp_path / "comb.csv"
+    building.write_text("\n".join(f"{x}, {y}" for x, y in COMB))
+    proposals = {}
+    for name, threshold in (("low", 0.05), ("high", 0.9)):
+        config = tmp_path / f"{name}.toml"
+        config.write_text(f"[peaks]\nthreshold_abs = {threshold}\nmin_contrast = 0.0\n")
+        out = tmp_path / name
+        assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out),
+                     "--method", "learned", "--config", str(config)]) == 0
+        summary = json.loads((out / "placement.json").read_text())
+        assert summary["peaks"]["settings"]["threshold_abs"] == threshold
+        source = summary["peaks"]["source"]
+        assert source.startswith(f"config file {config} ([peaks] min_contrast threshold_abs)")
+        proposals[name] = summary["n_guards"]  # the learned guards are the network's peaks
+    assert proposals["low"] > proposals["high"]
+    assert "from the config file" in capsys.readouterr().out
+    config = tmp_path / "bad.toml"
+    config.write_text("[peaks]\nmax_peaks = 0\n")
+    assert main(["place", "--task", "agp", "--building", str(building), "--out", str(tmp_path / "bad"),
+                 "--config", str(config)]) == 2
+    assert "max_peaks" in capsys.readouterr().err and not (tmp_path / "bad").exists()

@@ -317,3 +317,22 @@ def test_every_engine_gives_the_shipped_network_s_maps_within_the_tolerance():
     for name in ("onnxruntime", "torch-jit"):
         engine = build_engine(name, planner.checkpoint.model, rasters.shape[1:])
         assert np.abs(engine.maps(rasters) - reference).max() <= EXACT_TOLERANCE, name
+
+
+def test_the_planner_applies_its_peaks_table_over_the_checkpoint_and_names_what_ran():
+    from learning.operating_points import PeakOverrides
+
+    crowd = clusters([(50.0, 50.0), (150.0, 150.0), (60.0, 140.0)])
+    fast = {"engine": "torch-eager", "mode": "snapshot"}
+    shipped = make_planner("learned", n_uavs=10, config=PlannerConfig(**fast))
+    low_peaks = PeakOverrides(threshold_abs=0.05, min_contrast=0.0)
+    high_peaks = PeakOverrides(threshold_abs=50.0)
+    low = make_planner("learned", n_uavs=10, config=PlannerConfig(**fast, peaks=low_peaks))
+    high = make_planner("learned", n_uavs=10, config=PlannerConfig(**fast, peaks=high_peaks))
+    assert shipped.peak_choice.source.startswith("checkpoint (")
+    assert low.peak_config.threshold_abs == 0.05 and high.peak_config.threshold_abs == 50.0
+    assert "[planning.peaks] min_contrast threshold_abs" in low.peak_choice.source
+    assert len(low.propose(crowd)[0]) >= 3 and len(high.propose(crowd)[0]) == 0
+    with pytest.raises(ConfigError, match=r"\[planning.peaks\] threshold_abs = 0.05 cannot apply: the rule"):
+        make_planner("learned", n_uavs=10, config=PlannerConfig(**fast, rule_check=True,
+                                                                 peaks=PeakOverrides(threshold_abs=0.05)))
