@@ -59,7 +59,7 @@ def test_a_shipped_checkpoint_refuses_another_task():
         load_checkpoint(_shipped("wifi-s1"), task_name="agp")
 
 
-MISSION_POINTS = ("agp", "fp", "wifi-s2")
+MISSION_POINTS = ("wifi-s1", "wifi-s2", "agp", "fp")
 """Shipped files that carry a mission operating point (``uav-swarm calibrate-mission``)."""
 
 

@@ -157,13 +157,17 @@ def test_bfloat16_inference_stays_close_to_float32(tiny_checkpoint):
 
 
 def test_bfloat16_peaks_of_the_shipped_network_equal_float32_peaks_within_a_pixel():
-    """The planner's default precision on CPUs with native bfloat16: its peaks are float32's (>= 99 %)."""
+    """Eager bfloat16 at the balanced peak settings: its peaks are float32's (>= 99 %).
+
+    At the mission point (threshold 0.01) peaks within bfloat16's error of the threshold come and go:
+    98 of these 100 scenes agree, measured; the planner runs float32 unless asked.
+    """
     from learning.data import sample_seed
     from uav_swarm.missions.wifi.task import WifiTask
 
     task = WifiTask(WifiConfig(warmup_min_s=5.0, warmup_max_s=8.0))
-    exact = LearnedPlanner(10, config=PlannerConfig(precision="float32"))
-    fast = LearnedPlanner(10, config=PlannerConfig(precision="bfloat16"))
+    exact = LearnedPlanner(10, config=PlannerConfig(precision="float32", operating_point="balanced"))
+    fast = LearnedPlanner(10, config=PlannerConfig(precision="bfloat16", operating_point="balanced"))
     agree, n_scenes = 0, 100
     for index in range(n_scenes):  # the "val" namespace: never in training nor in the test set
         scene = task.sample(np.random.default_rng(sample_seed(777, "val", index)))
