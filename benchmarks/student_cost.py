@@ -1,6 +1,6 @@
 """What a narrower Wi-Fi S1 network would cost and save: arithmetic, inference and training time per sample.
 
-    python benchmarks/student_cost.py --width 8 --rounds 200
+    python benchmarks/student_cost.py --width 8 --rounds 300 --steps 40
 
 Builds the shipped S1 network's architecture (the teacher) and the same with ``--width`` (the student),
 untrained (time and arithmetic do not depend on the weights), and measures in one run: forward FLOPs
@@ -64,9 +64,9 @@ def main() -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--width", type=int, default=8,
                         help="the student's first-block width (default: %(default)s)")
-    parser.add_argument("--rounds", type=int, default=200,
+    parser.add_argument("--rounds", type=int, default=300,
                         help="timed inference rounds (default: %(default)s)")
-    parser.add_argument("--steps", type=int, default=12, help="timed training steps (default: %(default)s)")
+    parser.add_argument("--steps", type=int, default=40, help="timed training steps (default: %(default)s)")
     args = parser.parse_args()
     load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
     print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, torch {torch.__version__}; "
