@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from uav_swarm.world.uav import UAVConfig, UAVFleet, separation_penalty
+from uav_swarm.world.separation import separation_penalty
+from uav_swarm.world.uav import UAVConfig, UAVFleet
 
 CONFIG = UAVConfig(max_speed_m_s=8.0, max_accel_m_s2=3.0)
 

@@ -2,7 +2,7 @@
 
 A TOML file (``uav-swarm fly --config file.toml``) holds the top-level keys below and the tables
 ``[task]`` (the crowd world and Wi-Fi model, as for ``simulate``), ``[uav]`` (``alt_m`` is the cruise
-altitude above each vehicle's home), ``[planning]``, ``[telemetry]`` and ``[flight]``
+altitude above each vehicle's home), ``[planning]``, ``[telemetry]``, ``[ros2]`` and ``[flight]``
 (:class:`bridge.flight.guided.FlightConfig`: launch timeouts, link timeout, end action). Every key is
 optional except the bridge config, which names the vehicles.
 
@@ -24,6 +24,7 @@ from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.planner import PlannerConfig
+from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["FlyConfig", "load_fly_config"]
@@ -41,8 +42,10 @@ class FlyConfig(Config):
     replan_every_s: float = param(1.0, ge=0.1, le=600.0, doc="simulated seconds between two replans")
     record_every_s: float = param(0.5, ge=0.1, le=60.0,
                                   doc="simulated seconds between two QoS / track records (and /qos messages)")
+    static_every_s: float = param(10.0, gt=0.0, le=3600.0,
+                                  doc="crowd seconds between static reference instants (summary.json)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
-    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     mode: Literal["guided", "mission"] = param(
         "guided", doc="how targets reach the vehicles: 'guided' (MAV_CMD_DO_REPOSITION) or 'mission' "
                       "(a new mission uploaded and flown in AUTO)")
@@ -51,12 +54,13 @@ class FlyConfig(Config):
     uav: UAVConfig = param(UAVConfig(), doc="alt_m: cruise altitude above each vehicle's home ([uav])")
     planning: PlannerConfig = param(PlannerConfig(), doc="assignment and inference ([planning])")
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
+    ros2: Ros2Config = param(Ros2Config(), doc="ROS 2 topics and operator targets ([ros2]); loopback only")
     flight: FlightConfig = param(FlightConfig(), doc="launch, link and end of the flight ([flight])")
 
     def check(self) -> None:
         """A bridge config is required; strategy 2 takes admission control unless told; the radio is 2-D."""
         if not self.bridge_config:
-            raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
+            raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
         if self.task.strategy == 2 and self.task.radio.station_limit is None:
             # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);

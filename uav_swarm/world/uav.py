@@ -7,8 +7,10 @@ velocity component pushing out of the area is zeroed). The waypoint controller t
 targets into velocity commands that brake on arrival (``v = sqrt(2 a d)``), so a UAV
 stops on its target instead of oscillating around it.
 
-Separation is not enforced physically; :func:`separation_penalty` measures how much
-pairs of UAVs intrude into each other's ``min_separation_m`` so a reward can penalise it.
+The step (:func:`fly_step`) and the controller (:func:`waypoint_velocity`) are written once for
+any leading batch shape ``(..., K, 2)``; :class:`UAVFleet` is one fleet of them. Separation
+(``min_separation_m`` and the altitude layers ``layer_step_m``) is kept by
+:mod:`uav_swarm.world.separation`, which every planner and flight passes through.
 
 Examples:
     >>> import numpy as np
@@ -27,7 +29,7 @@ import numpy as np
 
 from typed_config import Config, param
 
-__all__ = ["UAVConfig", "UAVFleet", "separation_penalty"]
+__all__ = ["UAVConfig", "UAVFleet", "fly_step", "waypoint_velocity"]
 
 
 @dataclass(frozen=True)
@@ -37,8 +39,16 @@ class UAVConfig(Config):
     alt_m: float = param(10.0, ge=0.0, le=500.0, doc="fixed flight altitude above the ground (m)")
     max_speed_m_s: float = param(10.0, gt=0.0, le=100.0, doc="horizontal speed cap (m/s)")
     max_accel_m_s2: float = param(5.0, gt=0.0, le=100.0, doc="horizontal acceleration cap (m/s^2)")
-    min_separation_m: float = param(5.0, ge=0.0, le=1000.0,
-                                    doc="distance (m) under which a pair of UAVs is penalised")
+    min_separation_m: float = param(
+        5.0, ge=0.0, le=1000.0,
+        doc="minimum distance (m) between any two UAVs that no plan or flight may violate (0: none)")
+    layer_step_m: float = param(
+        0.0, ge=0.0, le=100.0,
+        doc="altitude step (m) between UAVs: UAV k flies at alt_m + k * layer_step_m (0: one layer)")
+
+    def altitudes_m(self, n_uavs: int) -> np.ndarray:
+        """(K,) flight altitude of each UAV: ``alt_m + k * layer_step_m``."""
+        return self.alt_m + self.layer_step_m * np.arange(n_uavs, dtype=np.float64)
 
 
 class UAVFleet:
@@ -66,72 +76,81 @@ class UAVFleet:
         return self.positions_m.shape[0]
 
     def step(self, command_m_s: np.ndarray, dt_s: float) -> None:
-        """Fly every UAV for ``dt_s`` seconds toward its commanded velocity.
+        """Fly every UAV for ``dt_s`` seconds toward its commanded velocity (:func:`fly_step`).
 
         Args:
             command_m_s: (K, 2) commanded horizontal velocities (m/s); speeds above the cap are scaled down.
             dt_s: Time step in seconds.
         """
-        cfg = self.config
-        desired = _cap_norm(np.asarray(command_m_s, dtype=np.float64), cfg.max_speed_m_s)
-        delta = _cap_norm(desired - self.velocities_m_s, cfg.max_accel_m_s2 * dt_s)
-        velocities = self.velocities_m_s + delta
-        positions = self.positions_m + velocities * dt_s
-        clamped = np.clip(positions, 0.0, self._upper_m)
-        velocities[clamped != positions] = 0.0  # stopped by the border
-        self.positions_m = clamped
-        self.velocities_m_s = velocities
+        self.positions_m, self.velocities_m_s = fly_step(
+            self.positions_m, self.velocities_m_s, command_m_s, dt_s, self.config, self._upper_m)
 
     def waypoint_command(self, targets_m: np.ndarray, dt_s: float) -> np.ndarray:
-        """Velocity commands that fly each UAV to its target and brake to a stop on it.
+        """(K, 2) velocity commands (m/s) that fly each UAV to its target (:func:`waypoint_velocity`)."""
+        return waypoint_velocity(self.positions_m, targets_m, dt_s, self.config)
 
-        The speed is ``min(max_speed, sqrt(2 * max_accel * d), d / dt_s)``: the fastest speed
-        from which the UAV can still stop within the remaining distance ``d``, and never
-        more than reaches the target in one step.
 
-        Args:
-            targets_m: (K, 2) target positions in metres.
-            dt_s: The time step the command will be applied for (s).
+def fly_step(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_m_s: np.ndarray, dt_s: float,
+             config: UAVConfig, upper_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One kinematic step of UAVs of any batch shape ``(..., K, 2)``; new arrays, inputs unchanged.
 
-        Returns:
-            (K, 2) velocity commands in m/s.
-        """
-        offset = np.asarray(targets_m, dtype=np.float64) - self.positions_m
-        dist = np.sqrt(np.einsum("kc,kc->k", offset, offset))
-        speed = np.minimum(np.minimum(self.config.max_speed_m_s, dist / dt_s),
-                           np.sqrt(2.0 * self.config.max_accel_m_s2 * dist))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            scale = np.where(dist > 1e-9, speed / dist, 0.0)
-        return offset * scale[:, None]
+    The commanded speed is capped at ``max_speed_m_s``, the change of velocity at
+    ``max_accel_m_s2 * dt_s``; the position is integrated and clamped to ``[0, upper_m]`` (the
+    velocity component that pushed out of the area is zeroed).
+
+    Args:
+        positions_m: (..., K, 2) positions in metres.
+        velocities_m_s: (..., K, 2) velocities in m/s.
+        command_m_s: (..., K, 2) commanded velocities in m/s.
+        dt_s: Time step in seconds.
+        config: The flight limits.
+        upper_m: (2,) the area's upper corner (width_m, height_m); the lower corner is the origin.
+
+    Returns:
+        The positions and velocities after the step.
+
+    Examples:
+        >>> p, v = fly_step(np.zeros((1, 2)), np.zeros((1, 2)), np.array([[100.0, 0.0]]), 1.0,
+        ...                 UAVConfig(), np.array([100.0, 100.0]))
+        >>> p.tolist(), v.tolist()  # the acceleration cap: 5 m/s after 1 s
+        ([[5.0, 0.0]], [[5.0, 0.0]])
+    """
+    desired = _cap_norm(np.asarray(command_m_s, dtype=np.float64), config.max_speed_m_s)
+    delta = _cap_norm(desired - velocities_m_s, config.max_accel_m_s2 * dt_s)
+    velocities = velocities_m_s + delta
+    positions = positions_m + velocities * dt_s
+    clamped = np.clip(positions, 0.0, upper_m)
+    velocities[clamped != positions] = 0.0  # stopped by the border
+    return clamped, velocities
+
+
+def waypoint_velocity(positions_m: np.ndarray, targets_m: np.ndarray, dt_s: float,
+                      config: UAVConfig) -> np.ndarray:
+    """Velocity commands that fly each UAV to its target and brake to a stop on it.
+
+    The speed is ``min(max_speed, sqrt(2 * max_accel * d), d / dt_s)``: the fastest speed
+    from which the UAV can still stop within the remaining distance ``d``, and never
+    more than reaches the target in one step.
+
+    Args:
+        positions_m: (..., K, 2) positions in metres.
+        targets_m: (..., K, 2) target positions in metres.
+        dt_s: The time step the command will be applied for (s).
+        config: The flight limits.
+
+    Returns:
+        (..., K, 2) velocity commands in m/s.
+    """
+    offset = np.asarray(targets_m, dtype=np.float64) - positions_m
+    dist = np.sqrt(np.einsum("...c,...c->...", offset, offset))
+    speed = np.minimum(np.minimum(config.max_speed_m_s, dist / dt_s),
+                       np.sqrt(2.0 * config.max_accel_m_s2 * dist))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(dist > 1e-9, speed / dist, 0.0)
+    return offset * scale[..., None]
 
 
 def _cap_norm(vectors: np.ndarray, cap: float) -> np.ndarray:
-    """Scale down the rows of ``vectors`` whose norm exceeds ``cap`` (a new array)."""
-    norm = np.hypot(vectors[:, 0], vectors[:, 1])
-    return vectors * (cap / np.maximum(norm, cap))[:, None]
-
-
-def separation_penalty(positions_m: np.ndarray, min_separation_m: float) -> float:
-    """Total intrusion of UAV pairs closer than ``min_separation_m``.
-
-    Each pair at distance ``d < min_separation_m`` adds ``1 - d / min_separation_m``
-    (1 when they coincide, 0 at the minimum separation); pairs further apart add 0.
-
-    Args:
-        positions_m: (K, 2) UAV positions in metres.
-        min_separation_m: The minimum separation (m); 0 disables the penalty.
-
-    Returns:
-        The penalty, in ``[0, K (K - 1) / 2]``.
-    """
-    k = positions_m.shape[0]
-    if k < 2 or min_separation_m <= 0:
-        return 0.0
-    dx = positions_m[:, 0:1] - positions_m[:, 0]  # (K, K), antisymmetric
-    dy = positions_m[:, 1:2] - positions_m[:, 1]
-    d2 = dx * dx + dy * dy
-    close = d2 < min_separation_m**2  # includes the diagonal (d = 0): k entries of 1 - 0 = 1
-    if np.count_nonzero(close) == k:
-        return 0.0
-    intrusion = 1.0 - np.sqrt(d2[close]) / min_separation_m
-    return float((intrusion.sum() - k) / 2.0)  # each pair is counted twice
+    """Scale down the vectors (last axis of size 2) whose norm exceeds ``cap`` (a new array)."""
+    norm = np.hypot(vectors[..., 0], vectors[..., 1])
+    return vectors * (cap / np.maximum(norm, cap))[..., None]
