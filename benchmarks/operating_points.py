@@ -21,10 +21,10 @@ from pathlib import Path
 
 from learning.checkpoint import load_checkpoint
 from learning.data import load_arrays
-from learning.files import write_json_atomic
 from learning.inference import utility_maps
 from learning.mission_calibration import MissionGrid, pareto_front, score_grid
 from learning.precision import resolve_precision
+from typed_config.files import write_json_atomic
 from uav_swarm.missions.registry import build_task
 
 

@@ -39,7 +39,6 @@ from tqdm.auto import tqdm
 
 from learning.checkpoint import Checkpoint, checkpoint_label
 from learning.data import generate_samples
-from learning.files import atomic_path
 from learning.inference import utility_maps
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from learning.peaks import PeakConfig, find_peaks
@@ -47,6 +46,7 @@ from learning.precision import resolve_precision
 from learning.task import Task
 from learning.train import TrainConfig, split_indices
 from typed_config import Config, ConfigError, param
+from typed_config.files import atomic_path
 
 __all__ = ["MissionGrid", "score_grid", "choose_mission_point", "pareto_front", "validation_samples",
            "calibrate_mission"]
@@ -61,9 +61,9 @@ _CHUNK = 100
 class MissionGrid(Config):
     """The peak settings tried for the mission point (utility-map units and pixels)."""
 
-    thresholds: tuple[float, ...] = param((0.02, 0.05, 0.08, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5),
+    thresholds: tuple[float, ...] = param((0.01, 0.02, 0.03, 0.05, 0.08, 0.1, 0.15, 0.2, 0.3),
                                           doc="threshold_abs values tried")
-    contrasts: tuple[float, ...] = param((0.0, 0.02, 0.05, 0.1, 0.2), doc="min_contrast values tried")
+    contrasts: tuple[float, ...] = param((0.0, 0.02, 0.05), doc="min_contrast values tried")
     distances_px: tuple[int, ...] = param((1, 2, 3, 4), doc="min_distance_px values tried")
 
     def check(self) -> None:

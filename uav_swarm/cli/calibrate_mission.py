@@ -2,7 +2,7 @@ r"""``uav-swarm calibrate-mission``: choose a checkpoint's peak settings for its
 
 Example::
 
-    uav-swarm calibrate-mission --task agp --n 1000 --out results/agp/operating-points \\
+    uav-swarm calibrate-mission --task agp --out results/agp/operating-points \\
         --write-checkpoint uav_swarm/checkpoints/agp.pt
 
 Scores a grid of peak settings on the checkpoint's validation split (regenerated from the seeds of
@@ -35,15 +35,17 @@ _GRID_HELP = "(default: %(default)s)"
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``calibrate-mission`` subcommand."""
     from learning.mission_calibration import MissionGrid
+    from uav_swarm.cli.conventions import number
+    from uav_swarm.missions.registry import TASKS
 
     grid = MissionGrid()
     parser = subparsers.add_parser(
         "calibrate-mission", help="choose a checkpoint's peak settings for the mission's QoS (validation)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--task", required=True, choices=sorted(PAPER_ROWS), help="the checkpoint's task")
+    add("--task", required=True, choices=tuple(TASKS), help="the checkpoint's task")
     add("--checkpoint", help="the network (default: uav_swarm/checkpoints/<task>.pt)")
-    add("--n", type=int, help="at most this many validation scenes (default: all of the split)")
+    add("--n", type=number(int, ge=1), help="at most this many validation scenes (default: all of the split)")
     add("--out", required=True, help="folder for calibration.json, front.md and the cached scenes")
     add("--write-checkpoint", help="write the checkpoint with both operating points here (default: not "
                                    "written; it may be --checkpoint itself)")
@@ -99,15 +101,16 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from learning.checkpoint import CheckpointError, load_checkpoint
-    from learning.files import write_json_atomic, write_text_atomic
     from learning.mission_calibration import MissionGrid, calibrate_mission
     from typed_config import ConfigError
+    from typed_config.files import write_json_atomic, write_text_atomic
     from uav_swarm.missions.registry import build_task
     from uav_swarm.planning.planner import default_checkpoint
 
     try:
-        if args.n is not None and args.n < 1:
-            raise ConfigError(f"--n = {args.n}: allowed >= 1")
+        if args.task not in PAPER_ROWS:
+            raise ConfigError(f"--task {args.task}: the paper has no row for it; allowed "
+                              f"{sorted(PAPER_ROWS)}")
         grid = MissionGrid(thresholds=tuple(args.thresholds), contrasts=tuple(args.contrasts),
                            distances_px=tuple(args.distances_px))
         path = args.checkpoint or str(default_checkpoint(args.task))
