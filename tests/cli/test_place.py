@@ -141,7 +141,8 @@ def test_a_site_is_placed_building_by_building_in_one_command(tmp_path, capsys):
     assert main(["place", "--task", "fp", "--building", str(BUILDINGS / "ferguson_two_parts.geojson"),
                  "--out", str(out)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 3 and "part 1" in lines[0] and "part 2" in lines[1]
+    assert len(lines) == 4 and "part 1" in lines[0] and "part 2" in lines[1]
+    assert lines[2].startswith("peaks: ") and "from the checkpoint (mission point)" in lines[2]
     summary = json.loads((out / "placement.json").read_text())
     assert [b["fully_covered"] for b in summary["buildings"]] == [True, True]
     features = json.loads((out / "guards.geojson").read_text())["features"]
