@@ -7,7 +7,9 @@ plain values and tensors, readable with ``torch.load(weights_only=True)``:
 ``train_config``, ``task_name``, ``task_config``, ``input_shape`` ``[C, h, w]``,
 ``mission_dimension_px``, ``data`` (the training dataset's seed, split and size),
 ``epoch``, ``step``, ``history`` (per-epoch losses and validation metrics) and,
-for resuming, ``optimizer_state`` and ``scheduler_state``.
+for resuming, ``optimizer_state`` and ``scheduler_state``. ``peak_config`` is the balanced operating
+point; a checkpoint calibrated for its mission also holds ``peak_config_mission`` and
+``mission_calibration`` (how it was chosen; :mod:`learning.operating_points`).
 """
 
 from __future__ import annotations
@@ -51,6 +53,8 @@ class Checkpoint:
     input_shape: tuple[int, int, int]
     mission_dimension_px: float
     payload: dict[str, Any]
+    mission_peak_config: PeakConfig | None = None
+    """The mission operating point's peak settings, None where the checkpoint has none."""
 
 
 def save_checkpoint(path: str | Path, payload: dict[str, Any]) -> None:
@@ -123,6 +127,8 @@ def load_checkpoint(
         model_config = ModelConfig.from_dict(payload["model_config"])
         target_config = TargetConfig.from_dict(payload["target_config"])
         peak_config = PeakConfig.from_dict(payload["peak_config"])
+        mission = payload.get("peak_config_mission")
+        mission_peak_config = None if mission is None else PeakConfig.from_dict(mission)
     except ConfigError as exc:
         raise CheckpointError(f"{path}: invalid config in checkpoint: {exc}") from None
     model = build_model(model_config)
@@ -132,7 +138,8 @@ def load_checkpoint(
         raise CheckpointError(f"{path}: weights do not fit the model config: {exc}") from None
     model.to(device).eval()
     return Checkpoint(path, model, model_config, target_config, peak_config, payload["task_name"],
-                      payload["task_config"], shape, float(payload["mission_dimension_px"]), payload)
+                      payload["task_config"], shape, float(payload["mission_dimension_px"]), payload,
+                      mission_peak_config)
 
 
 def checkpoint_label(path: str | Path) -> str:

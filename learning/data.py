@@ -29,7 +29,7 @@ import hashlib
 import json
 import logging
 import zipfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -41,8 +41,8 @@ from learning.task import MAX_POSITIONS, Task
 from typed_config.files import atomic_path, write_json_atomic
 
 __all__ = [
-    "SPLITS", "FORMAT", "DatasetError", "sample_seed", "generate_shard", "generate_dataset",
-    "load_manifest", "load_arrays",
+    "SPLITS", "FORMAT", "DatasetError", "sample_seed", "generate_shard", "generate_samples",
+    "generate_dataset", "load_manifest", "load_arrays",
 ]
 
 log = logging.getLogger(__name__)
@@ -83,17 +83,27 @@ def generate_shard(task_factory: Callable[[], Task], seed: int, split: str, star
     Raises:
         DatasetError: The task returned an observation or a placement of the wrong shape.
     """
+    return generate_samples(task_factory, seed, split, range(start, stop))
+
+
+def generate_samples(task_factory: Callable[[], Task], seed: int, split: str, indices: Sequence[int]
+                     ) -> dict[str, np.ndarray]:
+    """The samples of ``indices`` (any order) of a dataset, as :func:`generate_shard` returns them.
+
+    Raises:
+        DatasetError: The task returned an observation or a placement of the wrong shape.
+    """
     task = task_factory()
-    n = stop - start
+    n = len(indices)
     c, (h, w) = task.channels, task.shape
     arrays = {
         "inputs": np.zeros((n, c, h, w), dtype=np.float32),
         "positions": np.zeros((n, MAX_POSITIONS, 2), dtype=np.float64),
         "mask": np.zeros((n, MAX_POSITIONS), dtype=bool),
         "seeds": np.zeros(n, dtype=np.uint64),
-        "indices": np.arange(start, stop, dtype=np.int64),
+        "indices": np.asarray(indices, dtype=np.int64).reshape(n),
     }
-    for row, index in enumerate(range(start, stop)):
+    for row, index in enumerate(indices):
         s = sample_seed(seed, split, index)
         scene = task.sample(np.random.default_rng(s))
         observation = np.asarray(task.observe(scene))

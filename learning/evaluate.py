@@ -15,7 +15,8 @@ reported beside it (``max_matches``). Outputs in ``out_dir``:
 
 - ``results.json``: per-sample seed, expert and predicted pixel positions, counts,
   corr, precision and QoS dicts, plus ε and the configs: enough to recompute every metric;
-- ``summary.json`` and ``results.md``: the aggregates (means of per-sample corr and
+- ``summary.json`` and ``results.md``: the peak settings that ran and their source (``peaks``), the
+  aggregates (means of per-sample corr and
   precision as in the paper, pooled ratios too; QoS absolute as the mean over scenes
   and relative as mean QoS / mean expert QoS, plus the mean of per-scene ratios);
 - ``examples.png``: the first scenes' input, utility map, expert and predicted positions.
@@ -33,7 +34,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -45,6 +46,7 @@ from learning.checkpoint import checkpoint_label, load_checkpoint
 from learning.data import generate_dataset, load_arrays, sample_seed
 from learning.inference import utility_maps
 from learning.metrics import MATCH_FRACTION, SampleScore, aggregate, score_sample
+from learning.operating_points import choose_peaks
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_examples
 from learning.precision import resolve_precision
@@ -101,7 +103,8 @@ def summarise_pipeline(scores: list[SampleScore], samples: list[dict[str, Any]],
 def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
     """The paper-style results table (percentages); with a refinement, the learned, refined and expert rows.
 
-    Corr and precision by the paper's matching rule, then by the rule that maximises the matches.
+    Corr and precision by the paper's matching rule, then by the rule that maximises the matches; the
+    peak settings that ran below the table.
     """
     def pct(key: str, table: dict[str, Any] = summary) -> str:
         value = table.get(key, float("nan"))
@@ -115,6 +118,10 @@ def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
         f"| {task_name} | {pct('corr')} | {pct('precision')} | {pct('qos')} | {pct('qos_relative')} "
         f"| {pct('expert_qos')} | {pct('corr', best)} / {pct('precision', best)} | {summary['n_samples']} |\n"
     )
+    if "peaks" in summary:
+        peaks = summary["peaks"]
+        settings = ", ".join(f"{k} {v}" for k, v in peaks["settings"].items())
+        table += f"\nPeaks: {settings}; from the {peaks['source']}.\n"
     if "refined" not in summary:
         return table
     rows = ["| Placement | Corr % | Precision % | QoS % | QoS rel. % | positions (x expert) "
@@ -163,7 +170,9 @@ def evaluate(
     *,
     split: str = "test",
     data_dir: str | Path | None = None,
-    peak_config: PeakConfig | None = None,
+    peak_overrides: Mapping[str, Any] | None = None,
+    peaks_source: str = "config",
+    operating_point: str | None = None,
     n_examples: int = 6,
     executor: Literal["local", "ray"] = "local",
     workers: int | None = None,
@@ -184,7 +193,11 @@ def evaluate(
         out_dir: Output folder (created if needed).
         split: Seed namespace of the test set (must differ from training's or use another seed).
         data_dir: Where the test dataset is (or is generated); default ``out_dir/test-data``.
-        peak_config: Peak extraction; default: the checkpoint's.
+        peak_overrides: Peak settings the user gave (a ``[peaks]`` table), applied over the operating
+            point's (:func:`learning.operating_points.choose_peaks`).
+        peaks_source: Where ``peak_overrides`` come from, in words (recorded in the summary).
+        operating_point: The checkpoint's ``"mission"`` or ``"balanced"`` peak settings; default:
+            mission where the checkpoint has it.
         n_examples: Scenes drawn in ``examples.png`` (0: no picture).
         executor: Executor for generating the test dataset.
         workers: Local worker processes for generating the test dataset.
@@ -204,13 +217,16 @@ def evaluate(
     Raises:
         learning.checkpoint.CheckpointError: The checkpoint is corrupt or from another task or input shape.
         ValueError: The test scenes overlap the checkpoint's training scenes.
+        typed_config.ConfigError: A peak setting cannot apply (unknown, out of range, or set by the check),
+            or the mission point is asked of a checkpoint without one.
     """
     task = task_factory()
     ckpt = load_checkpoint(checkpoint, task_name=task.name, task_config=task.config,
                            input_shape=(task.channels, *task.shape))
-    peaks = peak_config or ckpt.peak_config
-    if check is not None:
-        peaks = peaks.replace(threshold_abs=check.threshold_abs)
+    fixed = {} if check is None else {"threshold_abs": (check.threshold_abs, "the rule check ([rule_check])")}
+    choice = choose_peaks(ckpt.peak_config, ckpt.mission_peak_config, peak_overrides,
+                          operating_point=operating_point, source=peaks_source, fixed=fixed)
+    peaks = choice.config
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     data_dir = Path(data_dir) if data_dir is not None else out / "test-data"
@@ -271,6 +287,7 @@ def evaluate(
     summary: dict[str, Any] = {
         "task": task.name, "checkpoint": checkpoint_label(checkpoint), "seed": seed, "split": split,
         "eps_px": eps_px, "match_rule": "paper", "network_precision": resolved, "tta": tta,
+        "peaks": choice.to_dict(),
         **aggregate(scores), **summarise_qos(samples),
         "max_matches": {"corr": max_summary["corr"], "precision": max_summary["precision"]},
     }

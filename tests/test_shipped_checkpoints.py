@@ -57,3 +57,18 @@ def test_shipped_checkpoint_loads_and_beats_the_densest_pixels_baseline(name):
 def test_a_shipped_checkpoint_refuses_another_task():
     with pytest.raises(CheckpointError, match="trained on task 'wifi-s1', not 'agp'"):
         load_checkpoint(_shipped("wifi-s1"), task_name="agp")
+
+
+MISSION_POINTS = ("wifi-s1", "wifi-s2", "agp", "fp")
+"""Shipped files that carry a mission operating point (``uav-swarm calibrate-mission``)."""
+
+
+@pytest.mark.parametrize("name", MISSION_POINTS)
+def test_a_shipped_mission_point_meets_its_floors_and_serves_at_least_the_balanced_point(name):
+    ckpt = load_checkpoint(_shipped(name))
+    assert ckpt.mission_peak_config is not None
+    record = ckpt.payload["mission_calibration"]
+    mission, balanced, floors = record["mission"], record["balanced"], record["floors"]
+    assert mission["qos"] >= balanced["qos"]
+    assert mission["corr"] >= floors["corr"] and mission["precision"] >= floors["precision"]
+    assert floors["corr"] == min(record["paper"]["corr"], balanced["corr"])

@@ -142,7 +142,8 @@ def test_a_site_is_placed_building_by_building_in_one_command(tmp_path, capsys):
     assert main(["place", "--task", "fp", "--building", str(BUILDINGS / "ferguson_two_parts.geojson"),
                  "--out", str(out)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 3 and "part 1" in lines[0] and "part 2" in lines[1]
+    assert len(lines) == 4 and "part 1" in lines[0] and "part 2" in lines[1]
+    assert lines[2].startswith("peaks: ") and "from the checkpoint (mission point)" in lines[2]
     summary = json.loads((out / "placement.json").read_text())
     assert [b["fully_covered"] for b in summary["buildings"]] == [True, True]
     features = json.loads((out / "guards.geojson").read_text())["features"]
@@ -284,3 +285,27 @@ def test_guards_of_a_site_keep_the_minimum_separation_across_buildings(tmp_path,
         summary, kept = guards(*options)
         assert pdist(kept).min() >= (12.0 if options else 5.0)
         assert method == "learned" or summary["fully_covered"]
+
+
+def test_a_peaks_table_moves_the_learned_proposals_and_placement_json_names_it(tmp_path, capsys):
+    building = tmp_path / "comb.csv"
+    building.write_text("\n".join(f"{x}, {y}" for x, y in COMB))
+    proposals = {}
+    for name, threshold in (("low", 0.05), ("high", 0.9)):
+        config = tmp_path / f"{name}.toml"
+        config.write_text(f"[peaks]\nthreshold_abs = {threshold}\nmin_contrast = 0.0\n")
+        out = tmp_path / name
+        assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out),
+                     "--method", "learned", "--config", str(config)]) == 0
+        summary = json.loads((out / "placement.json").read_text())
+        assert summary["peaks"]["settings"]["threshold_abs"] == threshold
+        source = summary["peaks"]["source"]
+        assert source.startswith(f"config file {config} ([peaks] min_contrast threshold_abs)")
+        proposals[name] = summary["n_guards"]  # the learned guards are the network's peaks
+    assert proposals["low"] > proposals["high"]
+    assert "from the config file" in capsys.readouterr().out
+    config = tmp_path / "bad.toml"
+    config.write_text("[peaks]\nmax_peaks = 0\n")
+    assert main(["place", "--task", "agp", "--building", str(building), "--out", str(tmp_path / "bad"),
+                 "--config", str(config)]) == 2
+    assert "max_peaks" in capsys.readouterr().err and not (tmp_path / "bad").exists()

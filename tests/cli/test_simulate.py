@@ -74,6 +74,7 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
     assert summary["config"]["seed"] == 2 and summary["config"]["n_uavs"] == 3
     assert summary["ratios_learned_over_expert"]["expert_over_learned_median_latency"] > 0.0
     assert summary["inference_engine"] in ("onnxruntime", "torch-jit", "torch-eager")
+    assert summary["peaks"]["source"] == "checkpoint (balanced point)"  # the tiny one has no mission point
 
     assert (out / "qos.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with Image.open(out / "scene.gif") as gif:
@@ -107,6 +108,16 @@ def test_expert_only_without_gif(tmp_path, tiny_checkpoint):
                       progress=False)
     assert list(result.runs) == ["expert"] and "ratios_learned_over_expert" not in result.summary
     assert not (tmp_path / "scene.gif").exists() and (tmp_path / "qos.png").exists()
+
+
+def test_a_planning_peaks_table_is_flown_and_named_in_the_summary(tmp_path, tiny_checkpoint):
+    config = tiny(tiny_checkpoint, duration_s=1.0, gif=False, compare_expert=False,
+                  planning={"peaks": {"threshold_abs": 0.02, "max_peaks": 2}})
+    result = simulate(config, tmp_path, progress=False)
+    peaks = result.summary["peaks"]
+    assert peaks["settings"]["threshold_abs"] == 0.02 and peaks["settings"]["max_peaks"] == 2
+    assert peaks["overridden"] == ["max_peaks", "threshold_abs"]
+    assert "[planning.peaks] max_peaks threshold_abs" in peaks["source"]
 
 
 @pytest.mark.parametrize(("extra", "message"), [

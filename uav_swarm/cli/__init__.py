@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "uav_swarm.cli.search",
     "uav_swarm.cli.stability",
     "uav_swarm.cli.check_calibration",
+    "uav_swarm.cli.calibrate_mission",
     "uav_swarm.cli.simulate",
     "uav_swarm.cli.fly",
     "uav_swarm.cli.place",

@@ -105,6 +105,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate.add_argument("--refine", action="store_true",
                           help="also refine the learned placements (AGP, FP: repaired to full coverage; "
                           "Wi-Fi: local search on the crowd); time learned, refined and expert side by side")
+    evaluate.add_argument("--operating-point", choices=("mission", "balanced"),
+                          help="the checkpoint's peak settings: chosen for the mission's QoS or for corr "
+                          "+ precision (default: mission where the checkpoint has it, else balanced); a "
+                          "[peaks] table of --config applies over them")
     evaluate.add_argument("--rule-check", action="store_true",
                           help="Wi-Fi: keep only the learned UAVs the deployment rule justifies on the "
                           "density raster, peaks at the check's threshold ([rule_check] of --config)")
@@ -193,11 +197,13 @@ def _evaluate(args: argparse.Namespace) -> int:
             print(f"uav-swarm evaluate: --rule-check: task {args.task!r} has no rule check; allowed with "
                   "--task wifi-s1 or wifi-s2", file=sys.stderr)
             return 2
-    # peaks: the settings saved with (and validated during the training of) the checkpoint
+    # peaks: the checkpoint's operating point, the [peaks] values of --config over it
+    peaks = load_settings(args.task, args.config).peaks_given if args.config is not None else {}
     summary = evaluate(args.checkpoint, factory, args.n, args.seed, args.out, data_dir=args.data,
-                       n_examples=args.examples, executor=args.executor, workers=args.workers,
-                       address=args.address, precision=args.precision, tta=args.tta, refiner=refiner,
-                       check=check)
+                       peak_overrides=peaks, peaks_source=f"config file {args.config}",
+                       operating_point=args.operating_point, n_examples=args.examples, executor=args.executor,
+                       workers=args.workers, address=args.address, precision=args.precision, tta=args.tta,
+                       refiner=refiner, check=check)
     print(markdown_table(args.task, summary), end="")
     return 0
 

@@ -23,7 +23,8 @@ rounded raster outline is not simple gets no proposals, and the repair covers it
 Outputs in ``--out`` (written only when every building succeeded): ``guards.geojson`` (the buildings as
 given, the raster outlines the network saw, the guards; longitude/latitude for GeoJSON input, metres
 otherwise), ``placement.json`` (per building: its centroid in latitude and longitude, guards in metres,
-witnesses, coverage on the real outline, time; ``frame``: the origin and axes of the guards' metres),
+witnesses, coverage on the real outline, time; ``frame``: the origin and axes of the guards' metres;
+``peaks``: the peak settings the network ran with and their source),
 ``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with ``--bridge-config``,
 one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
 placed in the bridge's local frame around its home; metres are taken as East-North metres from that home).
@@ -40,6 +41,7 @@ with the margin, named in metres) exits with code 2, a message naming the proble
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import sys
 import time
@@ -74,6 +76,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--method", choices=METHODS, default="refined", help="placement method")
     add("--checkpoint",
         help="network for learned/refined (default: the shipped uav_swarm/checkpoints/<task>.pt)")
+    add("--operating-point", choices=("mission", "balanced"),
+        help="the checkpoint's peak settings, chosen for the mission's QoS or for corr + precision "
+             "(default: mission where the checkpoint has it, else balanced)")
+    add("--config", type=Path, help="task settings TOML whose [peaks] table applies over the checkpoint's "
+                                    "peak settings (default: none)")
     add("--max-pixel-m", type=number(float, gt=0.0), default=10.0,
         help="coarsest raster the network sees; wider buildings are shown in tiles")
     config_flag(parser, "--witness-spacing-m", sight + "witness_spacing_m", key="")
@@ -127,7 +134,7 @@ def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float, min_sep
     from uav_swarm.missions.monitoring.footprint import FootprintError, fit_to_raster
     from uav_swarm.missions.monitoring.task import MonitoringScene
 
-    model, precision, peak_config = network
+    model, precision, peaks = network
     size, margin = task.config.polygon.size_px, task.config.polygon.margin_px
     rasters = []
     for piece in _tiles(footprint, size, margin, max_pixel_m):
@@ -140,7 +147,7 @@ def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float, min_sep
     observed = np.stack([task.observe(MonitoringScene(r.polygon, np.zeros((0, 2)))) for r in rasters])
     utility = utility_maps(model, observed, precision)
     proposals = np.concatenate([
-        r.to_metres(find_peaks(u, peak_config, min_separation_px=min_separation_m / r.metres_per_px))
+        r.to_metres(find_peaks(u, peaks.config, min_separation_px=min_separation_m / r.metres_per_px))
         for r, u in zip(rasters, utility, strict=True)])
     return _separated(proposals, np.zeros((0, 2)), min_separation_m), tuple(rasters)
 
@@ -156,21 +163,34 @@ def _separated(points_m: np.ndarray, fixed_m: np.ndarray, min_separation_m: floa
     return np.array(out, dtype=np.float64).reshape(-1, 2)
 
 
-def load_network(task: Any, checkpoint: str | None) -> tuple[Any, Any, Any]:
-    """The network (on one thread, as the planner runs it), its precision and peak settings, warmed up."""
+def load_network(task: Any, checkpoint: str | None, operating_point: str | None = None,
+                 config: Path | None = None) -> tuple[Any, Any, Any]:
+    """The network (on one thread, as the planner runs it), its precision and peaks, warmed up.
+
+    The peaks (:class:`learning.operating_points.PeakChoice`) are the checkpoint's ``operating_point``
+    with the ``[peaks]`` table of ``config`` over it.
+
+    Raises:
+        ConfigError: A ``[peaks]`` value that cannot apply, or an operating point the checkpoint lacks.
+    """
     import torch
 
     from learning.checkpoint import load_checkpoint
     from learning.inference import utility_maps
+    from learning.operating_points import choose_peaks
     from learning.precision import resolve_precision
+    from uav_swarm.missions.registry import load_settings
     from uav_swarm.planning.planner import default_checkpoint
 
     torch.set_num_threads(1)  # one building at a time: more threads only wait on each other
     path = checkpoint or default_checkpoint(task.name)
     ckpt = load_checkpoint(path, task_name=task.name, input_shape=(task.channels, *task.shape))
+    given = load_settings(task.name, config).peaks_given if config is not None else {}
+    peaks = choose_peaks(ckpt.peak_config, ckpt.mission_peak_config, given, operating_point=operating_point,
+                         source=f"config file {config}")
     precision = resolve_precision("auto", next(ckpt.model.parameters()).device)
     utility_maps(ckpt.model, np.zeros((1, task.channels, *task.shape), dtype=np.float32), precision)
-    return ckpt.model, precision, ckpt.peak_config
+    return ckpt.model, precision, peaks
 
 
 def place_building(task: Any, footprint: Any, method: str, network: Any, sight: Any, max_pixel_m: float,
@@ -250,7 +270,8 @@ def run(args: argparse.Namespace) -> int:
         warning = swap_warning(list(site), bridge.home if bridge is not None else None)
         if warning:
             print(f"uav-swarm place: warning: {args.building}: {warning}", file=sys.stderr)
-        network = None if args.method == "expert" else load_network(task, args.checkpoint)
+        network = None if args.method == "expert" else load_network(task, args.checkpoint,
+                                                                    args.operating_point, args.config)
         buildings: list[Any] = []
         for footprint in site:
             placed = np.concatenate([np.zeros((0, 2)), *(b.placement.guards_m for b in buildings)])
@@ -290,7 +311,8 @@ def run(args: argparse.Namespace) -> int:
         "task": task.name, "method": args.method, "judged_on": "the input outline in metres", "sight": {
             "witness_spacing_m": sight.witness_spacing_m, "min_clearance_m": sight.min_clearance_m,
             "standoff_m": sight.standoff_m, "min_separation_m": sight.min_separation_m},
-        "frame": frame_record(site[0]), "n_guards": len(guards_m),
+        "frame": frame_record(site[0]), "peaks": None if network is None else network[2].to_dict(),
+        "n_guards": len(guards_m),
         "fully_covered": all(r["fully_covered"] for r in records),
         "buildings": records, "time_ms": (time.perf_counter() - start) * 1e3, "files": files}
     write_json_atomic(args.out / "placement.json", summary)
@@ -305,6 +327,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"{r['building']}{where}: {r['n_guards']} {args.method} guards ({task.name}), "
               f"{100 * r['seen_fraction']:.1f} % of {r['n_witnesses']} witnesses seen on the outline "
               f"({r['n_unseen']} unseen), {r['time_ms']:.0f} ms")
+    if network is not None:
+        print(f"peaks: {json.dumps(network[2].config.to_dict())} from the {network[2].source}")
     print(f"{len(records)} building(s), {len(guards_m)} guards, {share:.1f} % of the witnesses seen; "
           f"wrote {', '.join(files)} in {args.out}")
     return 0

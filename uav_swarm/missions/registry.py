@@ -116,6 +116,8 @@ class TaskSettings:
     peaks: PeakConfig
     refine: dict[str, Any] = field(default_factory=dict)
     rule_check: dict[str, Any] = field(default_factory=dict)
+    peaks_given: dict[str, Any] = field(default_factory=dict)
+    """The ``[peaks]`` values the file gave (validated): at evaluation they apply over a checkpoint's."""
 
 
 def build_refiner(task: Task, refine_table: Mapping[str, Any] | None = None) -> Refiner:
@@ -203,7 +205,8 @@ def load_settings(name: str, config_path: str | Path | None = None) -> TaskSetti
         rule_check = _mission_table(name, tables, "rule_check", "rule_check_class", "rule check")
     except ConfigError as exc:
         raise ConfigError(f"{where}{exc}") from None
-    return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine, rule_check)
+    return TaskSettings(name, dict(tables.get("task", {})), targets, model, train, peaks, refine, rule_check,
+                        dict(tables.get("peaks", {})))
 
 
 def make_task(name: str, config_path: str | Path | None = None, overrides: Mapping[str, Any] | None = None

@@ -19,6 +19,7 @@ from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
+from learning.operating_points import PeakOverrides
 from typed_config import Config, ConfigError, param
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.refine import WifiRefineConfig
@@ -56,6 +57,11 @@ class PlannerConfig(Config):
     refinement: WifiRefineConfig | None = param(
         None, doc="learned: the refinement's effort ([planning.refinement]); none given: the strategy's own "
         "(uav_swarm.missions.wifi.refine.strategy_refinement)")
+    operating_point: Literal["mission", "balanced"] | None = param(
+        None, doc="learned: the checkpoint's peak settings, chosen for the mission's QoS or for corr + "
+        "precision (None: mission where the checkpoint has it, else balanced)")
+    peaks: PeakOverrides = param(PeakOverrides(), doc="learned: peak settings applied over the operating "
+                                 "point's ([planning.peaks]; a value left out keeps the checkpoint's)")
     rule_check: bool = param(False, doc="learned: keep only the peaks the strategy's deployment rule "
                              "justifies on the density raster (uav_swarm.missions.wifi.rule_check)")
     rule_checking: RuleCheckConfig = param(RuleCheckConfig(), doc="learned: the rule check's threshold and "

@@ -5,8 +5,10 @@ Two planners share one interface (:class:`Planner`) and one assignment step:
 - :class:`LearnedPlanner` (``"learned"``, the product): the crowd's density raster
   (:func:`uav_swarm.missions.wifi.task.crowd_raster`, exactly the network's training input) ->
   the utility network of a checkpoint -> the local maxima of the utility map
-  (:func:`learning.peaks.find_peaks` with the checkpoint's peak settings; at most ``n`` UAVs,
-  the ``n`` highest kept, at least the minimum separation apart) -> metres.
+  (:func:`learning.peaks.find_peaks` with the checkpoint's peak settings: its mission operating point
+  where it has one, ``PlannerConfig.operating_point`` and ``[planning.peaks]`` over it, recorded in
+  ``LearnedPlanner.peak_choice``; at most ``n`` UAVs, the ``n`` highest kept, at least the minimum
+  separation apart) -> metres.
   With ``PlannerConfig.refine`` the peaks are then refined on the live crowd
   (:func:`uav_swarm.missions.wifi.refine.refine_placement`: drop, split, add, merge, centre under
   the strategy's rules, for at most ``n`` UAVs); the planner is then named
@@ -63,6 +65,7 @@ from pathlib import Path
 
 import numpy as np
 
+from learning.operating_points import choose_peaks
 from learning.peaks import find_peaks
 from typed_config import ConfigError
 from uav_swarm.env.config import MAX_UAVS
@@ -155,7 +158,8 @@ class LearnedPlanner(AssigningPlanner):
         uav_config: The UAVs' speed and acceleration limits (planning in motion).
 
     Raises:
-        ConfigError: ``n_uavs`` out of range, or a relocation refinement on strategy 1.
+        ConfigError: ``n_uavs`` out of range, a relocation refinement on strategy 1, or peak settings that
+            cannot apply (``[planning.peaks]``, ``operating_point``).
         learning.checkpoint.CheckpointError: The checkpoint is missing (the message says how to train
             one), corrupt, trained on another task, or on another raster (size, density scale, area).
     """
@@ -215,11 +219,15 @@ class LearnedPlanner(AssigningPlanner):
                      + ("-refine" if self.config.refine else "") + "-hungarian")
         self._check = WifiRuleCheck(self.task, self.config.rule_checking) if self.config.rule_check else None
         self._rules = coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
-        self.peak_config = ckpt.peak_config
         self.min_separation_px = task_config.min_separation_m * side / task_config.scenario.width_m
         """The peaks' minimum separation in raster pixels (the task's, at least the UAVs')."""
-        if self._check is not None:
-            self.peak_config = self.peak_config.replace(threshold_abs=self._check.threshold_abs)
+        fixed = {} if self._check is None else {
+            "threshold_abs": (self._check.threshold_abs, "the rule check ([planning.rule_checking])")}
+        self.peak_choice = choose_peaks(ckpt.peak_config, ckpt.mission_peak_config, self.config.peaks,
+                                        operating_point=self.config.operating_point,
+                                        source="the planner config", table="[planning.peaks]", fixed=fixed)
+        """The peak settings that run and their source (:class:`learning.operating_points.PeakChoice`)."""
+        self.peak_config = self.peak_choice.config
         self.precision = resolve_precision(self.config.precision, next(ckpt.model.parameters()).device)
         engines = None if self.config.engine == "auto" else (self.config.engine,)
         self.engine_choice = select_engine(ckpt.model, (self.task.channels, side, side), self.precision,

@@ -18,7 +18,8 @@ Outputs in ``out_dir`` (:mod:`uav_swarm.runs.plots` draws the pictures):
 - ``qos.png``: QoS S1 and S2 and mean user throughput over time, both planners on one figure;
 - ``scene.gif``: the flown planner's run (UAVs, coverage discs, pedestrians; utility map panel);
 - ``summary.json`` (atomic): per planner mean/min QoS S1 and S2, mean throughput, median/p95
-  planning latency; learned/expert ratios; the resolved config;
+  planning latency; learned/expert ratios; the resolved config; the learned planner's peak settings and
+  their source (``peaks``);
 - ``timeseries.csv``: the per-step values of every run;
 - ``missions/vehicle_<id>.plan``: each UAV's mission to its final target (QGroundControl files);
   with a bridge config that lists vehicles, the missions are also uploaded
@@ -377,6 +378,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
         summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
         summary["network_precision"] = learned.precision  # type: ignore[attr-defined]
         summary["inference_engine"] = learned.engine  # type: ignore[attr-defined]
+        summary["peaks"] = learned.peak_choice.to_dict()  # type: ignore[attr-defined]
         if config.planning.refine:
             summary["refinement"] = {  # which settings ran: [planning.refinement], else the strategy's own
                 "source": "[planning.refinement]" if config.planning.refinement else "strategy defaults",

@@ -1,0 +1,77 @@
+"""The mission operating point: chosen on the validation split by QoS under corr and precision floors."""
+
+import json
+
+import numpy as np
+import pytest
+
+from learning import mission_calibration
+from learning.checkpoint import load_checkpoint
+from learning.mission_calibration import MissionGrid, calibrate_mission, choose_mission_point, pareto_front
+from learning.train import TrainConfig, split_indices
+from typed_config import ConfigError
+from uav_swarm.cli import main
+from uav_swarm.missions.registry import build_task
+
+PAPER = {"corr": 0.75, "precision": 0.75}
+GRID = MissionGrid(thresholds=(0.0, 0.05, 5.0), contrasts=(0.0,), distances_px=(2, 3))
+
+
+def _row(corr, precision, qos):
+    return {"corr": corr, "precision": precision, "qos": qos}
+
+
+def test_the_rule_takes_the_best_qos_above_the_floors_and_never_falls_below_the_balanced_point():
+    balanced = _row(0.80, 0.70, 0.50)  # precision under the paper's 0.75: its own 0.70 is the floor
+    rows = [_row(0.90, 0.69, 0.95), _row(0.74, 0.90, 0.90), _row(0.85, 0.72, 0.70), _row(0.87, 0.71, 0.70)]
+    assert choose_mission_point(rows, PAPER, balanced) is rows[3]  # QoS tie: higher corr + precision
+    assert choose_mission_point(rows[:2], PAPER, balanced) is balanced
+    assert [r["precision"] for r in pareto_front([balanced, *rows])] == [0.69, 0.9]
+
+
+def test_a_grid_outside_the_peak_ranges_is_refused():
+    with pytest.raises(ConfigError, match="distances_px"):
+        MissionGrid(distances_px=(0,))
+
+
+def test_calibration_scores_the_validation_split_and_resumes_from_its_cache(tiny_checkpoint, tmp_path,
+                                                                              monkeypatch):
+    ckpt = load_checkpoint(tiny_checkpoint)
+    task = build_task("wifi-s1", ckpt.task_config)
+    report = calibrate_mission(ckpt, task, PAPER, tmp_path / "cache", grid=GRID, progress=False)
+    _, val = split_indices(ckpt.payload["data"]["n"], TrainConfig.from_dict(ckpt.payload["train_config"]))
+    assert report["n_validation"] == len(val) >= 1
+    assert len(report["rows"]) == 6 and report["floors"]["corr"] <= PAPER["corr"]
+    unreachable = [r for r in report["rows"] if r["threshold_abs"] == 5.0]
+    assert all(r["n_predicted"] == 0 and r["qos"] == 0.0 for r in unreachable)  # no peak that high
+    assert report["mission"]["qos"] >= report["balanced"]["qos"]
+    assert all(0.0 <= r["qos_relative"] for r in report["rows"])
+
+    def no_generation(*args, **kwargs):
+        raise AssertionError("the cached validation scenes must be reused")
+
+    monkeypatch.setattr(mission_calibration, "generate_samples", no_generation)
+    again = calibrate_mission(ckpt, task, PAPER, tmp_path / "cache", grid=GRID, progress=False)
+    assert again["rows"] == report["rows"]
+
+
+def test_the_command_writes_the_report_and_a_checkpoint_carrying_both_points(tiny_checkpoint, tmp_path,
+                                                                            capsys):
+    out, written = tmp_path / "points", tmp_path / "both.pt"
+    assert main(["calibrate-mission", "--task", "wifi-s1", "--checkpoint", str(tiny_checkpoint),
+                 "--out", str(out), "--thresholds", "0.0", "0.05", "--contrasts", "0.0",
+                 "--distances-px", "2",
+                 "--write-checkpoint", str(written)]) == 0
+    report = json.loads((out / "calibration.json").read_text())
+    assert "| mission |" in (out / "front.md").read_text() and "| balanced |" in capsys.readouterr().out
+    both = load_checkpoint(written)
+    mission = both.mission_peak_config
+    assert mission is not None and mission.threshold_abs == report["mission"]["threshold_abs"]
+    assert both.peak_config == load_checkpoint(tiny_checkpoint).peak_config
+    assert both.payload["mission_calibration"]["floors"] == report["floors"]
+    original = load_checkpoint(tiny_checkpoint).model.state_dict()
+    for name, value in both.model.state_dict().items():
+        np.testing.assert_array_equal(value.numpy(), original[name].numpy())
+    assert main(["calibrate-mission", "--task", "wifi-s1", "--checkpoint", str(tiny_checkpoint),
+                 "--out", str(tmp_path / "never"), "--distances-px", "0"]) == 2
+    assert "distances_px" in capsys.readouterr().err and not (tmp_path / "never").exists()
