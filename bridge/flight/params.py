@@ -97,7 +97,8 @@ def _exchange(link: MavlinkLink, system_id: int, name: str, send, protocol: Prot
                     return msg
     waited_s = protocol.handshake_timeout_s * (protocol.max_retries + 1)
     raise ParamError(system_id, name, f"no PARAM_VALUE answered {what} in {waited_s:.1f} s, "
-                                      f"{protocol.max_retries + 1} tries (a name this autopilot does not have?)")
+                                      f"{protocol.max_retries + 1} tries (a name this autopilot does not "
+                                      "have?)")
 
 
 def read_param(link: MavlinkLink, system_id: int, name: str, *, bytewise: bool,

@@ -118,8 +118,8 @@ def preflight(link: MavlinkLink, system_id: int, conventions: Conventions, *, gc
             changed = True
     fence = read(conventions.fence_param)
     if fence.value == 0:
-        log.warning("vehicle %d: its own geofence is off (%s = 0): only the bridge's fence checks its targets",
-                    system_id, conventions.fence_param)
+        log.warning("vehicle %d: its own geofence is off (%s = 0): only the bridge's fence checks its "
+                    "targets", system_id, conventions.fence_param)
     rtl = read(conventions.rtl_alt_param)
     wanted_rtl = round(rtl_alt_m * conventions.rtl_alt_per_m, 3)
     if abs(rtl.value - wanted_rtl) > 1e-3:

@@ -85,7 +85,8 @@ class FlyingVehicle(SimVehicle):
         unknown = set(params or {}) - set(defaults)
         if unknown:
             raise ValueError(f"params: {sorted(unknown)} are not among {sorted(defaults)}")
-        table = {name: (float((params or {}).get(name, value)), kind) for name, (value, kind) in defaults.items()}
+        table = {name: (float((params or {}).get(name, value)), kind)
+                 for name, (value, kind) in defaults.items()}
         super().__init__(url, system_id, autopilot=autopilot, armed=False, custom_mode=custom_mode,
                          lat_deg=home.lat_deg, lon_deg=home.lon_deg, alt_m=home.alt_m,
                          telemetry_period_s=position_period_s, personality=personality, params=table)

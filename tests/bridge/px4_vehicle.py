@@ -50,8 +50,8 @@ _TAKEOFF_ALT_M = 2.5  # MIS_TAKEOFF_ALT's default, for a take-off without an alt
 _HOME_PERIOD_S = 1.0
 _POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
 _INT32, _REAL32 = m.MAV_PARAM_TYPE_INT32, m.MAV_PARAM_TYPE_REAL32
-PX4_PARAMS = {"NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32), "RTL_RETURN_ALT": (60.0, _REAL32),
-              "GF_ACTION": (2.0, _INT32)}
+PX4_PARAMS = {"NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32),
+              "RTL_RETURN_ALT": (60.0, _REAL32), "GF_ACTION": (2.0, _INT32)}
 """PX4 v1.16's defaults of the parameters ``fly`` reads (value, ``MAV_PARAM_TYPE``)."""
 _DLL_MODES = {1: LOITER, 2: RTL, 3: LAND}
 

@@ -414,9 +414,9 @@ class SimVehicle:
     def _send_param(self, name: str) -> None:
         names = list(self.params)
         value, param_type = self.params[name]
-        self._conn.mav.param_value_send(param_id=name.encode(), param_value=self._param_wire(value, param_type),
-                                        param_type=param_type, param_count=len(names),
-                                        param_index=names.index(name))
+        wire = self._param_wire(value, param_type)
+        self._conn.mav.param_value_send(param_id=name.encode(), param_value=wire, param_type=param_type,
+                                        param_count=len(names), param_index=names.index(name))
 
     def _on_param_request_read(self, msg) -> None:
         names = list(self.params)

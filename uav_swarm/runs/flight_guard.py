@@ -16,10 +16,10 @@ a mission of their own; then by UAV id). A vehicle gets its route only when its 
 keeps ``min_separation_m + margin_m`` (horizontal distance, whatever the altitudes) at every
 instant from the tracks of the vehicles decided before it *and* from the braking tracks of those
 not decided yet; otherwise it is **held**: sent to where it stops braking (``MAV_CMD_DO_REPOSITION``
-to that point, kept while it is held), until its route is clear again. A hold is always possible: every route chosen before
-was checked against this vehicle's braking track. Two vehicles that must swap places hold each
-other; one held and standing still for ``sidestep_after_s`` then steps aside, across its way, by
-``1.5 (min_separation_m + margin_m)`` (when that is clear), and the other passes.
+to that point, kept while it is held), until its route is clear again. A hold is always possible:
+every route chosen before was checked against this vehicle's braking track. Two vehicles that must
+swap places hold each other; one held and standing still for ``sidestep_after_s`` then steps aside,
+across its way, by ``1.5 (min_separation_m + margin_m)`` (when that is clear), and the other passes.
 
 Each hold is an event (which vehicle, for which other) and is counted; the guard's state per
 vehicle is ``"free"``, ``"held"`` or ``"aside"``.
@@ -139,7 +139,8 @@ class FlightGuard:
         area_m: (width, height) of the area a step aside must stay in (None: anywhere).
     """
 
-    def __init__(self, config: GuardConfig, uav: UAVConfig, area_m: tuple[float, float] | None = None) -> None:
+    def __init__(self, config: GuardConfig, uav: UAVConfig,
+                 area_m: tuple[float, float] | None = None) -> None:
         self.config = config
         self.uav = uav
         self.area_m = area_m

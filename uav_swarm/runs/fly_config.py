@@ -2,9 +2,11 @@
 
 A TOML file (``uav-swarm fly --config file.toml``) holds the top-level keys below and the tables
 ``[task]`` (the crowd world and Wi-Fi model, as for ``simulate``), ``[uav]`` (``alt_m`` is the cruise
-altitude above each vehicle's home), ``[planning]``, ``[telemetry]`` and ``[flight]``
-(:class:`bridge.flight.guided.FlightConfig`: launch timeouts, link timeout, end action). Every key is
-optional except the bridge config, which names the vehicles.
+altitude above each vehicle's home; ``min_separation_m`` the distance the guard keeps between any two
+vehicles), ``[planning]``, ``[telemetry]``, ``[flight]`` (:class:`bridge.flight.guided.FlightConfig`:
+launch timeouts, link timeout, end action), ``[launch]`` (:class:`uav_swarm.runs.launch_plan.LaunchConfig`:
+where the vehicles take off) and ``[guard]`` (:class:`uav_swarm.runs.flight_guard.GuardConfig`: the
+separation guard). Every key is optional except the bridge config, which names the vehicles.
 
 Examples:
     >>> cfg = FlyConfig.from_dict({"bridge_config": "configs/bridge/ardupilot_sitl_10.toml", "speedup": 2})
@@ -24,6 +26,8 @@ from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.planner import PlannerConfig
+from uav_swarm.runs.flight_guard import GuardConfig
+from uav_swarm.runs.launch_plan import LaunchConfig, check_launch_grid
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["FlyConfig", "load_fly_config"]
@@ -52,9 +56,13 @@ class FlyConfig(Config):
     planning: PlannerConfig = param(PlannerConfig(), doc="assignment and inference ([planning])")
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
     flight: FlightConfig = param(FlightConfig(), doc="launch, link and end of the flight ([flight])")
+    launch: LaunchConfig = param(LaunchConfig(), doc="where the vehicles take off ([launch])")
+    guard: GuardConfig = param(GuardConfig(), doc="the separation guard on measured positions ([guard])")
+    set_failsafe: bool = param(False, doc="set a vehicle's missing link-loss failsafe to return to launch "
+                                          "(PARAM_SET, read back) instead of refusing it")
 
     def check(self) -> None:
-        """A bridge config is required; strategy 2 takes admission control unless told; the radio is 2-D."""
+        """A bridge config; strategy 2 under admission control unless told; a 2-D radio; a separated grid."""
         if not self.bridge_config:
             raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
@@ -63,6 +71,7 @@ class FlyConfig(Config):
             # station_limit = "off" keeps the paper's model.
             radio = self.task.radio.replace(station_limit="auto")
             object.__setattr__(self, "task", self.task.replace(radio=radio))
+        check_launch_grid(self.launch, self.uav, 2)
         if self.task.radio.altitude_m != 0.0:
             raise ConfigError(f"FlyConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the flight's "
                               "QoS uses 2-D radio distances at uav.alt_m; set altitude_m = 0")
