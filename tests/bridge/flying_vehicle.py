@@ -30,7 +30,7 @@ from sim_vehicle import SimVehicle, m
 from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
 from bridge.missions.items import DEG_E7
 
-__all__ = ["FlyingVehicle", "GUIDED", "AUTO", "RTL", "LAND"]
+__all__ = ["FlyingVehicle", "GUIDED", "AUTO", "RTL", "LAND", "FAILSAFE_ON", "launch_home"]
 
 STABILIZE, AUTO, GUIDED, RTL, LAND = 0, 3, 4, 6, 9
 _INT8, _INT16, _INT32, _REAL32 = (m.MAV_PARAM_TYPE_INT8, m.MAV_PARAM_TYPE_INT16, m.MAV_PARAM_TYPE_INT32,
@@ -38,7 +38,16 @@ _INT8, _INT16, _INT32, _REAL32 = (m.MAV_PARAM_TYPE_INT8, m.MAV_PARAM_TYPE_INT16,
 ARDUPILOT_PARAMS = {"FS_GCS_ENABLE": (0.0, _INT8), "FS_GCS_TIMEOUT": (5.0, _REAL32),
                     "SYSID_MYGCS": (255.0, _INT16), "RTL_ALT": (1500.0, _INT32), "FENCE_ENABLE": (0.0, _INT8)}
 """ArduCopter 4.6's defaults of the parameters ``fly`` reads (value, ``MAV_PARAM_TYPE``)."""
+FAILSAFE_ON = {"FS_GCS_ENABLE": 1.0}
+"""ArduCopter's ground station failsafe set to RTL (``params`` of a vehicle an operator prepared)."""
 _POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
+
+
+def launch_home(index: int, spacing_m: float = 10.0, origin: Home | None = None) -> Home:
+    """Where vehicle ``index`` of a test fleet stands: ``spacing_m`` apart going East, as a real launch."""
+    origin = origin or Home()
+    lat_deg, lon_deg, _ = enu_to_geodetic(origin, index * spacing_m, 0.0, 0.0)
+    return Home(lat_deg=lat_deg, lon_deg=lon_deg, alt_m=origin.alt_m)
 
 
 class FlyingVehicle(SimVehicle):

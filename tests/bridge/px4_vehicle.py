@@ -42,7 +42,7 @@ from sim_vehicle import m
 from bridge.geo import Home, geodetic_to_enu
 from bridge.missions.items import DEG_E7
 
-__all__ = ["Px4Vehicle", "POSCTL", "TAKEOFF", "LOITER", "MISSION", "RTL", "LAND", "px4_mode"]
+__all__ = ["Px4Vehicle", "POSCTL", "TAKEOFF", "LOITER", "MISSION", "RTL", "LAND", "px4_mode", "FAILSAFE_ON"]
 
 POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND = (3, 0), (4, 2), (4, 3), (4, 4), (4, 5), (4, 6)
 _MODES = (POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND)
@@ -54,6 +54,8 @@ PX4_PARAMS = {"NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32),
               "RTL_RETURN_ALT": (60.0, _REAL32), "GF_ACTION": (2.0, _INT32)}
 """PX4 v1.16's defaults of the parameters ``fly`` reads (value, ``MAV_PARAM_TYPE``)."""
 _DLL_MODES = {1: LOITER, 2: RTL, 3: LAND}
+FAILSAFE_ON = {"NAV_DLL_ACT": 2.0}
+"""PX4's data link loss action set to Return (``params`` of a vehicle an operator prepared)."""
 
 
 def px4_mode(custom_mode: int) -> tuple[int, int]:

@@ -68,8 +68,8 @@ class FlightSafety:
         ids = [v.system_id for v in bridge.vehicles[:n]]
         self._uav_of = {sid: k for k, sid in enumerate(ids)}
         self.cruise_alt_m = {sid: float(alt) for sid, alt in zip(ids, config.uav.altitudes_m(n), strict=True)}
-        self.return_alt_m = {sid: float(alt) for sid, alt in zip(ids, return_altitudes_m(n, config.uav),
-                                                                 strict=True)}
+        returns = return_altitudes_m(n, config.uav, config.guard.margin_m)
+        self.return_alt_m = {sid: float(alt) for sid, alt in zip(ids, returns, strict=True)}
         self._slots = dict(zip(ids, grid_slots_m(config.launch, n), strict=True))
         self.homes_m: dict[int, tuple[float, float]] = {}
         self.reports: dict[int, PreflightReport] = {}

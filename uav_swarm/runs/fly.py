@@ -89,12 +89,12 @@ def load_flight_bridge(config: FlyConfig) -> BridgeConfig:
                    labels=[f"the crowd area's corner ({x:g}, {y:g}) at uav.alt_m" for x, y in corners])
     n = config.n_uavs or len(bridge.vehicles)
     check_fleet_fits(n, config.uav.min_separation_m, width_m, height_m)
-    top_m = float(return_altitudes_m(n, config.uav).max())
+    top_m = float(return_altitudes_m(n, config.uav, config.guard.margin_m).max())
     if top_m > bridge.geofence.alt_max_m:
         raise ConfigError(f"{config.bridge_config}: geofence.alt_max_m = {bridge.geofence.alt_max_m:g} m is "
                           f"below the highest return layer, {top_m:g} m (uav.alt_m + layers of "
-                          f"max(uav.min_separation_m, uav.layer_step_m) for {n} vehicles): raise it, or "
-                          "lower uav.alt_m or the separation")
+                          f"max(uav.min_separation_m + guard.margin_m, uav.layer_step_m) for {n} vehicles): "
+                          "raise it, or lower uav.alt_m or the separation")
     return bridge
 
 

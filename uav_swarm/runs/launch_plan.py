@@ -12,14 +12,14 @@ when no airborne vehicle is within the minimum of the point it climbs from; the 
 (:mod:`uav_swarm.runs.flight_guard`) keeps flying vehicles away from a climbing one.
 
 **Return**: every vehicle's return altitude is its own layer (:func:`return_altitudes_m`), above
-every cruise altitude and ``max(min_separation_m, layer_step_m)`` apart, so that vehicles
+every cruise altitude and ``max(min_separation_m + [guard] margin_m, layer_step_m)`` apart, so that vehicles
 returning together (the end of the flight, or their link-loss failsafe) fly home at different
 heights; the autopilots climb to it where they are (the guard kept them apart there) and fly home.
 
 Examples:
     >>> from uav_swarm.world.uav import UAVConfig
-    >>> return_altitudes_m(3, UAVConfig(alt_m=10.0, min_separation_m=5.0)).tolist()
-    [15.0, 20.0, 25.0]
+    >>> return_altitudes_m(3, UAVConfig(alt_m=10.0, min_separation_m=5.0), margin_m=1.0).tolist()
+    [16.0, 22.0, 28.0]
     >>> grid_slots_m(LaunchConfig(positions="grid", grid_spacing_m=8.0, grid_columns=2), 3)
     [(0.0, 0.0), (8.0, 0.0), (0.0, 8.0)]
 """
@@ -114,9 +114,9 @@ def check_launch_positions(homes_m: Mapping[int, tuple[float, float]], min_separ
                                             "apart")
 
 
-def return_altitudes_m(n_vehicles: int, uav: UAVConfig) -> np.ndarray:
-    """(n,) return altitude of each vehicle: above every cruise layer, ``max(min_sep, layer_step)`` apart."""
-    step = max(uav.min_separation_m, uav.layer_step_m)
+def return_altitudes_m(n_vehicles: int, uav: UAVConfig, margin_m: float = 0.0) -> np.ndarray:
+    """(n,) return altitudes: above every cruise layer, ``max(min_sep + margin_m, layer_step)`` apart."""
+    step = max(uav.min_separation_m + margin_m, uav.layer_step_m)
     top = float(uav.altitudes_m(n_vehicles).max()) if n_vehicles else uav.alt_m
     return top + step * np.arange(1, n_vehicles + 1, dtype=np.float64)
 
