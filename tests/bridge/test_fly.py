@@ -68,7 +68,7 @@ def _close(vehicles) -> None:
 
 def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
     """60 s of crowd time: every vehicle launched, one killed mid-flight and restarted, all sent RTL."""
-    options = {1: {"prearm_s": 4.0}} | {i: {"speed_m_s": 25.0} for i in range(2, 11)}
+    options = {1: {"prearm_s": 15.0}} | {i: {"speed_m_s": 25.0} for i in range(2, 11)}  # past the checks
     vehicles, urls = _vehicles(10, ("udpin", "udpout", "tcp"), options)
     endpoint = _free_endpoint()
     config = load_fly_config(None, {

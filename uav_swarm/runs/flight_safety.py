@@ -130,7 +130,7 @@ class FlightSafety:
     # -- take-off -------------------------------------------------------------------------------
     def takeoff_gate(self, system_id: int) -> Callable[[], AbstractContextManager[None]]:
         """The vehicle's turn to arm, take off and climb (one at a time, from a clear column)."""
-        return self._gate.for_vehicle(system_id)
+        return self._gate.for_vehicle(system_id, self._uav_of[system_id])
 
     def _column_clear(self, system_id: int) -> bool:
         home = self.homes_m.get(system_id)

@@ -122,7 +122,7 @@ def return_altitudes_m(n_vehicles: int, uav: UAVConfig, margin_m: float = 0.0) -
 
 
 class TakeoffGate:
-    """One take-off at a time, from a clear column (see the module docstring).
+    """One take-off at a time, in the vehicles' order (``rank``), from a clear column (module docstring).
 
     Args:
         cancel: Set when the flight ends: a vehicle waiting for its turn gives up.
@@ -133,21 +133,32 @@ class TakeoffGate:
     def __init__(self, cancel: threading.Event, column_clear: Callable[[int], bool]) -> None:
         self._cancel = cancel
         self._column_clear = column_clear
-        self._lock = threading.Lock()
+        self._turns = threading.Condition()
+        self._waiting: set[int] = set()
+        self._busy = False
 
-    def for_vehicle(self, system_id: int) -> Callable[[], contextlib.AbstractContextManager[None]]:
-        """The gate of one vehicle, as :func:`bridge.flight.guided.launch` takes it."""
-        return lambda: self._slot(system_id)
+    def for_vehicle(self, system_id: int, rank: int) -> Callable[[], contextlib.AbstractContextManager[None]]:
+        """The gate of one vehicle, as :func:`bridge.flight.guided.launch` takes it (lowest rank first)."""
+        return lambda: self._slot(system_id, rank)
 
     @contextlib.contextmanager
-    def _slot(self, system_id: int) -> Iterator[None]:
-        while not self._lock.acquire(timeout=_POLL_S):
-            if self._cancel.is_set():
-                raise FlightError(system_id, "launch cancelled (the flight is ending)")
+    def _slot(self, system_id: int, rank: int) -> Iterator[None]:
+        with self._turns:
+            self._waiting.add(rank)
+            try:
+                while self._busy or min(self._waiting) != rank:
+                    if self._cancel.is_set():
+                        raise FlightError(system_id, "launch cancelled (the flight is ending)")
+                    self._turns.wait(_POLL_S)
+            finally:
+                self._waiting.discard(rank)
+            self._busy = True
         try:
             while not self._column_clear(system_id):
                 if self._cancel.wait(_POLL_S):
                     raise FlightError(system_id, "launch cancelled (the flight is ending)")
             yield
         finally:
-            self._lock.release()
+            with self._turns:
+                self._busy = False
+                self._turns.notify_all()
