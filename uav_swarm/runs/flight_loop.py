@@ -114,6 +114,7 @@ class Flight:
         self.safety = FlightSafety(config, bridge, fleet, self._stop,
                                    lambda kind, sid, detail: self._event(kind, self._by_sid.get(sid), detail))
         self._refused = False
+        self._next_guard_s = 0.0
         fleet.tracker.add_listener(self._on_state)
 
     # -- control -------------------------------------------------------------------------------
@@ -239,6 +240,7 @@ class Flight:
                 waiting = []
             if not waiting and not any(v.status == "launching" for v in self.vehicles):
                 break
+            self._guard_if_due()  # the climbing vehicles are watched from their take-off on
             time.sleep(_TICK_S)
         if not self._stop.is_set() and not any(v.status == "live" for v in self.vehicles):
             failed = "; ".join(f"vehicle {v.system_id}: {v.status}" for v in self.vehicles)
@@ -315,6 +317,12 @@ class Flight:
         return ids
 
     # -- separation guard ----------------------------------------------------------------------
+    def _guard_if_due(self) -> None:
+        """A guard decision every ``1 / guard.rate_hz`` wall-clock seconds (the vehicles fly in real time)."""
+        if time.monotonic() >= self._next_guard_s:
+            self._next_guard_s = time.monotonic() + 1.0 / self.config.guard.rate_hz
+            self._guard_tick()
+
     def _guard_tick(self) -> None:
         """The guard's decisions on the measured positions; a changed point is sent to its vehicle."""
         flying = []
@@ -419,15 +427,12 @@ class Flight:
         track: list[dict[str, Any]] = []
         ids: tuple[int, ...] = ()
         start_s = time.monotonic()
-        guard_every_s, next_guard_s = 1.0 / cfg.guard.rate_hz, 0.0
         step = 0
         self._event("loop_started", None)
         if self.recorder is not None:
             self.recorder.static_scene(self.scenario.obstacles)
         while step < n_steps and not self._stop.is_set():
-            if time.monotonic() >= next_guard_s:  # wall clock: the vehicles fly in real time
-                next_guard_s = time.monotonic() + guard_every_s
-                self._guard_tick()
+            self._guard_if_due()
             due = min(n_steps, int((time.monotonic() - start_s) * cfg.speedup / dt_s) + 1)
             while step < due:
                 self._check_links()
@@ -441,7 +446,7 @@ class Flight:
                 self._clock_s = step * dt_s
                 if step % steps_per_record == 0 or step == n_steps:
                     self._record(times, rows, track, step)
-            wake_s = min(start_s + step * dt_s / cfg.speedup, next_guard_s)
+            wake_s = min(start_s + step * dt_s / cfg.speedup, self._next_guard_s)
             self._stop.wait(min(_TICK_S, max(0.0, wake_s - time.monotonic())))
         name = self._planner(max(1, len(ids) or len(self.vehicles))).name
         values = np.array(rows, dtype=np.float64).reshape(-1, 3)
