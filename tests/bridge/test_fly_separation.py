@@ -33,7 +33,7 @@ from uav_swarm.runs.fly_config import load_fly_config
 FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
 MIN_M = 5.0  # [uav] min_separation_m's default
 REPO = Path(__file__).resolve().parents[2]
-KINDS = ("ardupilot", "px4")
+KINDS = ("ardupilot", "px4")  # the kill -9 test, on each autopilot
 
 
 def _fleet(kind: str, homes: list, failsafe: bool = True, **options) -> tuple[list, list[str]]:
@@ -76,16 +76,20 @@ def _in_rtl(vehicle) -> bool:
             else vehicle.custom_mode == 6)
 
 
-@pytest.mark.parametrize("kind", KINDS)
-def test_a_head_on_swap_keeps_the_minimum_from_take_off_to_landing(tmp_path, kind):
-    """Two vehicles 40 m apart sent to each other's place: the guard holds, one steps aside, both arrive."""
-    homes = [launch_home(0, 40.0), launch_home(1, 40.0)]
+@pytest.mark.parametrize(("kind", "n", "spacing_m"),
+                         [("ardupilot", 2, 40.0), ("px4", 2, 40.0), ("mixed", 4, 20.0)],
+                         ids=["swap-ardupilot", "swap-px4", "four-reversed-2-px4-2-ardupilot"])
+def test_crossing_targets_keep_the_minimum_from_take_off_to_landing(tmp_path, kind, n, spacing_m):
+    """Vehicles on a line sent to the reversed line (two: a head-on swap): the guard holds, one steps aside,
+    every vehicle arrives."""
+    homes = [launch_home(i, spacing_m) for i in range(n)]
+    targets = [((n - 1 - i) * spacing_m, 0.0) for i in range(n)]
     vehicles, urls = _fleet(kind, homes)
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 40.0,
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 50.0,
         "speedup": 2.0, "publish_telemetry": False, "flight": {"ready_timeout_s": 10.0}})
     try:
-        result = fly(config, tmp_path / "out", planner=FixedTargets([(40.0, 0.0), (0.0, 0.0)]))
+        result = fly(config, tmp_path / "out", planner=FixedTargets(targets))
         assert _wait(lambda: not any(v.armed for v in vehicles), 60.0)  # both home and landed
         approach = closest_approach(vehicles)
     finally:
@@ -96,13 +100,14 @@ def test_a_head_on_swap_keeps_the_minimum_from_take_off_to_landing(tmp_path, kin
     assert separation["holds"] >= 1  # they could not both fly straight
     assert any(e["event"] == "guard_hold" for e in result.summary["events"])
     rows = live_rows(tmp_path / "out")
-    for sid, target in ((1, (40.0, 0.0)), (2, (0.0, 0.0))):
+    for sid, target in enumerate(targets, start=1):
         reached_m = min(math.hypot(r["x_m"] - target[0], r["y_m"] - target[1]) for r in rows[sid])
-        assert reached_m <= 2.0, (sid, reached_m)  # the swap was flown, not only held
+        assert reached_m <= 2.0, (sid, reached_m)  # the crossing was flown, not only held
     for vehicle in vehicles:
         assert _in_rtl(vehicle) and math.hypot(*vehicle.enu[:2]) < 1.0 and vehicle.enu[2] == 0.0
-    returns = [v.param("RTL_RETURN_ALT") if kind == "px4" else v.param("RTL_ALT") / 100 for v in vehicles]
-    assert abs(returns[0] - returns[1]) >= MIN_M  # returned in layers
+    returns = sorted(v.param("RTL_RETURN_ALT") if isinstance(v, Px4Vehicle) else v.param("RTL_ALT") / 100
+                     for v in vehicles)
+    assert min(b - a for a, b in zip(returns, returns[1:], strict=False)) >= MIN_M  # returned in layers
 
 
 def _fly_process(toml: Path, out: Path) -> subprocess.Popen:

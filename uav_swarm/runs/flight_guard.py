@@ -5,18 +5,20 @@ position and velocity (its GLOBAL_POSITION_INT in the flight's East-North frame)
 ``horizon_s``, where each vehicle goes:
 
 - **on its route**: it keeps its measured velocity for ``latency_s`` (the age of the measurement and
-  the command's round trip), then flies the route's points in turn, speeding up at most
-  ``uav.max_accel_m_s2`` to ``uav.max_speed_m_s``, and stays at the last one;
-- **braking**: it keeps its velocity for ``latency_s``, then slows at ``uav.max_accel_m_s2`` to a stop
-  (``v^2 / 2a`` further, the continuous form of :func:`uav_swarm.world.separation.stopping_distance_m`):
-  where a *hold* leaves it.
+  the command's round trip), then flies the route's points in turn to ``uav.max_speed_m_s``, speeding
+  up at ``uav.max_accel_m_s2`` or faster (an autopilot's own acceleration is not known): at each
+  instant it is somewhere on the stretch of the route between the two;
+- **braking**: it keeps its velocity for ``latency_s``, then stops, at once or slowing at
+  ``uav.max_accel_m_s2`` (``v^2 / 2a`` further, the continuous form of
+  :func:`uav_swarm.world.separation.stopping_distance_m`): where a *hold* leaves it.
 
 Vehicles are decided one after the other (the ones the bridge cannot steer first: climbing, or in
 a mission of their own; then by UAV id). A vehicle gets its route only when its predicted track
-keeps ``min_separation_m + margin_m`` (horizontal distance, whatever the altitudes) at every
-instant from the tracks of the vehicles decided before it *and* from the braking tracks of those
-not decided yet; otherwise it is **held**: sent to where it stops braking (``MAV_CMD_DO_REPOSITION``
-to that point, kept while it is held), until its route is clear again. A hold is always possible:
+keeps ``min_separation_m + margin_m`` (horizontal distance, whatever the altitudes) in every step of
+``step_s`` (between the two stretches of the step, :func:`uav_swarm.world.separation.path_distances_m`)
+from the tracks of the vehicles decided before it *and* from the braking tracks of those not decided
+yet; otherwise it is **held**: sent to where it stops braking (``MAV_CMD_DO_REPOSITION`` to that point,
+kept while it is held), until its route is clear again. A hold is always possible:
 every route chosen before was checked against this vehicle's braking track. Two vehicles that must
 swap places hold each other; one held and standing still for ``sidestep_after_s`` then steps aside,
 across its way, by ``1.5 (min_separation_m + margin_m)`` (when that is clear), and the other passes.
@@ -43,9 +45,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from typed_config import Config, param
+from uav_swarm.world.separation import path_distances_m
 from uav_swarm.world.uav import UAVConfig
 
-__all__ = ["GuardConfig", "GuardDecision", "FlightGuard", "route_track_m", "braking_track_m"]
+__all__ = ["GuardConfig", "GuardDecision", "FlightGuard", "route_track_m", "braking_track_m", "route_band_m",
+           "braking_band_m"]
 
 _ARRIVED_M = 1.0  # a step-aside point this close is reached
 
@@ -61,7 +65,8 @@ class GuardConfig(Config):
     margin_m: float = param(1.0, ge=0.0, le=50.0,
                             doc="metres added to uav.min_separation_m for position error")
     horizon_s: float = param(30.0, ge=1.0, le=300.0, doc="seconds of each predicted track")
-    step_s: float = param(0.1, gt=0.0, le=1.0, doc="time step of the predicted tracks, seconds")
+    step_s: float = param(0.25, gt=0.0, le=1.0,
+                          doc="time step of the predicted tracks, seconds (each whole step is checked)")
     sidestep_after_s: float = param(3.0, ge=0.0, le=60.0,
                                     doc="a vehicle held and still this long steps aside, seconds")
 
@@ -100,7 +105,10 @@ def braking_track_m(p: np.ndarray, v: np.ndarray, times_s: np.ndarray, latency_s
 
 def route_track_m(p: np.ndarray, v: np.ndarray, route_m: Sequence[tuple[float, float]], times_s: np.ndarray,
                   latency_s: float, speed_m_s: float, accel_m_s2: float) -> np.ndarray:
-    """(T, 2) where a vehicle flying ``route_m`` after ``latency_s`` at its velocity is at ``times_s``."""
+    """(T, 2) where a vehicle flying ``route_m`` after ``latency_s`` at its velocity is at ``times_s``.
+
+    It speeds up at ``accel_m_s2`` (``math.inf``: at once) from its speed along the route.
+    """
     start = p + v * latency_s
     points = np.vstack([start[None, :], np.asarray(route_m, dtype=np.float64).reshape(-1, 2)])
     legs = np.diff(points, axis=0)
@@ -111,7 +119,8 @@ def route_track_m(p: np.ndarray, v: np.ndarray, route_m: Sequence[tuple[float, f
     t = np.maximum(times_s - latency_s, 0.0)
     ramp = max(speed_m_s - u0, 0.0) / accel_m_s2  # seconds until full speed
     ramped = np.minimum(t, ramp)
-    distance = u0 * ramped + 0.5 * accel_m_s2 * ramped**2 + speed_m_s * np.maximum(t - ramp, 0.0)
+    speeding = 0.5 * accel_m_s2 * ramped**2 if math.isfinite(accel_m_s2) else np.zeros_like(t)
+    distance = u0 * ramped + speeding + speed_m_s * np.maximum(t - ramp, 0.0)
     distance = np.minimum(distance, cumulative[-1])
     leg = np.clip(np.searchsorted(cumulative, distance, side="right") - 1, 0, max(len(lengths) - 1, 0))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -122,12 +131,49 @@ def route_track_m(p: np.ndarray, v: np.ndarray, route_m: Sequence[tuple[float, f
     return np.where(before[:, None], drift, moving)
 
 
-def _gaps(track: np.ndarray, others: np.ndarray) -> np.ndarray:
-    """(M,) least distance over time between ``track`` (T, 2) and each of ``others`` (M, T, 2)."""
+def route_band_m(p: np.ndarray, v: np.ndarray, route_m: Sequence[tuple[float, float]], times_s: np.ndarray,
+                 latency_s: float, speed_m_s: float, accel_m_s2: float) -> np.ndarray:
+    """(T, 2, 2): where on its route a vehicle is from ``times_s[k]`` to ``times_s[k + 1]``.
+
+    From where one speeding up at ``accel_m_s2`` is at the first to where one at full speed at once is at
+    the second: an autopilot's own acceleration lies between, and so does every instant of the step.
+    """
+    slow = route_track_m(p, v, route_m, times_s, latency_s, speed_m_s, accel_m_s2)
+    fast = route_track_m(p, v, route_m, times_s, latency_s, speed_m_s, math.inf)
+    return np.stack([slow, np.concatenate([fast[1:], fast[-1:]])], axis=1)
+
+
+def braking_band_m(p: np.ndarray, v: np.ndarray, times_s: np.ndarray, latency_s: float,
+                   accel_m_s2: float) -> np.ndarray:
+    """(T, 2, 2): where a braking vehicle is from ``times_s[k]`` to ``times_s[k + 1]``.
+
+    From where one stopped at once after ``latency_s`` is at the first to where one slowing at
+    ``accel_m_s2`` is at the second.
+    """
+    late = braking_track_m(p, v, times_s, latency_s, accel_m_s2)
+    early = p[None, :] + np.minimum(times_s, latency_s)[:, None] * v[None, :]
+    return np.stack([early, np.concatenate([late[1:], late[-1:]])], axis=1)
+
+
+def _gaps(band: np.ndarray, others: np.ndarray, enough_m: np.ndarray | float) -> np.ndarray:
+    """(M,) least distance over time between ``band`` (T, 2, 2) and each of ``others`` (M, T, 2, 2).
+
+    At each time both vehicles lie somewhere on their stretch: the distance is the segments'
+    (:func:`uav_swarm.world.separation.path_distances_m`). Pairs that keep ``enough_m`` by a bound from
+    the stretches' midpoints and half lengths get that bound (at least ``enough_m``) instead.
+    """
     if others.shape[0] == 0:
         return np.zeros(0)
-    diff = others - track[None, :, :]
-    return np.hypot(diff[..., 0], diff[..., 1]).min(axis=1)
+    mid, half = band.mean(axis=1), 0.5 * np.linalg.norm(band[:, 1] - band[:, 0], axis=-1)  # (T, 2), (T,)
+    other_mid = others.mean(axis=2)  # (M, T, 2)
+    other_half = 0.5 * np.linalg.norm(others[:, :, 1] - others[:, :, 0], axis=-1)  # (M, T)
+    bound = (np.linalg.norm(other_mid - mid[None], axis=-1) - half[None] - other_half).min(axis=1)
+    gaps = bound.copy()
+    close = np.flatnonzero(bound < np.broadcast_to(enough_m, bound.shape))
+    if close.size:
+        exact = path_distances_m(band[:, None], np.swapaxes(others[close], 0, 1))  # (T, 1, C)
+        gaps[close] = exact[:, 0, :].min(axis=0)
+    return gaps
 
 
 class FlightGuard:
@@ -176,12 +222,12 @@ class FlightGuard:
         v = np.asarray(velocities_m_s, dtype=np.float64).reshape(-1, 2)
         k = p.shape[0]
         cfg, uav, times = self.config, self.uav, self._times
-        brakes = np.stack([braking_track_m(p[i], v[i], times, cfg.latency_s, uav.max_accel_m_s2)
-                           for i in range(k)]) if k else np.zeros((0, times.size, 2))
+        brakes = np.stack([braking_band_m(p[i], v[i], times, cfg.latency_s, uav.max_accel_m_s2)
+                           for i in range(k)]) if k else np.zeros((0, times.size, 2, 2))
         # A pair already closer than the minimum may only keep or widen its gap.
         threshold = np.full((k, k), self.need_m)
         for i in range(k):
-            gaps = _gaps(brakes[i], brakes)
+            gaps = _gaps(brakes[i], brakes, self.need_m)
             threshold[i] = np.minimum(threshold[i], gaps - 1e-6)
         decided = brakes.copy()
         order = sorted(range(k), key=lambda i: (bool(steerable[i]), i))
@@ -203,7 +249,7 @@ class FlightGuard:
         others = np.arange(decided.shape[0]) != i
 
         def clear(track: np.ndarray) -> tuple[bool, int]:
-            gaps = _gaps(track, decided[others])
+            gaps = _gaps(track, decided[others], threshold[others])
             short = gaps < threshold[others]
             if not short.any():
                 return True, -1
@@ -214,7 +260,7 @@ class FlightGuard:
             del self._aside[i]  # reached: from here on to its goal
             aside = None
         route = [aside] if aside is not None else [goal]
-        track = route_track_m(p[i], v[i], route, times, cfg.latency_s, uav.max_speed_m_s, uav.max_accel_m_s2)
+        track = route_band_m(p[i], v[i], route, times, cfg.latency_s, uav.max_speed_m_s, uav.max_accel_m_s2)
         ok, blocker = clear(track)
         if ok:
             self._held_since.pop(i, None)
@@ -225,8 +271,8 @@ class FlightGuard:
             still = float(np.hypot(*v[i])) < 0.5
             if still and now_s - since >= cfg.sidestep_after_s:
                 for point in self._sidesteps(p[i], goal):
-                    step = route_track_m(p[i], v[i], [point], times, cfg.latency_s, uav.max_speed_m_s,
-                                         uav.max_accel_m_s2)
+                    step = route_band_m(p[i], v[i], [point], times, cfg.latency_s, uav.max_speed_m_s,
+                                        uav.max_accel_m_s2)
                     if clear(step)[0]:
                         self._aside[i] = point
                         self._held_since.pop(i, None)
@@ -236,7 +282,7 @@ class FlightGuard:
             self._aside.pop(i, None)  # its step aside is no longer clear: it holds, then starts again
             self._held_since.setdefault(i, now_s)
         brake = decided[i]
-        stop = self._hold_at.setdefault(i, (float(brake[-1, 0]), float(brake[-1, 1])))  # kept while held
+        stop = self._hold_at.setdefault(i, (float(brake[-1, 1, 0]), float(brake[-1, 1, 1])))  # kept, held
         return GuardDecision("held", stop, blocker), brake
 
     def _sidesteps(self, p: np.ndarray, goal: tuple[float, float]) -> list[tuple[float, float]]:
