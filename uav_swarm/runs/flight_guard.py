@@ -69,6 +69,9 @@ class GuardConfig(Config):
                           doc="time step of the predicted tracks, seconds (each whole step is checked)")
     sidestep_after_s: float = param(3.0, ge=0.0, le=60.0,
                                     doc="a vehicle held and still this long steps aside, seconds")
+    return_timeout_s: float = param(120.0, ge=0.0, le=3600.0,
+                                    doc="at the end (RTL), vehicles fly home through the guard at most this "
+                                        "long; then every one still away is sent RTL at once, seconds")
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,7 @@ __all__ = ["Flight"]
 logger = logging.getLogger(__name__)
 
 _RESEND_M = 0.5  # a target moved less than this is not sent again
+_HOME_M = 2.0  # a vehicle returning this close to its home (horizontally) is sent RTL
 _TICK_S = 0.02  # longest sleep of the loop (wall clock)
 
 
@@ -328,7 +329,10 @@ class Flight:
         flying = []
         for vehicle in self.vehicles:
             state = self._state(vehicle)
-            if vehicle.status in ("live", "launching") and state is not None and state.x_m is not None:
+            if state is None or state.x_m is None:
+                continue
+            returning = vehicle.status in ("ending", "ended") and state.armed  # landing: an obstacle
+            if vehicle.status in ("live", "launching") or returning:
                 goal = vehicle.target_m[:2] if vehicle.status == "live" and vehicle.target_m else None
                 flying.append((vehicle.system_id, state, goal, vehicle.status == "live"))
         for sid, decision in self.safety.decide(flying, self._clock_s, time.monotonic()):
@@ -456,32 +460,60 @@ class Flight:
 
     # -- end -----------------------------------------------------------------------------------
     def _end_all(self) -> None:
-        """Send every vehicle heard (and not landed) the end action, concurrently; failures are named.
+        """Send every vehicle heard (and not landed) the end action; failures are named.
 
         Launches still running are cancelled first (they stop between two steps), so no vehicle
-        takes off after its end action.
+        takes off after its end action. With RTL the live vehicles first fly home through the guard
+        (:meth:`_return_home`); the others, and any still away after ``guard.return_timeout_s``, are
+        sent it at once (their return altitudes are layers apart).
         """
         action = self.config.flight.end_action
         self._stop.set()
         wait([v.job for v in self.vehicles if v.job is not None])
         if self._refused:  # refused before any vehicle was armed: nothing to end
             return
-
-        def end(vehicle: _Vehicle) -> None:
-            try:
-                sid = vehicle.system_id
-                end_flight(self.fleet.link(sid), sid, action, self.bridge.protocol)
-            except BridgeError as exc:
-                logger.warning("vehicle %d: %s not acknowledged: %s: %s", vehicle.system_id, action.upper(),
-                               type(exc).__name__, exc)
-                self._event("end_failed", vehicle, f"{type(exc).__name__}: {exc}")
-                return
-            vehicle.status = "ended"
-            self._event(action, vehicle)
-
-        heard = [v for v in self.vehicles if self._state(v) is not None and v.status != "landed"]
-        for job in [self._pool.submit(end, v) for v in heard]:
+        if action == "rtl":
+            self._return_home()
+        heard = [v for v in self.vehicles
+                 if self._state(v) is not None and v.status not in ("landed", "ended")]
+        for job in [self._pool.submit(self._end_one, v, action) for v in heard]:
             job.result()
+
+    def _end_one(self, vehicle: _Vehicle, action: str) -> None:
+        try:
+            sid = vehicle.system_id
+            end_flight(self.fleet.link(sid), sid, action, self.bridge.protocol)  # type: ignore[arg-type]
+        except BridgeError as exc:
+            logger.warning("vehicle %d: %s not acknowledged: %s: %s", vehicle.system_id, action.upper(),
+                           type(exc).__name__, exc)
+            self._event("end_failed", vehicle, f"{type(exc).__name__}: {exc}")
+            return
+        vehicle.status = "ended"
+        self._event(action, vehicle)
+
+    def _return_home(self) -> None:
+        """Staggered returns: every live vehicle flies home through the guard, and RTL once over it.
+
+        A vehicle sent RTL climbs to its return layer and lands where it is, an obstacle the guard keeps
+        the others away from; until none is left or ``guard.return_timeout_s`` has passed.
+        """
+        homes, deadline_s = self.safety.homes_m, time.monotonic() + self.config.guard.return_timeout_s
+        flying = [v for v in self.vehicles if v.status == "live" and v.system_id in homes]
+        for vehicle in flying:
+            vehicle.target_m = (*homes[vehicle.system_id], self.safety.cruise_alt_m[vehicle.system_id])
+        while time.monotonic() < deadline_s and any(v.status == "live" for v in flying):
+            self._guard_if_due()
+            for vehicle in (v for v in flying if v.status == "live"):
+                state, home = self._state(vehicle), homes[vehicle.system_id]
+                over = (state is not None and state.x_m is not None
+                        and np.hypot(state.x_m - home[0], state.y_m - home[1]) <= _HOME_M)
+                if over and (vehicle.job is None or vehicle.job.done()):
+                    vehicle.status = "ending"
+                    vehicle.job = self._pool.submit(self._end_one, vehicle, "rtl")
+            time.sleep(_TICK_S)
+        wait([v.job for v in flying if v.job is not None])
+        for vehicle in (v for v in flying if v.status == "ending"):  # its RTL failed: sent again below
+            vehicle.status = "live"
 
     def _on_state(self, state: VehicleState) -> None:
         """Publish a vehicle's state as each position arrives (on the link's reader thread)."""
