@@ -1,28 +1,44 @@
-# The two commands of the README: `make demo` runs the main job, `make test` runs the tests; `make docs` builds the site.
-# Both create .venv and install what they need on a fresh machine (CPU torch first).
+# `make demo` runs the main job, `make test` the tests, `make docs` builds the site, `make lint` checks style.
+# Each creates .venv (Python >= 3.11) and installs only what it needs: the demo the package itself, the
+# tests and the site their extras too. torch comes from pip's configured index (PyPI by default, where the
+# Linux wheel is the CUDA build); for the CPU-only build give its index:
+#   make demo TORCH_INDEX=https://download.pytorch.org/whl/cpu
 VENV ?= .venv
+PYTHON ?= python3
+TORCH ?= torch==2.13.0
+TORCH_INDEX ?=
 PY := $(VENV)/bin/python
-STAMP := $(VENV)/.installed
+PIP := $(PY) -m pip install --quiet
+TORCH_FROM := $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX),)
 
-.PHONY: demo test install lint docs
+.PHONY: demo test install install-test lint docs
 
-$(STAMP): pyproject.toml
-	python3 -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet torch==2.13.0
-	$(PY) -m pip install --quiet torch==2.13.0 -e ".[test,distributed,marl,docs,inference]"
-	touch $(STAMP)
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PIP) --upgrade pip
 
-install: $(STAMP)
+$(VENV)/.demo-installed: pyproject.toml | $(PY)
+	$(PIP) $(TORCH_FROM) "$(TORCH)"
+	$(PIP) -e . "$(TORCH)"  # torch pinned: the build installed above stays
+	touch $@
 
-demo: $(STAMP)
+$(VENV)/.test-installed: pyproject.toml $(VENV)/.demo-installed
+	$(PIP) -e ".[test,distributed,marl,docs,inference,ros2]" "$(TORCH)"  # torch pinned: no extra may move it
+	touch $@
+
+install: $(VENV)/.demo-installed
+
+install-test: $(VENV)/.test-installed
+
+demo: $(VENV)/.demo-installed
 	$(VENV)/bin/uav-swarm simulate --out out/simulate
 
-test: $(STAMP)
+test: $(VENV)/.test-installed
 	$(PY) -m pytest -q
 
-lint: $(STAMP)
+lint: $(VENV)/.test-installed
 	$(VENV)/bin/ruff check .
+	$(PY) -m mypy
 
-docs: $(STAMP)
+docs: $(VENV)/.test-installed
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir site

@@ -89,6 +89,7 @@ def _client(port: int, kind: str) -> None:
 def _timed_live(config: Any, planner: Any, scene: Any, variant: str) -> tuple[float, float, float, tuple]:
     """Wall and CPU time of the run, the server's stop time, and (received, bytes received, logged)."""
     from uav_swarm.runs.live_view import LiveView
+    from uav_swarm.runs.outputs import RunOutputs
     from uav_swarm.runs.recording import open_recorder
     from uav_swarm.runs.simulate import run_sequence
 
@@ -101,7 +102,7 @@ def _timed_live(config: Any, planner: Any, scene: Any, variant: str) -> tuple[fl
     live = LiveView("127.0.0.1", port, wait_for_client_s=120.0, max_rate_hz=max_rate_hz)
     with open_recorder(scene, live=live, command="benchmark") as recorder:
         start_s, cpu_from_s = time.perf_counter(), time.process_time()
-        run_sequence(config, planner, "learned", recorder=recorder)
+        run_sequence(config, planner, "learned", outputs=RunOutputs(recorder=recorder))
         run_s, cpu_s = time.perf_counter() - start_s, time.process_time() - cpu_from_s
         stop_from_s = time.perf_counter()
     stop_s = time.perf_counter() - stop_from_s

@@ -33,8 +33,9 @@ import numpy as np
 from typed_config import load_toml
 from uav_swarm.planning.planner import make_planner
 from uav_swarm.runs.service import static_reference
-from uav_swarm.runs.simulate import run_sequence, sequence_crowds, summarise_run
+from uav_swarm.runs.simulate import run_sequence, sequence_crowds
 from uav_swarm.runs.simulate_config import SimulateConfig
+from uav_swarm.runs.summary import summarise_run
 
 REPO = Path(__file__).resolve().parents[1]
 

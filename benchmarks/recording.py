@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from uav_swarm.planning.planner import make_planner
+from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.recording import SceneInfo, open_recorder
 from uav_swarm.runs.simulate import run_sequence
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -46,7 +47,7 @@ def main() -> None:
             plain_s.append(time.perf_counter() - start_s)
             start_s = time.perf_counter()
             with open_recorder(scene, record=path, command="benchmark") as recorder:
-                run_sequence(config, planner, "learned", recorder=recorder)
+                run_sequence(config, planner, "learned", outputs=RunOutputs(recorder=recorder))
             recorded_s.append(time.perf_counter() - start_s)
         size_mb = path.stat().st_size / 1e6
         counts = recorder.counts

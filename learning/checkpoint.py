@@ -18,11 +18,11 @@ from typing import Any
 
 import torch
 
-from learning.files import atomic_path
 from learning.model import ModelConfig, UtilityNet, build_model
 from learning.peaks import PeakConfig
 from learning.targets import TargetConfig
 from typed_config import Config, ConfigError
+from typed_config.files import atomic_path
 
 __all__ = ["CHECKPOINT_FORMAT", "CheckpointError", "Checkpoint", "save_checkpoint", "load_checkpoint",
            "checkpoint_label"]

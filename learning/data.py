@@ -37,8 +37,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from learning.executors import ShardJob, run_local, run_ray
-from learning.files import atomic_path, write_json_atomic
 from learning.task import MAX_POSITIONS, Task
+from typed_config.files import atomic_path, write_json_atomic
 
 __all__ = [
     "SPLITS", "FORMAT", "DatasetError", "sample_seed", "generate_shard", "generate_dataset",

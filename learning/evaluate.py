@@ -43,13 +43,13 @@ from tqdm.auto import tqdm
 
 from learning.checkpoint import checkpoint_label, load_checkpoint
 from learning.data import generate_dataset, load_arrays, sample_seed
-from learning.files import write_json_atomic, write_text_atomic
 from learning.inference import utility_maps
 from learning.metrics import MATCH_FRACTION, SampleScore, aggregate, score_sample
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_examples
 from learning.precision import resolve_precision
 from learning.task import PlacementCheck, Refiner, Task
+from typed_config.files import write_json_atomic, write_text_atomic
 
 __all__ = ["evaluate", "summarise_qos", "summarise_pipeline", "markdown_table"]
 

@@ -138,7 +138,7 @@ def select_engine(model: UtilityNet, shape: tuple[int, int, int], precision: Pre
             choice.skipped[name] = f"not installed ({exc.name or exc})"
             logger.info("inference engine %s skipped: %s is not installed", name, exc.name or exc)
             continue
-        except Exception as exc:  # noqa: BLE001  (an exporter's failure must not stop the planner)
+        except Exception as exc:  # an exporter's failure must not stop the planner
             choice.skipped[name] = f"failed to build: {exc}"
             logger.warning("inference engine %s skipped: it failed to build (%s)", name, exc)
             continue

@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from learning.files import atomic_path
+from typed_config.files import atomic_path
 
 __all__ = ["plot_examples", "plot_history"]
 

@@ -42,12 +42,12 @@ import torch
 
 from learning.data import load_manifest
 from learning.executors import ray_session, run_local
-from learning.files import write_json_atomic
 from learning.model import ModelConfig
 from learning.peaks import PeakConfig
 from learning.search_grid import Point, SearchConfig
 from learning.targets import TargetConfig
 from learning.train import TrainConfig, pick_device, train
+from typed_config.files import write_json_atomic
 
 __all__ = ["SEARCH_FORMAT", "SearchError", "TrialSpec", "trial_name", "run_trial", "run_search",
            "executor_label"]

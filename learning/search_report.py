@@ -28,7 +28,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from learning.files import atomic_path, write_json_atomic, write_text_atomic
+from typed_config.files import atomic_path, write_json_atomic, write_text_atomic
 
 if TYPE_CHECKING:
     from learning.search_grid import SearchConfig

@@ -8,7 +8,6 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGES = ("uav_swarm", "learning", "bridge", "typed_config")
-DEPRECATED = {"batched_env.py", "vector_env.py"}  # re-exports kept for 0.2, docs/index.md "Layout"
 
 
 def _modules() -> dict[str, Path]:
@@ -89,8 +88,8 @@ def test_libraries_never_import_the_product():
 
 
 def test_uav_swarm_top_level_holds_packages_only():
-    loose = {p.name for p in (REPO / "uav_swarm").glob("*.py")} - {"__init__.py"}
-    assert loose == DEPRECATED
+    loose = {p.name for p in (REPO / "uav_swarm").glob("*.py")} - {"__init__.py", "__main__.py"}
+    assert loose == set()
     folders = {p.name for p in (REPO / "uav_swarm").iterdir() if (p / "__init__.py").exists()}
     assert {"world", "missions", "env", "planning", "runs", "marl", "cli"} <= folders
 
@@ -101,17 +100,3 @@ def test_every_package_says_what_lives_there():
             continue
         doc = ast.get_docstring(ast.parse(init.read_text()))
         assert doc and len(doc) > 40, f"{init.relative_to(REPO)} has no docstring"
-
-
-def test_deprecated_paths_warn_and_re_export():
-    import importlib
-    import sys
-
-    import pytest
-
-    for old, new, name in (("uav_swarm.batched_env", "uav_swarm.env.batched", "BatchedUAVSwarm"),
-                           ("uav_swarm.vector_env", "uav_swarm.env.vector", "UAVSwarmVectorEnv")):
-        sys.modules.pop(old, None)
-        with pytest.warns(DeprecationWarning, match=new):
-            module = importlib.import_module(old)
-        assert getattr(module, name) is getattr(importlib.import_module(new), name)

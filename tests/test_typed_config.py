@@ -1,4 +1,3 @@
-import doctest
 from dataclasses import dataclass
 from typing import Literal
 
@@ -77,8 +76,7 @@ def test_load_toml_file_and_section(tmp_path):
         load_toml(Outer, tmp_path / "missing.toml")
 
 
-def test_module_doctests():
-    assert doctest.testmod(typed_config).failed == 0
+
 
 
 @dataclass(frozen=True)

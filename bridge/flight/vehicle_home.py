@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 from bridge.errors import HomeMismatchError
 from bridge.geo import Home, ground_distance_m
+from bridge.link.frames import MavMessage
 
 __all__ = ["ReportedHome", "HomeWatcher", "check_home_offset"]
 
@@ -62,7 +63,7 @@ class HomeWatcher:
         self._homes: dict[int, tuple[Home, float]] = {}
         self._fixes: dict[int, tuple[Home, float]] = {}
 
-    def update(self, msg: object) -> None:
+    def update(self, msg: MavMessage) -> None:
         """Note a HOME_POSITION or a GLOBAL_POSITION_INT (other messages are ignored)."""
         kind = msg.get_type()
         if kind not in self.MESSAGE_TYPES or msg.get_srcComponent() != _AUTOPILOT_COMPONENT:

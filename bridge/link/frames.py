@@ -14,7 +14,7 @@ import functools
 import operator
 import struct
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 __all__ = [
     "PROTOCOL_MESSAGES",
@@ -23,6 +23,7 @@ __all__ = [
     "SIGNATURE_LEN",
     "IFLAG_SIGNED",
     "ITEM_REQUEST",
+    "MavMessage",
     "PackedMessage",
     "Layout",
     "layout",
@@ -60,6 +61,10 @@ _SEQ_INDEX = 3  # of the sequence number in a packed body (the frame without mag
 _MAGIC = bytes((V2_MAGIC,))
 
 
+MavMessage = Any
+"""A decoded pymavlink message, or a pymavlink dialect or connection: pymavlink ships no type information
+(its messages are classes generated per dialect, their fields read by name)."""
+
 class PackedMessage(NamedTuple):
     """A message packed once for one link (:meth:`~bridge.link.mavlink.MavlinkLink.pack`).
 
@@ -72,26 +77,26 @@ class PackedMessage(NamedTuple):
 
     body: bytearray | None
     crc_extra: bytes
-    message: object | None
+    message: MavMessage | None
 
 
 class Layout(NamedTuple):
     """How one message type is packed: its class, CRC seed, wire-ordered fields and id."""
 
-    cls: type
+    cls: Any
     crc_extra: bytes
     ordered: Callable[[dict], tuple]
     msg_id: int
 
 
 @functools.cache
-def layout(dialect: object, message: str) -> Layout:
+def layout(dialect: MavMessage, message: str) -> Layout:
     """The :class:`Layout` of ``message`` (e.g. ``"mission_item_int"``) in a pymavlink dialect module."""
     cls = getattr(dialect, f"MAVLink_{message}_message")
     return Layout(cls, bytes([cls.crc_extra]), operator.itemgetter(*cls.ordered_fieldnames), cls.id)
 
 
-def crc_function(dialect: object) -> Callable[[bytes], int]:
+def crc_function(dialect: MavMessage) -> Callable[[bytes], int]:
     """The MAVLink CRC (CRC-16/MCRF4XX) of some bytes: pymavlink's own, called directly when it is native."""
     native = getattr(dialect, "mcrf4xx", None)  # fastcrc's, when installed
     if native is not None:
@@ -113,6 +118,8 @@ def pack_body(message: Layout, fields: dict, source_system: int, source_componen
 def frame(packed: PackedMessage, seq: int, crc: Callable[[bytes], int]) -> bytes:
     """The wire frame of an unsigned :class:`PackedMessage` with sequence number ``seq``."""
     body = packed.body
+    if body is None:
+        raise ValueError("a message packed for a signing link is sent as such, not framed")
     body[_SEQ_INDEX] = seq
     return _MAGIC + body + crc(body + packed.crc_extra).to_bytes(2, "little")
 

@@ -38,6 +38,7 @@ from bridge.link.frames import (
     IFLAG_SIGNED,
     ITEM_REQUEST,
     PROTOCOL_MESSAGES,
+    MavMessage,
     PackedMessage,
     crc_function,
     frame,
@@ -60,7 +61,7 @@ _RECONNECT_TIMEOUT_S = 0.1  # each try waits at most this long (on the reading t
 _STATUS_TEXTS_KEPT = 32  # per vehicle
 
 
-def use_mavlink2():  # noqa: ANN201 - the pymavlink module
+def use_mavlink2() -> MavMessage:
     """Import pymavlink's mavutil in MAVLink 2 mode (process-wide, as pymavlink decides it)."""
     os.environ["MAVLINK20"] = "1"
     from pymavlink import mavutil
@@ -111,8 +112,8 @@ class MavlinkLink:
         self._signing = signing_key is not None
         self._send_lock = threading.Lock()
         self._state_lock = threading.Condition()
-        self._heartbeats: dict[int, object] = {}
-        self._handlers: dict[int, Callable[[object], None]] = {}
+        self._heartbeats: dict[int, MavMessage] = {}
+        self._handlers: dict[int, Callable[[MavMessage], None]] = {}
         self._responders: dict[int, Callable[[int], None]] = {}
         m = mavutil.mavlink
         self._crc = crc_function(m)
@@ -121,7 +122,7 @@ class MavlinkLink:
             for cls in (m.MAVLink_mission_request_message, m.MAVLink_mission_request_int_message)
         }
         self._busy: dict[int, threading.Lock] = {}
-        self._listeners: list[tuple[Callable[[object], None], frozenset[int] | None]] = []
+        self._listeners: list[tuple[Callable[[MavMessage], None], frozenset[int] | None]] = []
         self._listened_ids: frozenset[int] | None = frozenset()  # None: some listener takes every message
         self._own_ids = self._message_ids((*PROTOCOL_MESSAGES, "HEARTBEAT", "STATUSTEXT"))
         self._status_texts: dict[int, collections.deque[tuple[float, str]]] = {}
@@ -141,11 +142,12 @@ class MavlinkLink:
         return self._reader
 
     @property
-    def mavlink(self):  # noqa: ANN201 - the pymavlink dialect module
+    def mavlink(self) -> MavMessage:
         """The pymavlink dialect module (for constants)."""
         return self._mavlink
 
-    def add_listener(self, callback: Callable[[object], None], types: Iterable[str] | None = None) -> None:
+    def add_listener(self, callback: Callable[[MavMessage], None],
+                     types: Iterable[str] | None = None) -> None:
         """Call ``callback(msg)`` for every received message (on the reading thread: keep it short).
 
         Args:
@@ -162,7 +164,7 @@ class MavlinkLink:
     def _message_ids(self, types: Iterable[str]) -> frozenset[int]:
         return frozenset(getattr(self._mavlink, f"MAVLINK_MSG_ID_{kind}") for kind in types)
 
-    def send(self, action: Callable[[object], None]) -> None:
+    def send(self, action: Callable[[MavMessage], None]) -> None:
         """Run ``action(mav)`` (e.g. ``lambda mav: mav.mission_count_send(...)``) under the send lock."""
         with self._send_lock:
             action(self._conn.mav)
@@ -192,7 +194,7 @@ class MavlinkLink:
             mav.total_packets_sent += 1
             mav.total_bytes_sent += len(wire)
 
-    def wait_heartbeat(self, system_id: int, timeout_s: float) -> object:
+    def wait_heartbeat(self, system_id: int, timeout_s: float) -> MavMessage:
         """The first (or latest) HEARTBEAT of a vehicle, waiting at most ``timeout_s``.
 
         Raises:
@@ -217,7 +219,7 @@ class MavlinkLink:
     def protocol_handler(
         self,
         system_id: int,
-        handler: Callable[[object], None],
+        handler: Callable[[MavMessage], None],
         on_request: Callable[[int], None] | None = None,
     ) -> Iterator[None]:
         """Route one vehicle's protocol messages to ``handler`` during one operation.
@@ -403,7 +405,7 @@ class MavlinkLink:
                 return []
         return mav.parse_buffer(data) or []
 
-    def _dispatch(self, msg: object, answered: bool = False) -> None:
+    def _dispatch(self, msg: MavMessage, answered: bool = False) -> None:
         """Note heartbeats and status texts; hand ``msg`` to its handler (unless ``answered``), listeners."""
         kind = msg.get_type()
         if kind == "BAD_DATA":

@@ -159,6 +159,6 @@ class LinkReader:
                 if link.reconnect_if_due(now_s):
                     self._built_for = None  # its socket changed
         for fd in ready:
-            link = self._by_fd.get(fd)
-            if link is not None and not link.read_available():
+            readable = self._by_fd.get(fd)
+            if readable is not None and not readable.read_available():
                 self._built_for = None

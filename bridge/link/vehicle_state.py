@@ -21,6 +21,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
@@ -105,7 +106,7 @@ class VehicleState:
         """True when the vehicle reports a usable position (see the module docstring)."""
         return self.lat_deg is not None and self.lon_deg is not None
 
-    def to_dict(self) -> dict[str, object]:
+    def to_dict(self) -> dict[str, Any]:
         """Plain dict of the fields (for JSON)."""
         return dataclasses.asdict(self)
 
@@ -116,7 +117,7 @@ def _fix_lost(state: VehicleState) -> bool:
             or state.ekf_position_ok is False)
 
 
-def _heartbeat(msg: mavlink.MAVLink_message) -> dict[str, object]:
+def _heartbeat(msg: mavlink.MAVLink_message) -> dict[str, Any]:
     return {
         "autopilot": msg.autopilot,
         "vehicle_type": msg.type,
@@ -126,7 +127,7 @@ def _heartbeat(msg: mavlink.MAVLink_message) -> dict[str, object]:
     }
 
 
-def _position(msg: mavlink.MAVLink_message, home: Home) -> dict[str, object]:
+def _position(msg: mavlink.MAVLink_message, home: Home) -> dict[str, Any]:
     if (msg.lat, msg.lon) == (0, 0):  # ArduPilot's "no position yet"
         return {**dict.fromkeys(_POSITION_FIELDS), "relative_alt_m": msg.relative_alt / 1000.0}
     lat_deg, lon_deg, alt_m = msg.lat / 1e7, msg.lon / 1e7, msg.alt / 1000.0
@@ -147,14 +148,14 @@ def _position(msg: mavlink.MAVLink_message, home: Home) -> dict[str, object]:
     }
 
 
-def _sys_status(msg: mavlink.MAVLink_message) -> dict[str, object]:
+def _sys_status(msg: mavlink.MAVLink_message) -> dict[str, Any]:
     return {
         "battery_remaining_pct": None if msg.battery_remaining < 0 else float(msg.battery_remaining),
         "battery_voltage_v": None if msg.voltage_battery == _UINT16_UNKNOWN else msg.voltage_battery / 1000.0,
     }
 
 
-def _battery_status(msg: mavlink.MAVLink_message) -> dict[str, object]:
+def _battery_status(msg: mavlink.MAVLink_message) -> dict[str, Any]:
     cells_mv = [v for v in msg.voltages if v != _UINT16_UNKNOWN]
     return {
         "battery_remaining_pct": None if msg.battery_remaining < 0 else float(msg.battery_remaining),
@@ -162,12 +163,12 @@ def _battery_status(msg: mavlink.MAVLink_message) -> dict[str, object]:
     }
 
 
-def _ekf_status(msg: mavlink.MAVLink_message) -> dict[str, object]:
+def _ekf_status(msg: mavlink.MAVLink_message) -> dict[str, Any]:
     flags = msg.flags
     return {"ekf_position_ok": bool(flags & _EKF_POSITION_OK) and not flags & _EKF_UNINITIALIZED}
 
 
-def _mission_current(msg: mavlink.MAVLink_message) -> dict[str, object]:
+def _mission_current(msg: mavlink.MAVLink_message) -> dict[str, Any]:
     total = getattr(msg, "total", _UINT16_UNKNOWN)
     return {"mission_seq_current": msg.seq, "mission_total": None if total == _UINT16_UNKNOWN else total}
 

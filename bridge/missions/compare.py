@@ -72,7 +72,7 @@ def _differences(
     def differ(name: str, sent: object, back: object) -> None:
         changes.append(f"{name} sent {sent}, read back {back}")
 
-    exact = ("command", "mission_type", "autocontinue")
+    exact: tuple[str, ...] = ("command", "mission_type", "autocontinue")
     if strict:
         exact += ("frame", "param1", "param2", "param3", "param4", "x", "y", "z")
     for name in exact:

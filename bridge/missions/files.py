@@ -1,6 +1,6 @@
 """Mission files: QGroundControl ``.plan`` (JSON) and ``QGC WPL 110`` (``.waypoints``).
 
-Both are written atomically (a temporary file in the same folder, then
+Both are written atomically (:mod:`typed_config.files`: a temporary file in the same folder, then
 ``os.replace``) and read back to the same items: coordinates as degrees that
 round to the same degE7 integers, parameters and altitudes as the shortest
 decimal of the same float32 (``NaN`` is ``null`` in JSON, ``nan`` in WPL).
@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -26,6 +24,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from bridge.autopilots import conventions_for
 from bridge.geo import Home
 from bridge.missions.items import DEG_E7, Mission, MissionItem, home_placeholder, mark_current
+from typed_config.files import write_text_atomic
 
 __all__ = [
     "save_plan",
@@ -34,38 +33,11 @@ __all__ = [
     "load_wpl",
     "save_mission",
     "load_mission",
-    "atomic_write_text",
 ]
 
 WPL_HEADER = "QGC WPL 110"
 PLAN_SUFFIXES = (".plan",)
 WPL_SUFFIXES = (".waypoints", ".txt")
-
-
-def _default_mode() -> int:
-    """The mode ``open()`` gives a new file: 0o666 less the process's umask (0644 under the usual 022)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
-
-
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then ``os.replace``).
-
-    The file gets the permissions of any other new file (not ``mkstemp``'s private 0600).
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(fd, _default_mode())
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _json_number(value: float) -> float | None:
@@ -112,7 +84,7 @@ def save_plan(path: str | Path, mission: Mission) -> None:
         "geoFence": {"circles": [], "polygons": [], "version": 2},
         "rallyPoints": {"points": [], "version": 2},
     }
-    atomic_write_text(path, json.dumps(document, indent=4, allow_nan=False) + "\n")
+    write_text_atomic(path, json.dumps(document, indent=4, allow_nan=False) + "\n")
 
 
 def load_plan(path: str | Path) -> Mission:
@@ -172,7 +144,7 @@ def save_wpl(path: str | Path, items: tuple[MissionItem, ...]) -> None:
             item.autocontinue,
         ]
         rows.append("\t".join(str(v) for v in values))
-    atomic_write_text(path, "\n".join(rows) + "\n")
+    write_text_atomic(path, "\n".join(rows) + "\n")
 
 
 def load_wpl(path: str | Path) -> tuple[MissionItem, ...]:

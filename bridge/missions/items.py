@@ -37,6 +37,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
@@ -119,7 +120,7 @@ class MissionItem:
     def __hash__(self) -> int:
         return hash(self._key())
 
-    def message_fields(self) -> dict[str, float | int]:
+    def message_fields(self) -> dict[str, Any]:
         """Keyword arguments for ``mission_item_int_send`` (without target ids)."""
         return {name: getattr(self, name) for name in self.__dataclass_fields__}
 
@@ -208,7 +209,7 @@ def waypoints_enu(
 
 
 def _global_item(
-    seq: int, command: int, home: Home, point_m: tuple[float, float, float], **params: float
+    seq: int, command: int, home: Home, point_m: tuple[float, float, float], **params: Any
 ) -> MissionItem:
     lat_deg, lon_deg, _ = enu_to_geodetic(home, *point_m)
     return MissionItem(

@@ -24,6 +24,7 @@ from typing import TypeVar
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionMismatchError, MissionTimeoutError, mission_result_error
+from bridge.link.frames import MavMessage
 from bridge.link.mavlink import MavlinkLink
 from bridge.missions.compare import compare_missions
 from bridge.missions.items import DEG_E7, MissionItem
@@ -68,7 +69,7 @@ class _Exchange:
         self.deadline_s = time.monotonic() + timeout_s
         send()
 
-    def next(self) -> object:
+    def next(self) -> MavMessage:
         """The next message for this vehicle, re-sending on timeouts; raises when retries run out.
 
         The wait is measured from the last send, not from the last message: unrelated
@@ -163,7 +164,7 @@ class MissionClient:
             )
         return tuple(items), frozenset(as_float)
 
-    def _await(self, ex: _Exchange, wanted: Callable[[object], bool]) -> object:
+    def _await(self, ex: _Exchange, wanted: Callable[[MavMessage], bool]) -> MavMessage:
         """The next message satisfying ``wanted``; error acknowledgements raise."""
         while True:
             msg = ex.next()
@@ -174,7 +175,7 @@ class MissionClient:
             if msg.get_type() == "MISSION_ACK" and msg.type != self._m.MAV_MISSION_ACCEPTED:
                 raise mission_result_error(msg.type, self.system_id, ex.seq)
 
-    def _item_from(self, msg: object) -> MissionItem:
+    def _item_from(self, msg: MavMessage) -> MissionItem:
         x, y = msg.x, msg.y
         if msg.get_type() == "MISSION_ITEM":
             x, y = round(x * DEG_E7), round(y * DEG_E7)

@@ -49,7 +49,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, MissionResultError, MissionTimeoutError, mission_result_error
-from bridge.link.frames import PackedMessage
+from bridge.link.frames import MavMessage, PackedMessage
 from bridge.link.mavlink import MavlinkLink
 from bridge.missions.items import MissionItem
 
@@ -68,7 +68,7 @@ def vehicle_says(texts: Sequence[str]) -> str:
     return "vehicle says: " + "; ".join(f'"{t}"' for t in dict.fromkeys(texts)) if texts else ""
 
 
-def is_mission_message(msg: object) -> bool:
+def is_mission_message(msg: MavMessage) -> bool:
     """True unless the message belongs to another mission type (fence, rally points)."""
     return getattr(msg, "mission_type", _MISSION) == _MISSION
 
@@ -171,7 +171,7 @@ class _Upload:
         self.resend = (lambda: self.link.send_packed(packed)) if last else (lambda: None)
         self.sent_last = self.sent_last or last
 
-    def on_message(self, msg: object) -> None:
+    def on_message(self, msg: MavMessage) -> None:
         """Answer a request at once; note acknowledgements (reading thread)."""
         m = self.link.mavlink
         kind = msg.get_type()

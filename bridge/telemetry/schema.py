@@ -118,6 +118,10 @@ class UavState(_Payload, frozen=True, kw_only=True, gc=False, tag="state"):
         battery_pct: Remaining battery in percent [0, 100], None when unknown.
         mission_item: Index of the mission item being flown (0-based), None when unknown.
         mission_items_total: Number of items in the mission, None when unknown.
+        separation_held: The separation guard holds the UAV now (it waits before leaving for its target,
+            or its command was turned or braked to keep its distance), None when no guard runs.
+        nearest_uav_m: Distance to the nearest other UAV in metres (3-D where the UAVs fly in altitude
+            layers), None when unknown or the UAV flies alone.
     """
 
     kind: ClassVar[str] = "state"
@@ -130,6 +134,8 @@ class UavState(_Payload, frozen=True, kw_only=True, gc=False, tag="state"):
     battery_pct: Annotated[float, msgspec.Meta(ge=0.0, le=100.0)] | None = None
     mission_item: NonNegativeInt | None = None
     mission_items_total: NonNegativeInt | None = None
+    separation_held: bool | None = None
+    nearest_uav_m: Annotated[float, msgspec.Meta(ge=0.0)] | None = None
 
     def __post_init__(self) -> None:
         known = (self.position_enu_m is not None, self.velocity_enu_m_s is not None)

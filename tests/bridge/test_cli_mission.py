@@ -33,7 +33,7 @@ def test_export_writes_one_file_per_vehicle(tmp_path, capsys):
                 str(config),
                 "--plans",
                 str(plans),
-                "--out-dir",
+                "--out",
                 str(out),
                 "--autopilot",
                 "ardupilot",
@@ -52,7 +52,7 @@ def test_export_writes_one_file_per_vehicle(tmp_path, capsys):
                 str(config),
                 "--target",
                 "1:5,5",
-                "--out-dir",
+                "--out",
                 str(out),
                 "--format",
                 "waypoints",
@@ -79,7 +79,7 @@ def test_export_refuses_points_outside_the_geofence(tmp_path, capsys):
                 str(config),
                 "--target",
                 "1:9000,0",
-                "--out-dir",
+                "--out",
                 str(tmp_path / "o"),
             ]
         )
@@ -106,7 +106,7 @@ def test_upload_download_clear_against_vehicles(tmp_path, capsys):
         assert "vehicle 4: uploaded 3 items" in capsys.readouterr().out
         assert [len(v.mission) for v in vehicles] == [3, 3]
         out = tmp_path / "down"
-        assert main(["mission", "download", "--config", str(config), "--out-dir", str(out)]) == 0
+        assert main(["mission", "download", "--config", str(config), "--out", str(out)]) == 0
         assert tuple(vehicles[1].mission) == load_plan(out / "vehicle_4.plan").items
         vehicles[1].mission = []
         assert main(["mission", "upload", "--config", str(config), "--from-dir", str(out)]) == 0
@@ -126,7 +126,7 @@ def test_upload_download_clear_against_vehicles(tmp_path, capsys):
 ])
 def test_malformed_targets_are_refused_at_once(tmp_path, capsys, args, message):
     config = _config(tmp_path, {1: free_udp_port()})
-    assert main(["mission", "export", "--config", str(config), *args, "--out-dir", str(tmp_path / "o")]) == 2
+    assert main(["mission", "export", "--config", str(config), *args, "--out", str(tmp_path / "o")]) == 2
     assert message in capsys.readouterr().err and not (tmp_path / "o").exists()
 
 
@@ -134,7 +134,7 @@ def test_waypoints_come_in_order_before_the_target(tmp_path):
     config = _config(tmp_path, {1: free_udp_port()})
     out = tmp_path / "o"
     assert main(["mission", "export", "--config", str(config), "--waypoint", "1:5,5",
-                 "--waypoint", "1:6,7,25", "--target", "1:10,20", "--out-dir", str(out)]) == 0
+                 "--waypoint", "1:6,7,25", "--target", "1:10,20", "--out", str(out)]) == 0
     items = load_plan(out / "vehicle_1.plan").items
     waypoint = mavlink.MAV_CMD_NAV_WAYPOINT
     assert [i.command for i in items] == [mavlink.MAV_CMD_NAV_TAKEOFF, waypoint, waypoint, waypoint,
@@ -168,7 +168,7 @@ def test_export_refuses_a_malformed_plans_file_naming_it_and_writes_nothing(tmp_
     plans = tmp_path / "plans.json"
     plans.write_text(content)
     out = tmp_path / "o"
-    argv = ["mission", "export", "--config", str(config), "--plans", str(plans), "--out-dir", str(out)]
+    argv = ["mission", "export", "--config", str(config), "--plans", str(plans), "--out", str(out)]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
@@ -179,7 +179,7 @@ def test_export_refuses_a_target_for_a_vehicle_the_config_lacks(tmp_path, capsys
     config = _config(tmp_path, {1: free_udp_port(), 2: free_udp_port()})
     out = tmp_path / "o"
     assert main(["mission", "export", "--config", str(config), "--target", "1:5,5", "--target", "9:5,5",
-                 "--out-dir", str(out)]) == 2
+                 "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "vehicle(s) [9] are not in the bridge config; configured vehicle ids: [1, 2]" in err
     assert not out.exists()

@@ -160,7 +160,7 @@ def test_px4_mission_upload_and_the_clear_guard_at_its_take_off_item(tmp_path, c
             toml = str(_bridge_toml(tmp_path / "bridge.toml", PX4_HOME, urls))
             targets = ["--target", "1:40,25", "--target", "2:-30,10", "--target", "3:10,-40"]
             assert main(["mission", "upload", "--config", toml, *targets]) == 0
-            assert main(["mission", "download", "--config", toml, "--out-dir", str(tmp_path / "down")]) == 0
+            assert main(["mission", "download", "--config", toml, "--out", str(tmp_path / "down")]) == 0
             with MavlinkLink(_px4_url(1)) as link:  # vehicle 2 flies its mission: AUTO.MISSION, armed
                 protocol = ProtocolConfig()
                 set_mode(link, 2, PX4.mission_mode, protocol)

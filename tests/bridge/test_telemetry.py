@@ -166,7 +166,7 @@ def test_cli_record_and_watch_are_bounded(peer, tmp_path, capsys):
             endpoint,
             "--count",
             "40",
-            "--duration",
+            "--duration-s",
             "10",
         )
         == 0
@@ -179,7 +179,7 @@ def test_cli_record_and_watch_are_bounded(peer, tmp_path, capsys):
     assert {line["uav_id"] for line in lines if line.get("presence") == "alive"} == {0, 1, 2, 3}
 
     started = time.monotonic()
-    assert _cli("watch", "--swarm", SWARM, "--connect", endpoint, "--duration", "0.5") == 0
+    assert _cli("watch", "--swarm", SWARM, "--connect", endpoint, "--duration-s", "0.5") == 0
     assert time.monotonic() - started < 5.0
     table = capsys.readouterr().out
     assert f"swarm {SWARM}: 4 alive, 4 with state" in table

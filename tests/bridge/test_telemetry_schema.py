@@ -45,6 +45,8 @@ FULL_STATE = UavState(
     battery_pct=87.5,
     mission_item=2,
     mission_items_total=5,
+    separation_held=True,
+    nearest_uav_m=6.25,
 )
 MINIMAL_STATE = UavState(
     stamp_s=0.0, seq=0, source="sim", uav_id=0, position_enu_m=(0, 0, 0), velocity_enu_m_s=(0, 0, 0)
@@ -134,6 +136,7 @@ def test_malformed_payloads_raise_a_named_error(key, data, reason):
         ({"position_enu_m": (0.0, float("inf"), 0.0)}, "position_enu_m"),
         ({"position_enu_m": (1.0, 2.0)}, "position_enu_m"),
         ({"battery_pct": -1.0}, "battery_pct"),
+        ({"nearest_uav_m": -0.5}, "nearest_uav_m"),
         ({"source": "replay"}, "source"),
     ],
 )

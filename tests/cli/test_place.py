@@ -200,4 +200,65 @@ def test_a_fence_refusal_writes_nothing(tmp_path, capsys):
     bridge = _bridge_toml(tmp_path / "bridge.toml", far_home, [])
     assert main(["place", "--task", "fp", "--building", str(BUILDINGS / "urban_market.geojson"), "--out",
                  str(out), "--bridge-config", str(bridge)]) == 2
-    assert "Geofence" in capsys.readouterr().err and not out.exists()
+    assert "geofence" in capsys.readouterr().err and not out.exists()
+
+
+def _shelter_ring(shift_lon_deg: float = 0.0, shift_lat_deg: float = 0.0, swap: bool = False) -> list:
+    data = json.loads((BUILDINGS / "picnic_shelter.geojson").read_text())
+    ring = data["features"][0]["geometry"]["coordinates"][0]
+    moved = [[lon + shift_lon_deg, lat + shift_lat_deg] for lon, lat in ring]
+    return [[lat, lon] for lon, lat in moved] if swap else moved
+
+
+def _polygon_file(path: Path, ring: list) -> Path:
+    path.write_text(json.dumps({"type": "Polygon", "coordinates": [ring]}))
+    return path
+
+
+def test_placement_says_where_the_building_is_and_the_frame_of_its_guards(tmp_path, capsys):
+    building = _polygon_file(tmp_path / "shelter.geojson", _shelter_ring())
+    out = tmp_path / "out"
+    assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out),
+                 "--method", "expert"]) == 0
+    captured = capsys.readouterr()
+    assert "warning" not in captured.err
+    summary = json.loads((out / "placement.json").read_text())
+    ring = np.array(_shelter_ring()[:-1])
+    centroid = summary["buildings"][0]["centroid"]
+    assert centroid["lat_deg"] == pytest.approx(ring[:, 1].mean(), abs=2e-5)
+    assert centroid["lon_deg"] == pytest.approx(ring[:, 0].mean(), abs=2e-5)
+    assert f"at lat {centroid['lat_deg']:.6f}, lon {centroid['lon_deg']:.6f}" in captured.out
+    origin = summary["frame"]["origin"]
+    assert "east, north metres" in summary["frame"]["guards_m"]
+    home = Home(lat_deg=origin["lat_deg"], lon_deg=origin["lon_deg"], alt_m=0.0)
+    guards = [f for f in json.loads((out / "guards.geojson").read_text())["features"]
+              if f["properties"]["role"] == "guard"]
+    for feature, guard_m in zip(guards, summary["buildings"][0]["guards_m"], strict=True):
+        lon, lat = feature["geometry"]["coordinates"]
+        x, y, _ = geodetic_to_enu(home, lat, lon, 0.0)  # the guards in metres are from that origin
+        assert np.hypot(x - guard_m[0], y - guard_m[1]) < 0.01
+
+
+def test_swapped_coordinates_beyond_the_polar_circle_are_warned_about(tmp_path, capsys):
+    building = _polygon_file(tmp_path / "swapped.geojson", _shelter_ring(swap=True))  # latitude -84.35
+    out = tmp_path / "out"
+    assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out),
+                 "--method", "expert"]) == 2  # squashed by the swap, the outline leaves walls unseen
+    warning, refusal = capsys.readouterr().err.strip().splitlines()
+    assert "warning" in warning and "latitude -84.35" in warning and "[longitude, latitude]" in warning
+    assert "no guard position" in refusal and not out.exists()
+
+
+def test_swapped_coordinates_far_from_home_are_warned_about_before_the_fence_refuses(tmp_path, capsys):
+    ring = _shelter_ring(shift_lon_deg=8.54 + 84.35, shift_lat_deg=47.37 - 33.75, swap=True)  # Zurich
+    building = _polygon_file(tmp_path / "swapped.geojson", ring)
+    bridge = _bridge_toml(tmp_path / "bridge.toml", Home(lat_deg=47.3702, lon_deg=8.5401, alt_m=400.0), [])
+    out = tmp_path / "out"
+    assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out), "--method",
+                 "expert", "--bridge-config", str(bridge)]) == 2
+    err = capsys.readouterr().err
+    assert "warning" in err and "with latitude and longitude swapped" in err and not out.exists()
+    unswapped = _polygon_file(tmp_path / "right.geojson", _shelter_ring(8.54 + 84.35, 47.37 - 33.75))
+    assert main(["place", "--task", "agp", "--building", str(unswapped), "--out", str(out), "--method",
+                 "expert", "--bridge-config", str(bridge)]) == 0
+    assert "warning" not in capsys.readouterr().err

@@ -31,7 +31,7 @@ def test_bad_input_exits_2_with_a_message(tmp_path, capsys) -> None:
     assert main(["rl-compare", "--controllers", "mappo", "--out", str(tmp_path)]) == 2
     assert "needs a policy file" in capsys.readouterr().err
     assert main(["rl-compare", "--controllers", "nobody", "--out", str(tmp_path)]) == 2
-    assert "unknown controller" in capsys.readouterr().err
+    assert "argument --controllers: invalid choice: 'nobody'" in capsys.readouterr().err
     assert main(["rl-compare", "--episodes", "0", "--out", str(tmp_path)]) == 2
     assert not (tmp_path / "comparison.json").exists()
 
@@ -65,3 +65,13 @@ def test_planned_episodes_fly_in_lockstep_as_they_fly_alone() -> None:
     alone = np.concatenate(alone)
     assert score.steps == world.n_steps == 20 and score.replan_ms > 0
     assert score.mean_qos_s1 == float(alone[:, 0].mean()) and score.mean_qos_s2 == float(alone[:, 1].mean())
+
+
+def test_the_controllers_flag_offers_every_controller() -> None:
+    from uav_swarm.cli import build_parser
+    from uav_swarm.cli.conventions import iter_parsers
+    from uav_swarm.marl.compare import CONTROLLERS
+
+    parser = dict(iter_parsers(build_parser()))[("rl-compare",)]
+    action = next(a for a in parser._actions if "--controllers" in a.option_strings)
+    assert tuple(action.choices) == CONTROLLERS

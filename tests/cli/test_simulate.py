@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SMALL_WIFI_TASK
 from PIL import Image
 from ports import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
@@ -20,6 +19,7 @@ from bridge.missions.files import load_plan
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 from bridge.telemetry.schema import Plan, Qos, UavState
+from conftest import SMALL_WIFI_TASK
 from uav_swarm.cli import main
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -110,8 +110,8 @@ def test_expert_only_without_gif(tmp_path, tiny_checkpoint):
 
 
 @pytest.mark.parametrize(("extra", "message"), [
-    (["--n-uavs", "11"], "n_uavs = 11 is out of range"),
-    (["--duration-s", "-1"], "duration_s = -1.0 is out of range"),
+    (["--n-uavs", "11"], "argument --n-uavs: 11 is out of range: allowed >= 1 and <= 10"),
+    (["--duration-s", "-1"], "argument --duration-s: -1 is out of range"),
     (["--checkpoint", "/does/not/exist.pt"], "checkpoint not found: /does/not/exist.pt"),
     (["--bridge-config", "/does/not/exist.toml"], "config file not found"),
 ], ids=["uavs", "duration", "checkpoint", "bridge"])

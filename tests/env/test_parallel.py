@@ -1,5 +1,6 @@
 """The uav_swarm_v0 environment: PettingZoo's conformance suite over a grid, and our own checks."""
 
+import copy
 import functools
 import itertools
 import types
@@ -166,7 +167,7 @@ def test_reward_infos_and_accessors_agree_with_the_world():
         par_env.uav_positions_m[0, 0] = 1.0  # read-only
 
 
-def test_waypoint_mode_reaches_targets_and_separation_is_penalised():
+def test_waypoint_mode_reaches_targets_and_the_guard_keeps_the_separation():
     par_env = parallel_env(**small(n_uavs=3, action_mode="waypoint", max_cycles=600, separation_weight=0.5))
     par_env.reset(seed=4)
     targets = {"uav_0": np.array([20.0, 30.0]), "uav_1": np.array([180.0, 150.0]),
@@ -176,12 +177,29 @@ def test_waypoint_mode_reaches_targets_and_separation_is_penalised():
     assert np.allclose(par_env.uav_positions_m, np.stack(list(targets.values())), atol=0.05)
     assert np.allclose(par_env.uav_velocities_m_s, 0.0, atol=0.05)
     assert infos["uav_0"]["separation_penalty"] == 0.0
-    # Same target for all: three coinciding pairs, penalty 3.
+    # Same target for all: the guard holds the later UAVs back, no pair comes within the minimum.
     together = {a: np.array([100.0, 100.0]) for a in par_env.agents}
+    held = np.zeros(3)
     for _ in range(250):
         _, rewards, _, _, infos = par_env.step(together)
-    assert infos["uav_0"]["separation_penalty"] == pytest.approx(3.0, abs=0.05)
-    assert rewards["uav_0"] == pytest.approx(infos["uav_0"]["qos_s1"] - 0.5 * 3.0, abs=0.05)
+        held += [infos[a]["separation_held"] for a in par_env.agents]
+        assert infos["uav_0"]["closest_separation_m"] >= 5.0 - 1e-9
+    assert infos["uav_0"]["separation_penalty"] == 0.0
+    assert held.sum() > 0
+    assert np.linalg.norm(par_env.uav_positions_m - 100.0, axis=1).min() < 5.0  # one of them got there
+
+
+def test_velocity_mode_is_not_guarded_and_separation_is_penalised():
+    par_env = parallel_env(**small(n_uavs=3, max_cycles=600, separation_weight=0.5))
+    par_env.reset(seed=4)
+    for _ in range(300):  # every UAV flies towards the centre, at most at 1 m/s once within 10 m
+        offset = (np.array([100.0, 100.0]) - par_env.uav_positions_m) / 10.0
+        action = np.clip(offset / np.maximum(1.0, np.abs(offset).max(axis=1, keepdims=True)), -1, 1)
+        _, rewards, _, _, infos = par_env.step(dict(zip(par_env.agents, action, strict=True)))
+    info = infos["uav_0"]
+    assert info["closest_separation_m"] < 1.0 and info["separation_penalty"] > 2.0
+    assert {infos[a]["separation_held"] for a in par_env.agents} == {0}
+    assert rewards["uav_0"] == pytest.approx(info["qos_s1"] - 0.5 * info["separation_penalty"], abs=1e-12)
 
 
 def test_missing_agent_keeps_its_target_or_stops():
@@ -277,3 +295,18 @@ def test_3d_distance_uses_the_flight_altitude():
     assert flat.coverage_radius_m == pytest.approx(30.0) and high.coverage_radius_m == pytest.approx(24.0)
     with pytest.raises(ConfigError, match="radio.altitude_m"):
         parallel_env(radio={"altitude_m": 10.0})
+
+
+def test_a_deep_copy_is_an_independent_env():
+    original = parallel_env(**small(n_uavs=2, action_mode="waypoint", max_cycles=400))
+    original.reset(seed=12)
+    twin = copy.deepcopy(original)
+    for _ in range(300):  # both UAVs fly to the first pedestrian: their patches see the crowd
+        actions = {a: np.array(original.pedestrian_positions_m[0]) for a in original.agents}
+        obs, *_ = original.step(actions)
+        twin_obs, *_ = twin.step(actions)
+        for agent in obs:
+            np.testing.assert_array_equal(obs[agent], twin_obs[agent])
+    assert np.any(obs["uav_0"][31:-4] > 0) or np.any(obs["uav_1"][31:-4] > 0)  # the patches are seen
+    twin.reset(seed=13)
+    assert not np.array_equal(twin.state(), original.state())

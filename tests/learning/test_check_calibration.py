@@ -62,7 +62,7 @@ def test_the_command_writes_the_report_and_refuses_bad_input(tiny_checkpoint, sm
     bad = tmp_path / "bad.json"
     assert main([*common, "--out", str(bad), "--qos-floor", "0"]) == 2
     assert main([*common[:-4], "--thresholds", "-1", "--out", str(bad)]) == 2
-    assert "threshold_abs" in capsys.readouterr().err
+    assert "argument --thresholds: -1 is out of range" in capsys.readouterr().err
     assert main([*common[:3], "--checkpoint", str(tiny_checkpoint), "--data", str(data_of(tiny_checkpoint)),
                  "--out", str(bad)]) == 2  # the shipped [task] defaults: not the data's config
     assert "another config" in capsys.readouterr().err

@@ -23,6 +23,7 @@ from learning.search_report import (
 from learning.train import TrainConfig
 from typed_config import ConfigError
 from uav_swarm.cli import build_parser, main
+from uav_swarm.cli.conventions import iter_parsers
 from uav_swarm.missions import registry
 
 SMALL = functools.partial(BlobTask, BlobConfig(size_px=16, max_blobs=3))
@@ -158,9 +159,12 @@ def test_grids_parse_inclusively():
 
 
 def test_the_command_line_default_grid_is_the_readmes_wifi_grid():
-    args = build_parser().parse_args(["search", "--task", "wifi-s1", "--data", "d", "--out", "o"])
-    assert (args.alpha2, args.sigma2) == ("20:60:10", "5:45:10")
-    assert (SearchConfig().alpha2, SearchConfig().sigma2) == (args.alpha2, args.sigma2)
+    parser = build_parser()
+    args = parser.parse_args(["search", "--task", "wifi-s1", "--data", "d", "--out", "o"])
+    assert (args.alpha2, args.sigma2) == (None, None)  # not given: SearchConfig's defaults, as the help says
+    assert (SearchConfig().alpha2, SearchConfig().sigma2) == ("20:60:10", "5:45:10")
+    search_help = " ".join(dict(iter_parsers(parser))[("search",)].format_help().split())
+    assert "(default: 20:60:10)" in search_help and "(default: 5:45:10)" in search_help
     assert SearchConfig().sigma2_values == (5, 15, 25, 35, 45)
 
 

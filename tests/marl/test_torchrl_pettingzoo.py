@@ -1,6 +1,5 @@
 """TorchRL's PettingZooWrapper over uav_swarm_v0: specs, and rollouts equal to the raw env's, step by step."""
 
-import doctest
 import subprocess
 import sys
 
@@ -11,7 +10,6 @@ from marl_world import SMALL_WORLD, random_actions, raw_trajectory  # noqa: E402
 from tensordict import TensorDict  # noqa: E402
 from torchrl.envs.utils import MarlGroupMapType, check_env_specs  # noqa: E402
 
-import uav_swarm.marl.torchrl_pettingzoo as torchrl_module  # noqa: E402
 from uav_swarm.env.parallel import parallel_env  # noqa: E402
 from uav_swarm.marl import torchrl_env  # noqa: E402
 
@@ -124,7 +122,3 @@ def test_importing_the_package_imports_no_optional_library():
             "print(sorted({'torch', 'torchrl', 'tensordict', 'supersuit'} & set(sys.modules)))")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "[]"
-
-
-def test_module_doctest():
-    assert doctest.testmod(torchrl_module).failed == 0

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import doctest
 import json
 from pathlib import Path
 
-from uav_swarm.runs import foxglove_layout
 from uav_swarm.runs.foxglove_layout import layout_json
 from uav_swarm.runs.recording import RUN_TOPICS
 
@@ -33,7 +31,3 @@ def test_the_layout_draws_the_scene_plots_the_qos_and_tabulates_the_plan():
     assert plotted == ["/qos.qos_s1", "/qos.qos_s2", "/qos.mean_throughput_mbps"]
     assert panels["Table"]["topicPath"] == "/plan.targets"
     assert {path.split(".")[0] for path in [*plotted, panels["Table"]["topicPath"]]} <= set(RUN_TOPICS)
-
-
-def test_module_doctests():
-    assert doctest.testmod(foxglove_layout).failed == 0

@@ -59,18 +59,20 @@ def test_live_options():
     assert live_view_option(None) is None
     assert live_view_option("0.0.0.0:9000", 5) == LiveView("0.0.0.0", 9000, 5.0)
     assert not LiveView("0.0.0.0", 9000).is_loopback and LiveView("localhost", 1).is_loopback
-    with pytest.raises(ConfigError, match="live_wait_s = 3.0: .*give --live"):
+    with pytest.raises(ConfigError, match="--live-wait-s 3.0: .*give --live"):
         live_view_option(None, 3.0)
-    with pytest.raises(ConfigError, match="live_speed = 2.0: .*give --live"):
+    with pytest.raises(ConfigError, match="--speedup 2.0: .*give --live"):
         live_view_option(None, None, 2.0)
-    with pytest.raises(ConfigError, match="live_wait_s = -1"):
+    with pytest.raises(ConfigError, match="--live-wait-s -1: give the seconds"):
         live_view_option("8765", -1)
-    with pytest.raises(ConfigError, match="live_speed = 0"):
+    with pytest.raises(ConfigError, match="--speedup 0: give run seconds"):
         live_view_option("8765", 0, 0)
+    with pytest.raises(ConfigError, match="--live '8765x': give PORT"):
+        live_view_option("8765x")
 
 
 def test_a_run_streamed_at_a_speed_keeps_its_pace(tmp_path):
-    """``--live-speed 4``: 2 s of run time take at least 0.5 s of wall-clock time (it waits on the clock)."""
+    """``--speedup 4``: 2 s of run time take at least 0.5 s of wall-clock time (it waits on the clock)."""
     import time
 
     scene = SceneInfo(width_m=100.0, height_m=80.0, coverage_radius_m=30.0)
@@ -92,7 +94,7 @@ def test_the_command_exits_2_before_any_output_on_a_bad_or_busy_live_port(tmp_pa
         port = str(busy.getsockname()[1]) if live == "busy" else live
         assert main(_simulate_argv(tmp_path, "--duration-s", "1", "--live", port,
                                    "--record", str(tmp_path / "run.mcap"))) == 2
-    assert "uav-swarm simulate: live = " in capsys.readouterr().err
+    assert "uav-swarm simulate: --live " in capsys.readouterr().err
     assert not (tmp_path / "out").exists() and not (tmp_path / "run.mcap").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["sim.toml"]  # no temporary recording left either
 
@@ -233,7 +235,7 @@ def test_fly_refuses_a_bad_live_address_before_anything_is_sent(tmp_path, capsys
     argv = ["fly", "--bridge-config", str(tmp_path / "none.toml"), "--out", str(tmp_path / "out"),
             "--live", "localhost:http"]
     assert main(argv) == 2
-    assert "uav-swarm fly: live = 'localhost:http': give PORT or HOST:PORT" in capsys.readouterr().err
+    assert "uav-swarm fly: --live 'localhost:http': give PORT or HOST:PORT" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 
 

@@ -8,20 +8,18 @@ JSON channels against the JSON Schema the file declares for them.
 from __future__ import annotations
 
 import base64
-import doctest
 import json
 
 import jsonschema
 import numpy as np
 import pytest
-from conftest import SMALL_WIFI_TASK
 from foxglove_readback import PUBLISHED, conform, read_back
 
 from bridge.geo import Home
 from bridge.telemetry.schema import Qos, UavState
+from conftest import SMALL_WIFI_TASK
 from typed_config import ConfigError
 from uav_swarm.cli import main
-from uav_swarm.runs import foxglove_scene, live_view, recording
 from uav_swarm.runs.recording import RUN_METADATA, SceneInfo, open_recorder
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -225,8 +223,3 @@ def test_the_telemetry_channels_carry_what_zenoh_carries(tmp_path):
         recorded[(type(m).__name__, getattr(m, "uav_id", None), m.seq)] == m for m in received)
     states = [m for m in received if isinstance(m, UavState)]
     assert states and all(m.position_wgs84 is not None for m in states)  # filled from the home, in both
-
-
-@pytest.mark.parametrize("module", [recording, foxglove_scene, live_view], ids=lambda m: m.__name__)
-def test_module_doctests(module):
-    assert doctest.testmod(module).failed == 0

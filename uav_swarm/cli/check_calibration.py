@@ -2,14 +2,16 @@ r"""``uav-swarm calibrate-check``: choose the Wi-Fi rule check's settings on the
 
 Example::
 
-    uav-swarm calibrate-check --task wifi-s1 --config configs/tasks/wifi-s1.toml \\
-        --checkpoint uav_swarm/checkpoints/wifi-s1.pt --data runs/wifi-s1/data10000 \\
-        --out results/wifi-s1/rule-check/calibration.json
+    uav-swarm calibrate-check --task wifi-s1 --config configs/tasks/wifi-s1.toml \
+        --checkpoint uav_swarm/checkpoints/wifi-s1.pt --data runs/wifi-s1/data10000 \
+        --out runs/wifi-s1/calibration.json
 """
 
 from __future__ import annotations
 
 import argparse
+
+from uav_swarm.cli.conventions import number
 
 __all__ = ["register", "run"]
 
@@ -21,18 +23,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``calibrate-check`` subcommand."""
     parser = subparsers.add_parser(
         "calibrate-check",
-        help="score the rule check's settings on the validation split and choose them (Wi-Fi)")
-    parser.add_argument("--task", required=True, help="wifi-s1 or wifi-s2")
-    parser.add_argument("--config", help="task settings TOML (its [task] table is used)")
+        help="score the rule check's settings on the validation split and choose them (Wi-Fi)",
+        description=__doc__)
+    parser.add_argument("--task", required=True, choices=("wifi-s1", "wifi-s2"), help="the Wi-Fi task")
+    parser.add_argument("--config", help="task settings TOML (its [task] table is used; default: none)")
     parser.add_argument("--checkpoint", required=True, help="a .pt file trained on --data")
     parser.add_argument("--data", required=True, help="the dataset the checkpoint was trained on")
-    parser.add_argument("--thresholds", type=float, nargs="+", default=list(_THRESHOLDS),
+    parser.add_argument("--thresholds", type=number(float, ge=0.0), nargs="+", default=list(_THRESHOLDS),
                         help="peak thresholds tried (default: %(default)s)")
-    parser.add_argument("--slacks", type=int, nargs="+", default=list(_SLACKS),
+    parser.add_argument("--slacks", type=number(int, ge=0), nargs="+", default=list(_SLACKS),
                         help="slacks (users) tried (default: %(default)s)")
-    parser.add_argument("--qos-floor", type=float, default=0.99,
+    parser.add_argument("--qos-floor", type=number(float, gt=0.0, le=1.5), default=0.99,
                         help="least QoS relative to the expert's of a chosen point (default: %(default)s)")
-    parser.add_argument("--n", type=int, help="at most this many validation scenes (default: all)")
+    parser.add_argument("--n", type=number(int, ge=1),
+                        help="at most this many validation scenes (default: all)")
     parser.add_argument("--out", required=True, help="JSON report to write")
     parser.set_defaults(func=run)
 
@@ -45,17 +49,13 @@ def run(args: argparse.Namespace) -> int:
     from learning.check_calibration import calibrate_check
     from learning.checkpoint import CheckpointError
     from learning.data import DatasetError
-    from learning.files import write_json_atomic
     from typed_config import ConfigError
+    from typed_config.files import write_json_atomic
     from uav_swarm.missions.registry import build_rule_check, make_task
 
     task = make_task(args.task, args.config)
     grid = [{"threshold_abs": t, "slack_users": s} for t in args.thresholds for s in args.slacks]
     try:
-        if not 0.0 < args.qos_floor <= 1.5:
-            raise ValueError(f"--qos-floor = {args.qos_floor} must be in (0, 1.5]")
-        if args.n is not None and args.n < 1:
-            raise ValueError(f"--n = {args.n} must be >= 1")
         for settings in grid:  # every point valid before any work
             build_rule_check(task, settings)
         report = calibrate_check(args.checkpoint, task, args.data, lambda s: build_rule_check(task, s), grid,

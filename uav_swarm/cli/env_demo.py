@@ -2,16 +2,17 @@
 
 The scripted policy (waypoint mode) places the UAVs greedily on the crowd's density map,
 each where its coverage disc adds the most pedestrians not yet covered, assigns the targets
-to the UAVs with the least total travel (Hungarian) and replans every ``--replan-every`` steps.
+to the UAVs with the least total travel (Hungarian) and replans every ``--replan-every-steps`` steps.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
+
+from uav_swarm.cli.conventions import number
 
 __all__ = ["register", "run", "greedy_targets_m"]
 
@@ -22,12 +23,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "env-demo", help="run one episode of uav_swarm_v0 with a scripted policy and write a PNG",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--out", type=Path, default=Path("out/env-demo"), help="output folder (default: %(default)s)")
-    add("--seed", type=int, default=0, help="episode seed (default: %(default)s)")
-    add("--n-uavs", type=int, default=6, help="number of UAVs, 1..10 (default: %(default)s)")
-    add("--steps", type=int, default=300, help="episode length in steps (default: %(default)s)")
-    add("--strategy", type=int, default=1, choices=(1, 2), help="reward strategy (default: %(default)s)")
-    add("--replan-every", type=int, default=20, help="steps between replans (default: %(default)s)")
+    add("--out", type=Path, default=Path("out/env-demo"), help="output folder")
+    add("--seed", type=number(int, ge=0), default=0, help="episode seed")
+    add("--n-uavs", type=number(int, ge=1, le=10), default=6, help="number of UAVs")
+    add("--steps", type=number(int, ge=1), default=300, help="episode length in steps of 0.1 s")
+    add("--strategy", type=int, default=1, choices=(1, 2), help="reward strategy")
+    add("--replan-every-steps", type=number(int, ge=1), default=20, dest="replan_every",
+        help="steps between replans")
     parser.set_defaults(func=run)
 
 
@@ -85,10 +87,6 @@ def run(args: argparse.Namespace) -> int:
 
     from uav_swarm.env.parallel import parallel_env
 
-    if args.steps < 1 or args.replan_every < 1:
-        print(f"uav-swarm env-demo: --steps ({args.steps}) and --replan-every ({args.replan_every}) "
-              "must be >= 1", file=sys.stderr)
-        return 2
     par_env = parallel_env(n_uavs=args.n_uavs, action_mode="waypoint", strategy=args.strategy,
                            max_cycles=args.steps, render_mode="rgb_array")
     par_env.reset(seed=args.seed)
@@ -125,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "env_demo.png"
-    from learning.files import atomic_path
+    from typed_config.files import atomic_path
 
     with atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=100)

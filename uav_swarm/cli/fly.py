@@ -19,6 +19,7 @@ Examples:
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
+  uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
 
 Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (outputs
 written), 2 bad configuration, checkpoint or telemetry endpoint (before anything is sent to a vehicle),
@@ -34,6 +35,9 @@ import threading
 from pathlib import Path
 from typing import Any
 
+from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.simulate import CHECKPOINT_HELP
+
 __all__ = ["register", "run"]
 
 
@@ -43,33 +47,39 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "fly", help="closed loop: the planner flies real or SITL autopilots over the simulated crowd",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--bridge-config", help="bridge TOML: home, geofence, protocol and the vehicles (required here or "
-                                "in --config)")
-    add("--out", type=Path, default=Path("out/fly"), help="output folder (default: %(default)s)")
+    cfg = "uav_swarm.runs.fly_config:FlyConfig."
+    flight = "bridge.flight.guided:FlightConfig."
+    config_flag(parser, "--bridge-config", cfg + "bridge_config",
+                help="bridge TOML: home, geofence, protocol and the vehicles (required here or in --config)")
+    add("--out", type=Path, default=Path("out/fly"), help="output folder")
     add("--config", type=Path, help="TOML of FlyConfig (keys and tables [task], [uav], [planning], "
-                                    "[telemetry], [flight]); flags override it")
-    add("--planner", choices=("learned", "expert"), help="the planner flown (default: learned)")
-    add("--checkpoint", help="learned planner checkpoint (default: uav_swarm/checkpoints/wifi-s1.pt)")
-    add("--mode", choices=("guided", "mission"), help="how targets reach the vehicles (default: guided)")
-    add("--end", choices=("rtl", "land"), help="what every vehicle is told at the end (default: rtl)")
-    add("--wait-ready-s", type=float,
-        help="wait at most this long for each vehicle's heartbeat, then for its position fix and home "
-             "([flight] ready_timeout_s, default: 60)")
-    add("--duration-s", type=float, help="crowd seconds flown (default: 300)")
-    add("--speedup", type=float, help="crowd seconds per wall-clock second (default: 1)")
-    add("--replan-every-s", type=float, help="crowd seconds between replans (default: 1)")
-    add("--n-uavs", type=int, help="fly the first N vehicles of the bridge config (default: all)")
-    add("--seed", type=int, help="seed of the simulated crowd (default: 0)")
+                                    "[telemetry], [flight]); flags override it (default: none)")
+    config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
+    add("--checkpoint", help=CHECKPOINT_HELP)
+    config_flag(parser, "--mode", cfg + "mode", choices=("guided", "mission"),
+                help="how targets reach the vehicles")
+    config_flag(parser, "--end", flight + "end_action", choices=("rtl", "land"))
+    config_flag(parser, "--wait-ready-s", flight + "ready_timeout_s",
+                help="wait at most this long for each vehicle's heartbeat, then for its position fix and "
+                     "home ([flight] ready_timeout_s)")
+    config_flag(parser, "--duration-s", cfg + "duration_s")
+    config_flag(parser, "--speedup", cfg + "speedup")
+    config_flag(parser, "--replan-every-s", cfg + "replan_every_s")
+    config_flag(parser, "--n-uavs", cfg + "n_uavs")
+    config_flag(parser, "--seed", cfg + "seed")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
     add("--set-failsafe", action="store_true",
         help="set a vehicle's missing link-loss failsafe to return to launch (and ArduPilot's SYSID_MYGCS to "
              "this bridge) instead of refusing the flight (default: off, refuse)")
+    add("--ros2", action="store_true",
+        help="publish the flight on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
+             "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
     add("--record", type=Path, metavar="FLIGHT.mcap",
-        help="record the flight (scene, vehicle states, plans, QoS) as MCAP for Foxglove")
+        help="record the flight (scene, vehicle states, plans, QoS) as MCAP for Foxglove (default: none)")
     add("--live", metavar="[HOST:]PORT",
         help="stream the flight to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
-             "address; HOST defaults to 127.0.0.1 (this machine only); works with --record")
-    add("--live-wait-s", type=float, metavar="SECONDS",
+             "address; HOST defaults to 127.0.0.1 (this machine only); works with --record (default: none)")
+    add("--live-wait-s", type=number(float, ge=0.0), metavar="SECONDS",
         help="with --live: wait at most this long for a Foxglove client before the first step (default: 0)")
     parser.set_defaults(func=run)
 
@@ -87,6 +97,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         overrides["publish_telemetry"] = False
     if args.set_failsafe:
         overrides["set_failsafe"] = True
+    if args.ros2:
+        overrides["ros2"] = {"enabled": True}
     return overrides
 
 
@@ -118,7 +130,8 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     except BridgeError as exc:
-        print(f"uav-swarm fly: {type(exc).__name__}: {exc}", file=sys.stderr)
+        kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "  # a vehicle's failure
+        print(f"uav-swarm fly: {kind}{exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
     finally:
         for sig, handler in previous.items():

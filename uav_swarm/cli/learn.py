@@ -18,61 +18,88 @@ import json
 import sys
 from typing import Any
 
-__all__ = ["register", "run"]
+from uav_swarm.cli.conventions import config_flag, number
+
+__all__ = ["register", "run", "task_names"]
+
+
+def task_names() -> tuple[str, ...]:
+    """The registered tasks (the choices of ``--task``)."""
+    from uav_swarm.missions.registry import TASKS
+
+    return tuple(TASKS)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``dataset``, ``train`` and ``evaluate`` subcommands."""
     from learning.data import SPLITS
 
+    train_cfg, model_cfg = "learning.train:TrainConfig.", "learning.model:ModelConfig."
+
     def common(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--task", required=True, help="wifi-s1, wifi-s2, agp or fp")
+        parser.add_argument("--task", required=True, choices=task_names(), help="the task")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
-                            "refine)")
+                            "refine, rule_check; default: none, the task's defaults)")
         parser.add_argument("--out", required=True, help="output folder")
         parser.set_defaults(func=run)
 
     def generation(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--n", type=int, required=True, help="number of scenes")
-        parser.add_argument("--seed", type=int, required=True, help="dataset seed (>= 0)")
+        parser.add_argument("--n", type=number(int, ge=1), required=True, help="number of scenes")
+        parser.add_argument("--seed", type=number(int, ge=0), required=True, help="dataset seed")
         parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where to compute")
-        parser.add_argument("--address", help="Ray cluster address (with --executor ray)")
-        parser.add_argument("--workers", type=int, help="local worker processes (default: all CPUs)")
+        parser.add_argument("--address", help="Ray cluster address (with --executor ray; default: a local "
+                            "instance)")
+        parser.add_argument("--workers", type=number(int, ge=1),
+                            help="local worker processes (default: all CPUs)")
 
-    dataset = subparsers.add_parser("dataset", help="generate expert demonstrations into shards (resumable)")
+    dataset = subparsers.add_parser(
+        "dataset", help="generate expert demonstrations into shards (resumable)",
+        description="Generate expert demonstrations (scene, expert placement) into shard files in --out. "
+        "Run the same command again after a kill to finish it.\n\n" + __doc__)
     common(dataset)
     generation(dataset)
     dataset.add_argument("--split", choices=sorted(SPLITS), default="train", help="seed namespace")
-    dataset.add_argument("--shard-size", type=int, default=256, help="scenes per shard file")
+    dataset.add_argument("--shard-size", type=number(int, ge=1), default=256, help="scenes per shard file")
 
-    train = subparsers.add_parser("train", help="train the utility network on a dataset")
+    train = subparsers.add_parser(
+        "train", help="train the utility network on a dataset",
+        description="Train the utility network on a dataset of expert demonstrations; writes last.pt, "
+        "best.pt and history.json into --out. The flags replace the values of --config's [train] and [model] "
+        "tables.\n\n" + __doc__)
     common(train)
     train.add_argument("--data", required=True, help="dataset folder")
-    train.add_argument("--epochs", type=int, help="override [train] epochs")
-    train.add_argument("--batch-size", type=int, help="override [train] batch_size")
-    train.add_argument("--lr", type=float, help="override [train] lr")
-    train.add_argument("--max-steps", type=int, help="override [train] max_steps")
-    train.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override [train] device")
-    train.add_argument("--torch-threads", type=int, help="override [train] torch_threads (1 on a busy CPU)")
-    train.add_argument("--precision", choices=("auto", "float32", "bfloat16"),
-                       help="override [train] precision ('auto': bfloat16 where native)")
-    train.add_argument("--patience", type=int, help="override [train] patience (epochs without a better "
-                       "validation score before stopping; 0: off)")
-    train.add_argument("--arch", choices=("paper", "unet"), help="override [model] arch")
+    config_flag(train, "--epochs", train_cfg + "epochs", key="[train] epochs")
+    config_flag(train, "--batch-size", train_cfg + "batch_size", key="[train] batch_size")
+    config_flag(train, "--lr", train_cfg + "lr", key="[train] lr")
+    config_flag(train, "--max-steps", train_cfg + "max_steps", key="[train] max_steps")
+    config_flag(train, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"),
+                key="[train] device")
+    config_flag(train, "--torch-threads", train_cfg + "torch_threads", key="[train] torch_threads")
+    config_flag(train, "--precision", train_cfg + "precision", choices=("auto", "float32", "bfloat16"),
+                key="[train] precision")
+    config_flag(train, "--patience", train_cfg + "patience", key="[train] patience")
+    config_flag(train, "--arch", model_cfg + "arch", choices=("paper", "unet"), key="[model] arch")
     train.add_argument("--peak-head", action="store_true", default=None,
-                       help="override [model] peak_head: add the peak head and its focal loss")
-    train.add_argument("--focal-weight", type=float, help="override [train] focal_weight")
-    train.add_argument("--resume", help="checkpoint to continue from")
-    train.add_argument("--init", help="checkpoint whose weights start a new run (fine-tuning)")
+                       help="add the peak head and its focal loss ([model] peak_head)")
+    config_flag(train, "--focal-weight", train_cfg + "focal_weight", key="[train] focal_weight")
+    train.add_argument("--resume-from", metavar="CHECKPOINT",
+                       help="continue the run of this checkpoint (default: a new run)")
+    train.add_argument("--init", metavar="CHECKPOINT",
+                       help="start a new run from this checkpoint's weights, fine-tuning (default: none)")
 
-    evaluate = subparsers.add_parser("evaluate", help="evaluate a checkpoint on fresh test scenes")
+    evaluate = subparsers.add_parser(
+        "evaluate", help="evaluate a checkpoint on fresh test scenes",
+        description="Evaluate a checkpoint on test scenes it never saw (the test seed namespace): corr, "
+        "precision, QoS against the expert and timing; writes summary.json, summary.md and examples.png "
+        "into --out.\n\n" + __doc__)
     common(evaluate)
     generation(evaluate)
     evaluate.add_argument("--checkpoint", required=True, help="a .pt file trained on this task")
     evaluate.add_argument("--data", help="test dataset folder (default: OUT/test-data, generated if needed)")
-    evaluate.add_argument("--examples", type=int, default=6, help="scenes drawn in examples.png")
+    evaluate.add_argument("--examples", type=number(int, ge=0), default=6,
+                          help="scenes drawn in examples.png")
     evaluate.add_argument("--precision", choices=("auto", "float32", "bfloat16"), default="auto",
-                          help="network precision (default: %(default)s, bfloat16 where native)")
+                          help="network precision ('auto': bfloat16 where native)")
     evaluate.add_argument("--tta", action="store_true",
                           help="test-time augmentation: average the utility maps of the 8 grid symmetries")
     evaluate.add_argument("--refine", action="store_true",
@@ -127,7 +154,8 @@ def _train(args: argparse.Namespace) -> int:
     train_cfg = settings.train.replace(**_overrides(args, train_fields))
     model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head")))
     result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
-                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume, init=args.init)
+                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from,
+                   init=args.init)
     last = result.history[-1] if result.history else {}
     print(f"checkpoint: {result.checkpoint} (best: {result.best_checkpoint}); last epoch: "
           + ", ".join(f"{k} {v:.4g}" for k, v in last.items()))
@@ -161,8 +189,9 @@ def _evaluate(args: argparse.Namespace) -> int:
         table = load_settings(args.task, args.config).rule_check if args.config is not None else {}
         try:
             check = build_rule_check(factory(), table)
-        except TypeError as exc:
-            print(f"uav-swarm evaluate: --rule-check: {exc}", file=sys.stderr)
+        except TypeError:
+            print(f"uav-swarm evaluate: --rule-check: task {args.task!r} has no rule check; allowed with "
+                  "--task wifi-s1 or wifi-s2", file=sys.stderr)
             return 2
     # peaks: the settings saved with (and validated during the training of) the checkpoint
     summary = evaluate(args.checkpoint, factory, args.n, args.seed, args.out, data_dir=args.data,

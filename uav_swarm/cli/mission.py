@@ -8,14 +8,14 @@ with JSON ``{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]}``. Mission files are name
 ``vehicle_<ID>.plan`` (QGroundControl) or ``vehicle_<ID>.waypoints`` (QGC WPL 110).
 
 Each vehicle is handled on its own: an absent or failing vehicle does not stop the
-others. Every failure is listed at the end, one line each with its error class.
+others. Every failure is listed at the end, one line each (a vehicle's failure with its error class).
 Exit codes: 0 done, 1 a vehicle failed, 2 bad input or a safety refusal (nothing sent).
 
 Examples:
-  uav-swarm mission export --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --out-dir out/missions
+  uav-swarm mission export --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --out out/missions
   uav-swarm mission upload --config configs/bridge/px4_sitl_10.toml --target 1:40,25 --target 2:-30,10,45
   uav-swarm mission upload --config configs/bridge/ardupilot_sitl_10.toml --from-dir out/missions
-  uav-swarm mission download --config configs/bridge/px4_sitl_10.toml --out-dir out/downloaded
+  uav-swarm mission download --config configs/bridge/px4_sitl_10.toml --out out/downloaded
   uav-swarm mission clear --config configs/bridge/px4_sitl_10.toml --vehicle 1 --vehicle 2
 """
 
@@ -26,6 +26,12 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the command imports the bridge on use, not at start-up
+    from bridge.config import BridgeConfig
+    from bridge.flight.fleet import Fleet, MissionBuilder
+    from bridge.missions.items import Mission
 
 __all__ = ["register", "run", "parse_target", "read_plans"]
 
@@ -45,7 +51,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("action", choices=("export", "upload", "download", "clear"))
+    parser.add_argument("action", choices=("export", "upload", "download", "clear"), help="what to do")
     add = parser.add_argument
     add("--config", type=Path, required=True, help="bridge config TOML (configs/bridge/*.toml)")
     add(
@@ -53,18 +59,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="ID:X,Y[,Z]",
-        help="the target of one vehicle in ENU metres (once per vehicle; repeat for other vehicles)",
+        help="the target of one vehicle in ENU metres (once per vehicle; repeat for other vehicles; "
+             "default: none)",
     )
     add(
         "--waypoint",
         action="append",
         default=[],
         metavar="ID:X,Y[,Z]",
-        help="an intermediate point of one vehicle, flown before its target (repeatable, in order)",
+        help="an intermediate point of one vehicle, flown before its target (repeatable, in order; "
+             "default: none)",
     )
-    add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]}')
-    add("--from-dir", type=Path, help="upload: the vehicle_<ID>.plan/.waypoints files of this folder")
-    add("--out-dir", type=Path, help="export/download: folder for vehicle_<ID> files")
+    add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]} (default: none)')
+    add("--from-dir", type=Path,
+        help="upload: the vehicle_<ID>.plan/.waypoints files of this folder (default: none)")
+    add("--out", type=Path,
+        help="export/download: folder for vehicle_<ID> files (required there; default: none)")
     add("--format", choices=tuple(_SUFFIX), default="plan", help="mission file format (default: %(default)s)")
     add(
         "--autopilot",
@@ -131,6 +141,8 @@ def read_plans(path: Path) -> dict[int, list[list[float]]]:
     """
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ValueError(f"--plans {path}: cannot read it ({exc.strerror})") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"--plans {path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
     expected = '{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]} with one key per vehicle id'
@@ -174,7 +186,7 @@ def _plans(args: argparse.Namespace) -> dict[int, list[list[float]]]:
     return plans
 
 
-def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: ANN001 - BridgeConfig
+def _check_plans(plans: dict[int, list[list[float]]], config: BridgeConfig) -> None:
     """Refuse, before any network wait, plans for vehicles the config lacks or outside the fence."""
     from bridge.missions.items import build_mission
 
@@ -186,7 +198,7 @@ def _check_plans(plans: dict[int, list[list[float]]], config) -> None:  # noqa: 
             raise type(exc)(f"vehicle {sid}: {exc}") from None
 
 
-def _check_ids(ids: object, config) -> None:  # noqa: ANN001 - BridgeConfig
+def _check_ids(ids: object, config: BridgeConfig) -> None:
     """Refuse vehicle ids the bridge config lacks, naming the configured ones."""
     configured = sorted(v.system_id for v in config.vehicles)
     unknown = sorted(set(ids) - set(configured))
@@ -224,9 +236,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _say(action: str, exc: BaseException) -> None:
-    """One line on stderr: the action, the error class, the message."""
+    """One line on stderr: the action and the message (a vehicle's failure also its error class)."""
     text = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-    print(f"uav-swarm mission {action}: {type(exc).__name__}: {text}", file=sys.stderr)
+    kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "
+    print(f"uav-swarm mission {action}: {kind}{text}", file=sys.stderr)
 
 
 def _report(action: str, errors: dict[int, BaseException]) -> int:
@@ -240,7 +253,7 @@ def _report(action: str, errors: dict[int, BaseException]) -> int:
     return 2 if all(isinstance(e, (RefusedError, ValueError)) for e in errors.values()) else 1
 
 
-def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]]:  # noqa: ANN001 - Fleet
+def _present(fleet: Fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]]:
     """The vehicles that answer (each within its own discovery time), and the others' errors."""
     from bridge.flight.fleet import FleetError
 
@@ -251,15 +264,15 @@ def _present(fleet, ids: list[int]) -> tuple[list[int], dict[int, BaseException]
     return ids, {}
 
 
-def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _export(args: argparse.Namespace, config: BridgeConfig) -> int:
     from pymavlink.dialects.v20 import common as mavlink
 
     from bridge.missions.files import save_mission
     from bridge.missions.items import build_mission
 
     plans = _plans(args)
-    if not plans or args.out_dir is None:
-        raise ValueError("export needs --target or --plans, and --out-dir")
+    if not plans or args.out is None:
+        raise ValueError("export needs --target or --plans, and --out")
     _check_ids(plans, config)  # a mission for a vehicle the config does not list is refused, not written
     missions = {
         sid: build_mission(
@@ -271,15 +284,15 @@ def _export(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
         )
         for sid, points in plans.items()
     }
-    args.out_dir.mkdir(parents=True, exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     for sid, mission in sorted(missions.items()):
-        path = args.out_dir / f"vehicle_{sid}{_SUFFIX[args.format]}"
+        path = args.out / f"vehicle_{sid}{_SUFFIX[args.format]}"
         save_mission(path, mission)
         print(f"vehicle {sid}: {len(mission.items)} items -> {path}")
     return 0
 
 
-def _plan_builder(points: list[list[float]], config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
+def _plan_builder(points: list[list[float]], config: BridgeConfig) -> MissionBuilder:
     """Build a plan's mission around the home the fleet gives (the config's or the vehicle's own)."""
     from bridge.missions.items import build_mission
 
@@ -287,13 +300,13 @@ def _plan_builder(points: list[list[float]], config):  # noqa: ANN001, ANN202 - 
     return lambda sid, autopilot, home: build_mission(points, home, mission, fence, autopilot)
 
 
-def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, MissionBuilder
+def _file_builder(path: Path, config: BridgeConfig) -> MissionBuilder:
     """Load a mission file (absolute positions: its own home, or the config's for WPL) for its vehicle."""
     from pymavlink.dialects.v20 import common as mavlink
 
     from bridge.missions.files import load_mission
 
-    def build(sid: int, autopilot: int, _home: object):  # noqa: ANN202 - Mission
+    def build(sid: int, autopilot: int, _home: object) -> Mission:
         mission = load_mission(path, config.home, autopilot)
         ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
         if (mission.autopilot == ardupilot) != (autopilot == ardupilot) and path.suffix == ".plan":
@@ -306,7 +319,7 @@ def _file_builder(path: Path, config):  # noqa: ANN001, ANN202 - BridgeConfig, M
     return build
 
 
-def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _upload(args: argparse.Namespace, config: BridgeConfig) -> int:
     from bridge.flight.fleet import Fleet, FleetError
 
     plans = _plans(args)
@@ -335,12 +348,12 @@ def _upload(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeCo
     return _report(args.action, errors)
 
 
-def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _download(args: argparse.Namespace, config: BridgeConfig) -> int:
     from bridge.flight.fleet import Fleet, FleetError
     from bridge.missions.files import save_mission
 
-    if args.out_dir is None:
-        raise ValueError("download needs --out-dir")
+    if args.out is None:
+        raise ValueError("download needs --out")
     _check_ids(args.vehicle, config)
     with Fleet(config) as fleet:
         ids, errors = _present(fleet, args.vehicle or list(fleet.system_ids))
@@ -348,15 +361,15 @@ def _download(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - Bridge
             missions = fleet.download(ids) if ids else {}
         except FleetError as exc:
             missions, errors = exc.results, {**errors, **exc.errors}
-    args.out_dir.mkdir(parents=True, exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     for sid, mission in sorted(missions.items()):
-        path = args.out_dir / f"vehicle_{sid}{_SUFFIX[args.format]}"
+        path = args.out / f"vehicle_{sid}{_SUFFIX[args.format]}"
         save_mission(path, mission)
         print(f"vehicle {sid}: {len(mission.items)} items -> {path}")
     return _report(args.action, errors)
 
 
-def _clear(args: argparse.Namespace, config) -> int:  # noqa: ANN001 - BridgeConfig
+def _clear(args: argparse.Namespace, config: BridgeConfig) -> int:
     from bridge.flight.fleet import Fleet, FleetError
 
     _check_ids(args.vehicle, config)

@@ -21,10 +21,15 @@ rounded raster outline is not simple gets no proposals, and the repair covers it
 
 Outputs in ``--out`` (written only when every building succeeded): ``guards.geojson`` (the buildings as
 given, the raster outlines the network saw, the guards; longitude/latitude for GeoJSON input, metres
-otherwise), ``placement.json`` (per building: guards in metres, witnesses, coverage on the real outline,
-time), ``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with
-``--bridge-config``, one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
+otherwise), ``placement.json`` (per building: its centroid in latitude and longitude, guards in metres,
+witnesses, coverage on the real outline, time; ``frame``: the origin and axes of the guards' metres),
+``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with ``--bridge-config``,
+one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
 placed in the bridge's local frame around its home; metres are taken as East-North metres from that home).
+
+Each building's line names its centroid in latitude and longitude; a GeoJSON site whose coordinates look
+swapped (latitude first: its centroid beyond 75 degrees of latitude, or far from the bridge's home but near
+it once swapped) is warned about on stderr.
 
 Input the placement cannot take (a self-intersecting or degenerate outline, a courtyard outside its
 building, too many vertices, a building wider than the tiles allow, witnesses no guard position sees
@@ -42,6 +47,8 @@ from typing import Any
 
 import numpy as np
 
+from uav_swarm.cli.conventions import config_flag, number
+
 __all__ = ["register", "run", "load_network", "propose", "place_building"]
 
 METHODS = ("learned", "refined", "expert")
@@ -58,21 +65,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "place", help="place guards for your own buildings (GeoJSON or metres), write them back and missions",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
+    sight = "uav_swarm.missions.monitoring.outline_guards:SightConfig."
     add("--task", required=True, choices=("agp", "fp"), help="agp: guards inside; fp: guards outside")
     add("--building", required=True, type=Path,
         help=".geojson (WGS84 Polygon, MultiPolygon or FeatureCollection) or .json/.csv/.txt vertices (m)")
     add("--out", required=True, type=Path, help="output folder")
-    add("--method", choices=METHODS, default="refined", help="placement method (default: %(default)s)")
-    add("--checkpoint", help="network for learned/refined (default: uav_swarm/checkpoints/<task>.pt)")
-    add("--max-pixel-m", type=float, default=10.0,
-        help="coarsest raster the network sees; wider buildings are shown in tiles (default: %(default)s)")
-    add("--witness-spacing-m", type=float, default=0.5, help="witness spacing (default: %(default)s)")
-    add("--min-clearance-m", type=float, default=0.5,
-        help="sight lines keep this far from walls, 0 allowed (default: %(default)s)")
-    add("--standoff-m", type=float, default=1.0,
-        help="guards keep this far from walls (default: %(default)s)")
-    add("--bridge-config", type=Path, help="bridge TOML: home, mission shape, fence and vehicle ids")
-    add("--alt-m", type=float,
+    add("--method", choices=METHODS, default="refined", help="placement method")
+    add("--checkpoint",
+        help="network for learned/refined (default: the shipped uav_swarm/checkpoints/<task>.pt)")
+    add("--max-pixel-m", type=number(float, gt=0.0), default=10.0,
+        help="coarsest raster the network sees; wider buildings are shown in tiles")
+    config_flag(parser, "--witness-spacing-m", sight + "witness_spacing_m", key="")
+    config_flag(parser, "--min-clearance-m", sight + "min_clearance_m", key="")
+    config_flag(parser, "--standoff-m", sight + "standoff_m", key="")
+    add("--bridge-config", type=Path,
+        help="bridge TOML: home, mission shape, fence and vehicle ids (default: none, no missions)")
+    add("--alt-m", type=number(float, gt=0.0),
         help="flight altitude above home for the missions (default: [mission] cruise_alt_m)")
     parser.set_defaults(func=run)
 
@@ -164,14 +172,12 @@ def place_building(task: Any, footprint: Any, method: str, network: Any, sight: 
     return PlacedBuilding(footprint, rasters, placement, time.perf_counter() - start)
 
 
-def _missions(args: argparse.Namespace, footprint: Any, guards_m: np.ndarray) -> dict[int, Any]:
+def _missions(args: argparse.Namespace, bridge: Any, footprint: Any, guards_m: np.ndarray) -> dict[int, Any]:
     """One mission per guard, by vehicle id (checked against the fence before anything is written)."""
-    from bridge.config import BridgeConfig
     from bridge.geo import geodetic_to_enu
     from bridge.missions.items import build_mission
-    from typed_config import ConfigError, load_toml
+    from typed_config import ConfigError
 
-    bridge = load_toml(BridgeConfig, args.bridge_config)
     if bridge.vehicles and len(bridge.vehicles) < len(guards_m):
         raise ConfigError(f"{args.bridge_config}: {len(bridge.vehicles)} vehicles for {len(guards_m)} "
                           "guards: list at least one vehicle per guard")
@@ -189,12 +195,19 @@ def _missions(args: argparse.Namespace, footprint: Any, guards_m: np.ndarray) ->
 
 def run(args: argparse.Namespace) -> int:
     """Place every building's guards and write the outputs; unplaceable input exits with code 2."""
+    from bridge.config import BridgeConfig
     from bridge.errors import BridgeError
     from bridge.missions.files import save_mission
     from learning.checkpoint import CheckpointError
-    from learning.files import write_json_atomic
-    from typed_config import ConfigError
-    from uav_swarm.cli.place_output import plot_site, site_geojson
+    from typed_config import ConfigError, load_toml
+    from typed_config.files import write_json_atomic
+    from uav_swarm.cli.place_output import (
+        centroid_lonlat,
+        frame_record,
+        plot_site,
+        site_geojson,
+        swap_warning,
+    )
     from uav_swarm.missions.monitoring.footprint import FootprintError, read_site
     from uav_swarm.missions.monitoring.outline import OutlineError
     from uav_swarm.missions.monitoring.outline_guards import SightConfig
@@ -204,21 +217,24 @@ def run(args: argparse.Namespace) -> int:
     task = build_task(args.task)
     start = time.perf_counter()
     try:
-        if not args.max_pixel_m > 0:
-            raise FootprintError(f"--max-pixel-m = {args.max_pixel_m}: allowed > 0")
-        sight = SightConfig(witness_spacing_m=args.witness_spacing_m, min_clearance_m=args.min_clearance_m,
-                            standoff_m=args.standoff_m)
+        given = {"witness_spacing_m": args.witness_spacing_m, "min_clearance_m": args.min_clearance_m,
+                 "standoff_m": args.standoff_m}
+        sight = SightConfig(**{key: value for key, value in given.items() if value is not None})
+        bridge = load_toml(BridgeConfig, args.bridge_config) if args.bridge_config else None
         site = read_site(args.building)
+        warning = swap_warning(list(site), bridge.home if bridge is not None else None)
+        if warning:
+            print(f"uav-swarm place: warning: {args.building}: {warning}", file=sys.stderr)
         network = None if args.method == "expert" else load_network(task, args.checkpoint)
         buildings = [place_building(task, footprint, args.method, network, sight, args.max_pixel_m)
                      for footprint in site]
         guards_m = np.concatenate([b.placement.guards_m for b in buildings])
-        missions = _missions(args, site[0], guards_m) if args.bridge_config else {}
+        missions = _missions(args, bridge, site[0], guards_m) if bridge is not None else {}
     except (FootprintError, OutlineError, InfeasibleCoverError, CheckpointError, ConfigError) as exc:
         print(f"uav-swarm place: {exc}", file=sys.stderr)
         return 2
     except BridgeError as exc:  # the geofence refuses a guard: nothing is written
-        print(f"uav-swarm place: {type(exc).__name__}: {exc}", file=sys.stderr)
+        print(f"uav-swarm place: {exc}", file=sys.stderr)
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.out / "guards.geojson", site_geojson(buildings, args.method))
@@ -231,8 +247,11 @@ def run(args: argparse.Namespace) -> int:
     for b in buildings:
         placement = b.placement
         seen = np.any(placement.seen_by, axis=0)
+        centre = centroid_lonlat(b.footprint)
         records.append({
-            "building": b.footprint.name, "vertices": b.footprint.outline().n_vertices,
+            "building": b.footprint.name,
+            "centroid": None if centre is None else {"lat_deg": centre[1], "lon_deg": centre[0]},
+            "vertices": b.footprint.outline().n_vertices,
             "courtyards": len(b.footprint.holes_m), "n_guards": len(placement.guards_m),
             "guards_m": placement.guards_m.tolist(), "n_proposals": placement.n_proposals,
             "n_added": placement.n_added, "n_pruned": placement.n_pruned,
@@ -243,7 +262,8 @@ def run(args: argparse.Namespace) -> int:
         "task": task.name, "method": args.method, "judged_on": "the input outline in metres", "sight": {
             "witness_spacing_m": sight.witness_spacing_m, "min_clearance_m": sight.min_clearance_m,
             "standoff_m": sight.standoff_m},
-        "n_guards": len(guards_m), "fully_covered": all(r["fully_covered"] for r in records),
+        "frame": frame_record(site[0]), "n_guards": len(guards_m),
+        "fully_covered": all(r["fully_covered"] for r in records),
         "buildings": records, "time_ms": (time.perf_counter() - start) * 1e3, "files": files}
     write_json_atomic(args.out / "placement.json", summary)
     n_seen = sum(r["n_witnesses"] - r["n_unseen"] for r in records)
@@ -252,7 +272,9 @@ def run(args: argparse.Namespace) -> int:
     title = f"{args.building.name}: {task.name} {args.method}, {len(guards_m)} guards, {share:.1f} % seen"
     plot_site(args.out / "placement.png", buildings, title)
     for r in records:
-        print(f"{r['building']}: {r['n_guards']} {args.method} guards ({task.name}), "
+        where = ("" if r["centroid"] is None else
+                 f" at lat {r['centroid']['lat_deg']:.6f}, lon {r['centroid']['lon_deg']:.6f}")
+        print(f"{r['building']}{where}: {r['n_guards']} {args.method} guards ({task.name}), "
               f"{100 * r['seen_fraction']:.1f} % of {r['n_witnesses']} witnesses seen on the outline "
               f"({r['n_unseen']} unseen), {r['time_ms']:.0f} ms")
     print(f"{len(records)} building(s), {len(guards_m)} guards, {share:.1f} % of the witnesses seen; "

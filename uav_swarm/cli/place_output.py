@@ -1,4 +1,4 @@
-"""What ``uav-swarm place`` writes: the site's GeoJSON and its picture (one record per building)."""
+"""What ``uav-swarm place`` writes and says: the site's GeoJSON, its picture, where on Earth it is."""
 
 from __future__ import annotations
 
@@ -11,7 +11,13 @@ import numpy as np
 from uav_swarm.missions.monitoring.footprint import FittedFootprint, Footprint
 from uav_swarm.missions.monitoring.outline_guards import Placement
 
-__all__ = ["PlacedBuilding", "site_geojson", "plot_site"]
+__all__ = ["PlacedBuilding", "site_geojson", "plot_site", "centroid_lonlat", "frame_record", "swap_warning"]
+
+NEAR_HOME_M = 20_000.0
+"""A building this close to the bridge's home is where the user meant; swapped, it would be far."""
+
+POLAR_LAT_DEG = 75.0
+"""Few buildings stand farther north or south than this: a latitude beyond it is likely a longitude."""
 
 
 @dataclass(frozen=True)
@@ -29,6 +35,57 @@ class PlacedBuilding:
     rasters: tuple[FittedFootprint, ...]
     placement: Placement
     seconds: float
+
+
+def centroid_lonlat(footprint: Footprint) -> tuple[float, float] | None:
+    """The building's centroid as (longitude, latitude) degrees, None for input in metres."""
+    import shapely
+
+    if footprint.origin is None:
+        return None
+    centre = shapely.Polygon(footprint.vertices_m).centroid
+    lon, lat = footprint.to_input(np.array([[centre.x, centre.y]]))[0]
+    return float(lon), float(lat)
+
+
+def frame_record(footprint: Footprint) -> dict[str, Any]:
+    """The frame of ``guards_m`` in placement.json: East-North metres from an origin, or the input's."""
+    origin = footprint.origin
+    if origin is None:
+        return {"guards_m": "x, y metres of the input (no geodetic origin: the building was given in metres)",
+                "origin": None}
+    return {"guards_m": "east, north metres (local ENU, WGS84) from origin",
+            "origin": {"lat_deg": origin.lat_deg, "lon_deg": origin.lon_deg},
+            "origin_is": "the mean of the input's outer-ring vertices"}
+
+
+def swap_warning(footprints: list[Footprint], home: Any | None = None) -> str | None:
+    """A warning when the GeoJSON's coordinates look like (latitude, longitude) instead of (lon, lat).
+
+    Args:
+        footprints: The site's buildings.
+        home: The bridge config's home (:class:`bridge.geo.Home`), if any: the site should be near it.
+    """
+    from bridge.geo import geodetic_to_enu
+
+    centres = [c for c in map(centroid_lonlat, footprints) if c is not None]
+    if not centres:
+        return None
+    lon, lat = np.mean(np.array(centres), axis=0)
+    hint = ("GeoJSON coordinates are [longitude, latitude]; if the file lists [latitude, longitude], swap "
+            "them")
+    if home is not None:
+        def distance_m(lat_deg: float, lon_deg: float) -> float:
+            return float(np.hypot(*geodetic_to_enu(home, lat_deg, lon_deg, home.alt_m)[:2]))
+
+        far, swapped = distance_m(lat, lon), distance_m(lon, lat) if abs(lon) <= 90.0 else np.inf
+        if far > NEAR_HOME_M and swapped <= NEAR_HOME_M:
+            return (f"the site's centroid (lat {lat:.5f}, lon {lon:.5f}) is {far / 1e3:.0f} km from the "
+                    f"bridge's home, but {swapped / 1e3:.1f} km with latitude and longitude swapped: {hint}")
+    if abs(lat) > POLAR_LAT_DEG:
+        return (f"the site's centroid is at latitude {lat:.5f} (beyond {POLAR_LAT_DEG:g} degrees, where few "
+                f"buildings stand) and longitude {lon:.5f}: {hint}")
+    return None
 
 
 def _ring(footprint: Footprint, ring_m: np.ndarray) -> list[list[float]]:
@@ -68,7 +125,7 @@ def plot_site(path: Path, buildings: list[PlacedBuilding], title: str) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from learning.files import atomic_path
+    from typed_config.files import atomic_path
 
     fig = Figure(figsize=(7.0, 7.0), dpi=100)
     FigureCanvasAgg(fig)

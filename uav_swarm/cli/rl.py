@@ -3,7 +3,7 @@
 Examples::
 
     uav-swarm rl-train --out runs/mappo --max-minutes 55
-    uav-swarm rl-compare --policy runs/mappo/policy.pt --episodes 20 --out results/marl
+    uav-swarm rl-compare --policy runs/mappo/policy.pt --episodes 20 --out runs/marl-compare
 
 ``rl-train`` needs the ``marl`` extra (``pip install uav-swarm[marl]``: TorchRL). Settings come
 from ``--config`` (a TOML file of :class:`uav_swarm.marl.mappo.MappoConfig` fields) and the flags.
@@ -17,6 +17,8 @@ import json
 import sys
 from pathlib import Path
 
+from uav_swarm.cli.conventions import config_flag, number
+
 __all__ = ["register", "run_train", "run_compare"]
 
 
@@ -25,12 +27,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     train = subparsers.add_parser("rl-train", help="train MAPPO (TorchRL) on uav_swarm_v0",
                                   description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     train.add_argument("--out", type=Path, required=True, help="output folder")
-    train.add_argument("--config", type=Path, help="MappoConfig TOML")
+    train.add_argument("--config", type=Path, help="MappoConfig TOML (default: none, the defaults below)")
     train.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.pt")
-    for flag, kind in (("seed", int), ("num-envs", int), ("total-frames", int), ("frames-per-batch", int),
-                       ("max-minutes", float), ("max-cycles", int), ("strategy", int), ("n-uavs", int),
-                       ("lr", float), ("torch-threads", int)):
-        train.add_argument(f"--{flag}", type=kind, help=f"override {flag.replace('-', '_')}")
+    for flag in ("seed", "num-envs", "total-frames", "frames-per-batch", "max-minutes", "max-cycles",
+                 "strategy", "n-uavs", "lr", "torch-threads"):
+        config_flag(train, f"--{flag}", f"uav_swarm.marl.mappo:MappoConfig.{flag.replace('-', '_')}")
     train.set_defaults(func=run_train)
 
     compare = subparsers.add_parser("rl-compare",
@@ -38,16 +39,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     compare.add_argument("--out", type=Path, required=True,
                          help="output folder (comparison.json, comparison.md)")
-    compare.add_argument("--policy", type=Path, help="MAPPO policy.pt (written by rl-train)")
+    compare.add_argument("--policy", type=Path,
+                         help="MAPPO policy.pt (written by rl-train; default: none, needed for mappo)")
     compare.add_argument("--controllers", nargs="+", default=["random", "mappo", "learned", "expert"],
-                         help="controllers to score (default: %(default)s)")
-    compare.add_argument("--episodes", type=int, default=20, help="episodes (default: %(default)s)")
-    compare.add_argument("--seed", type=int, default=100_000,
-                         help="first episode's seed (default: %(default)s)")
-    compare.add_argument("--duration-s", type=float, default=60.0,
-                         help="seconds per episode (default: %(default)s)")
-    compare.add_argument("--n-uavs", type=int, default=10, help="UAVs (default: %(default)s)")
-    compare.add_argument("--checkpoint", type=Path, help="learned planner checkpoint (default: shipped)")
+                         choices=("random", "mappo", "learned", "expert"), help="controllers to score")
+    compare.add_argument("--episodes", type=number(int, ge=1), default=20, help="episodes")
+    compare.add_argument("--seed", type=number(int, ge=0), default=100_000, help="first episode's seed")
+    compare.add_argument("--duration-s", type=number(float, gt=0.0), default=60.0, help="seconds per episode")
+    compare.add_argument("--n-uavs", type=number(int, ge=1, le=10), default=10, help="UAVs")
+    compare.add_argument("--checkpoint", type=Path,
+                         help="learned planner checkpoint (default: the shipped one for the task)")
     compare.set_defaults(func=run_compare)
 
 
@@ -69,13 +70,9 @@ def run_train(args: argparse.Namespace) -> int:
 
 def run_compare(args: argparse.Namespace) -> int:
     """Score the controllers; write ``comparison.json`` and ``comparison.md``; print the table."""
-    from learning.files import write_json_atomic, write_text_atomic
+    from typed_config.files import write_json_atomic, write_text_atomic
     from uav_swarm.marl.compare import compare_controllers
 
-    if args.episodes < 1 or args.duration_s <= 0:
-        print(f"uav-swarm rl-compare: --episodes ({args.episodes}) must be >= 1 and --duration-s "
-              f"({args.duration_s}) > 0", file=sys.stderr)
-        return 2
     try:
         scores = compare_controllers(args.controllers, episodes=args.episodes, seed=args.seed,
                                      duration_s=args.duration_s, n_uavs=args.n_uavs, mappo_policy=args.policy,

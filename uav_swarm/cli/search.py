@@ -23,32 +23,40 @@ from __future__ import annotations
 import argparse
 import sys
 
+from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.learn import task_names
+
 __all__ = ["register", "run"]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``search`` subcommand."""
-    parser = subparsers.add_parser("search", help="grid search of the target's (alpha2, sigma2) (resumable)")
-    parser.add_argument("--task", required=True, help="wifi-s1, wifi-s2, agp or fp")
-    parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks)")
+    grid, train_cfg = "learning.search_grid:SearchConfig.", "learning.train:TrainConfig."
+    parser = subparsers.add_parser("search", help="grid search of the target's (alpha2, sigma2) (resumable)",
+                                   description=__doc__)
+    parser.add_argument("--task", required=True, choices=task_names(), help="the task")
+    parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks; "
+                        "default: none, the task's defaults)")
     parser.add_argument("--data", required=True, help="dataset folder (generated there when --n is given)")
     parser.add_argument("--out", required=True, help="search output folder")
-    parser.add_argument("--n", type=int, help="generate (or finish) a dataset of this many scenes in --data")
-    parser.add_argument("--seed", type=int, default=0, help="dataset seed with --n (default 0)")
-    parser.add_argument("--alpha2", default="20:60:10",
-                        help="alpha2 grid start:stop:step, inclusive (default %(default)s)")
-    parser.add_argument("--sigma2", default="5:45:10",
-                        help="sigma2 grid start:stop:step (px), inclusive (default %(default)s)")
-    parser.add_argument("--epochs", type=int, help="per-trial epochs (override [train] epochs)")
-    parser.add_argument("--max-steps", type=int, help="per-trial steps (override [train] max_steps)")
-    parser.add_argument("--batch-size", type=int, help="override [train] batch_size")
-    parser.add_argument("--lr", type=float, help="override [train] lr")
-    parser.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override [train] device")
-    parser.add_argument("--threads", type=int, default=1, help="torch threads per trial (default 1)")
+    parser.add_argument("--n", type=number(int, ge=1),
+                        help="generate (or finish) a dataset of this many scenes in --data (default: none, "
+                        "--data exists)")
+    parser.add_argument("--seed", type=number(int, ge=0), default=0, help="dataset seed with --n")
+    config_flag(parser, "--alpha2", grid + "alpha2", key="")
+    config_flag(parser, "--sigma2", grid + "sigma2", key="")
+    config_flag(parser, "--epochs", train_cfg + "epochs", help="epochs per trial", key="[train] epochs")
+    config_flag(parser, "--max-steps", train_cfg + "max_steps", help="optimiser steps per trial",
+                key="[train] max_steps")
+    config_flag(parser, "--batch-size", train_cfg + "batch_size", key="[train] batch_size")
+    config_flag(parser, "--lr", train_cfg + "lr", key="[train] lr")
+    config_flag(parser, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"),
+                key="[train] device")
+    config_flag(parser, "--torch-threads", grid + "threads", key="")
     parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where trials run")
     parser.add_argument("--address", help="Ray cluster to join (with --executor ray), e.g. ray://head:10001 "
                                           "or auto; default: a local instance on 127.0.0.1")
-    parser.add_argument("--workers", type=int,
+    parser.add_argument("--workers", type=number(int, ge=1),
                         help="trials at once (local processes, default CPUs/threads; Ray: default all CPUs)")
     parser.set_defaults(func=run)
 
@@ -62,7 +70,8 @@ def run(args: argparse.Namespace) -> int:
     from learning.search_report import markdown_summary
     from uav_swarm.missions.registry import load_settings, make_task, task_factory
 
-    search_config = SearchConfig(alpha2=args.alpha2, sigma2=args.sigma2, threads=args.threads)
+    given = {"alpha2": args.alpha2, "sigma2": args.sigma2, "threads": args.torch_threads}
+    search_config = SearchConfig(**{k: v for k, v in given.items() if v is not None})
     settings = load_settings(args.task, args.config)
     fields = ("epochs", "max_steps", "batch_size", "lr", "device")
     overrides = {f: getattr(args, f) for f in fields if getattr(args, f) is not None}

@@ -1,7 +1,7 @@
 """``uav-swarm simulate``: the main job. Fly the placement planner over a dynamic crowd sequence.
 
 Runs ``uav_swarm_v0`` (waypoint mode) for ``duration_s`` of simulated time with the learned planner
-(utility network -> peaks -> Hungarian), replanning every ``replan_every`` steps, then the same
+(utility network -> peaks -> Hungarian), replanning every ``--replan-every-steps`` steps, then the same
 sequence (same seed, same crowd) with the expert planner, and writes into ``--out``: ``qos.png``,
 ``scene.gif``, ``summary.json``, ``timeseries.csv`` and ``missions/vehicle_<id>.plan``. Telemetry
 (UAV states, plans, QoS) goes out over Zenoh on tcp/127.0.0.1:7447 unless ``--no-telemetry``.
@@ -12,7 +12,8 @@ Examples:
   uav-swarm simulate --out out/sim --checkpoint runs/s1/train/best.pt --config sim.toml
   uav-swarm simulate --out out/sim --bridge-config configs/bridge/px4_sitl_10.toml   # upload the missions
   uav-swarm simulate --out out/sim --record out/sim/run.mcap   # open it in Foxglove
-  uav-swarm simulate --out out/sim --live 8765 --live-wait-s 120 --live-speed 1   # watch it in Foxglove
+  uav-swarm simulate --out out/sim --live 8765 --live-wait-s 120 --speedup 1   # watch it in Foxglove
+  uav-swarm simulate --out out/sim --ros2   # on ROS 2: RViz, Foxglove, operator targets (docs/ros2.md)
 
 Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint, telemetry
 endpoint (e.g. "tcp/127.0.0.1:7447 is in use") or live view address, found before the first step and
@@ -26,7 +27,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-__all__ = ["register", "run", "format_summary"]
+from uav_swarm.cli.conventions import config_flag, number
+
+__all__ = ["register", "run", "format_summary", "CHECKPOINT_HELP"]
+
+CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: wifi-s1.pt for "
+                   "strategy 1, wifi-s2-ac.pt for strategy 2 under admission control, wifi-s2.pt for "
+                   "strategy 2 with station_limit = \"off\")")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -35,33 +42,36 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "simulate", help="the main job: fly the planner over a crowd sequence, compare with the expert",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--out", type=Path, default=Path("out/simulate"), help="output folder (default: %(default)s)")
+    cfg = "uav_swarm.runs.simulate_config:SimulateConfig."
+    add("--out", type=Path, default=Path("out/simulate"), help="output folder")
     add("--config", type=Path, help="TOML of SimulateConfig (keys and tables [task], [uav], [planning], "
-                                    "[telemetry]); flags override it")
-    add("--planner", choices=("learned", "expert"), help="the planner flown (default: learned)")
-    add("--checkpoint", help="learned planner checkpoint (default: uav_swarm/checkpoints/wifi-s1.pt)")
+                                    "[telemetry]); flags override it (default: none, the defaults below)")
+    config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
+    add("--checkpoint", help=CHECKPOINT_HELP)
     add("--refine", action="store_true", help="refine the learned peaks on the crowd ([planning] refine)")
     add("--rule-check", action="store_true",
         help="keep the learned peaks the deployment rule justifies on the raster ([planning] rule_check)")
-    add("--duration-s", type=float, help="simulated seconds (default: 180)")
-    add("--n-uavs", type=int, help="number of UAVs, 1..10 (default: 10)")
-    add("--seed", type=int, help="sequence seed (default: 0)")
-    add("--replan-every", type=int, help="steps of 0.1 s between replans (default: 10)")
-    add("--bridge-config", help="bridge TOML: home and mission shape; its vehicles get the final missions")
+    config_flag(parser, "--duration-s", cfg + "duration_s")
+    config_flag(parser, "--n-uavs", cfg + "n_uavs")
+    config_flag(parser, "--seed", cfg + "seed")
+    config_flag(parser, "--replan-every-steps", cfg + "replan_every", dest="replan_every", metavar="STEPS")
+    config_flag(parser, "--bridge-config", cfg + "bridge_config")
     add("--no-expert", action="store_true", help="do not fly the expert on the same sequence")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
+    add("--ros2", action="store_true",
+        help="publish the run on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
+             "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
     add("--no-gif", action="store_true", help="do not write scene.gif")
     add("--record", type=Path, metavar="RUN.mcap",
-        help="record the flown run (scene, UAV states, plans, QoS) as MCAP for Foxglove")
+        help="record the flown run (scene, UAV states, plans, QoS) as MCAP for Foxglove (default: none)")
     add("--live", metavar="[HOST:]PORT",
         help="stream the flown run to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
-             "address; HOST defaults to 127.0.0.1 (this machine only); works with --record")
-    add("--live-wait-s", type=float, metavar="SECONDS",
+             "address; HOST defaults to 127.0.0.1 (this machine only); works with --record (default: none)")
+    add("--live-wait-s", type=number(float, ge=0.0), metavar="SECONDS",
         help="with --live: wait at most this long for a Foxglove client before the first step (default: 0)")
-    add("--live-speed", type=float, metavar="X",
+    add("--speedup", type=number(float, gt=0.0), metavar="X",
         help="with --live: run X simulated seconds per wall-clock second, to watch (1: the crowd's pace; "
              "default: as fast as it computes)")
-    add("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
 
@@ -77,6 +87,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         overrides["compare_expert"] = False
     if args.no_telemetry:
         overrides["publish_telemetry"] = False
+    if args.ros2:
+        overrides["ros2"] = {"enabled": True}
     if args.no_gif:
         overrides["gif"] = False
     return overrides
@@ -99,6 +111,9 @@ def format_summary(summary: dict[str, Any]) -> str:
     if paper:
         lines.append("the same flights, QoS S2 on the paper's radio: "
                      + ", ".join(f"{kind} {value:.3f}" for kind, value in paper.items()))
+    for kind, s in summary["planners"].items():
+        if s.get("separation"):
+            lines.append(_separation_line(kind, s["separation"]))
     ratios = summary.get("ratios_learned_over_expert")
     if ratios:
         def show(value: float | None) -> str:
@@ -112,6 +127,19 @@ def format_summary(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _separation_line(kind: str, figures: dict[str, Any]) -> str:
+    """One planner's separation: the closest pair (which, when), conflicts, time below the minimum, holds."""
+    if figures["closest_m"] is None:
+        closest = "no pair flew"
+    else:
+        first, second = figures["closest_pair"]
+        closest = (f"closest pair {figures['closest_m']:.2f} m (UAVs {first} and {second} at "
+                   f"{figures['closest_t_s']:.1f} s)")
+    return (f"{kind} separation (minimum {figures['min_separation_m']:g} m): {closest}, "
+            f"{figures['conflicts']} conflicts, {figures['time_below_min_s']:.1f} s below the minimum, "
+            f"{figures['holds']} holds")
+
+
 def run(args: argparse.Namespace) -> int:
     """Validate the configuration, run the job, print the summary table."""
     from bridge.errors import BridgeError
@@ -123,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
     from uav_swarm.runs.simulate_config import load_simulate_config
 
     try:
-        live = live_view_option(args.live, args.live_wait_s, args.live_speed)
+        live = live_view_option(args.live, args.live_wait_s, args.speedup)
         config = load_simulate_config(args.config, _overrides(args))
         result = simulate(config, args.out, progress=not args.quiet, record=args.record, live=live)
     except (ConfigError, CheckpointError) as exc:

@@ -2,13 +2,16 @@ r"""``uav-swarm expert-stability``: how far an expert agrees with itself (the ce
 
 Example::
 
-    uav-swarm expert-stability --task wifi-s2 --config configs/tasks/wifi-s2.toml --probe jitter \\
-        --scale 0.05 --n 200 --seed 3 --out results/expert-stability/wifi-s2-jitter.json
+    uav-swarm expert-stability --task wifi-s2 --config configs/tasks/wifi-s2.toml --probe jitter \
+        --scale-m 0.05 --n 200 --seed 3 --out runs/expert-stability/wifi-s2-jitter.json
 """
 
 from __future__ import annotations
 
 import argparse
+
+from uav_swarm.cli.conventions import number
+from uav_swarm.cli.learn import task_names
 
 __all__ = ["register", "run"]
 
@@ -17,16 +20,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``expert-stability`` subcommand."""
     parser = subparsers.add_parser(
         "expert-stability",
-        help="the expert's agreement with itself under grid symmetries or sub-pixel jitter")
-    parser.add_argument("--task", required=True, help="wifi-s1, wifi-s2, agp or fp")
-    parser.add_argument("--config", help="task settings TOML (its [task] table is used)")
+        help="the expert's agreement with itself under grid symmetries or sub-pixel jitter",
+        description=__doc__)
+    parser.add_argument("--task", required=True, choices=task_names(), help="the task")
+    parser.add_argument("--config", help="task settings TOML (its [task] table is used; default: none)")
     parser.add_argument("--probe", choices=("symmetry", "jitter"), default="symmetry",
                         help="moved scenes: by a grid symmetry, or by a normal jitter (Wi-Fi crowds)")
-    parser.add_argument("--scale", type=float, default=0.05, help="jitter standard deviation, metres "
-                        "(default: %(default)s)")
-    parser.add_argument("--n", type=int, default=200, help="scenes (default: %(default)s)")
-    parser.add_argument("--seed", type=int, default=3,
-                        help="scene seed, test namespace (default: %(default)s)")
+    parser.add_argument("--scale-m", type=number(float, gt=0.0), default=0.05, dest="scale",
+                        help="jitter standard deviation, metres")
+    parser.add_argument("--n", type=number(int, ge=1), default=200, help="scenes")
+    parser.add_argument("--seed", type=number(int, ge=0), default=3, help="scene seed, test namespace")
     parser.add_argument("--out", required=True, help="JSON report to write")
     parser.set_defaults(func=run)
 
@@ -37,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from learning.expert_stability import expert_stability
-    from learning.files import write_json_atomic
+    from typed_config.files import write_json_atomic
     from uav_swarm.missions.registry import make_task
 
     task = make_task(args.task, args.config)

@@ -1,21 +1,29 @@
-"""``uav-swarm telemetry watch | record``: watch or record a swarm's Zenoh telemetry.
+"""``uav-swarm telemetry watch | record | ros2``: watch, record or republish a swarm's Zenoh telemetry.
 
 By default both connect to the publishing side on ``tcp/127.0.0.1:7447`` as a peer, with
 multicast scouting off. ``--config FILE`` reads a ``[telemetry]`` table (the fields of
 :class:`bridge.telemetry.config.TelemetryConfig`): the keys it sets override these defaults, and
 command-line flags override both.
-``--duration`` and ``--count`` bound a run (for scripts and tests).
+``--duration-s`` and ``--count`` bound a run (for scripts and tests).
+
+``ros2`` republishes the swarm on ROS 2 (the ``ros2`` extra), so that a ROS 2 machine can join a swarm
+flown elsewhere: each UAV's pose, fix and target, the plans and the QoS, on the topics of ``--ros2``
+(``docs/ros2.md``), stamped with the time each payload was produced; DDS stays on this machine unless
+``--ros2-subnet``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
+import logging
 import sys
 import time
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any, TextIO
+
+from uav_swarm.cli.conventions import number
 
 __all__ = ["register", "run"]
 
@@ -25,12 +33,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("telemetry", help="watch or record the swarm's Zenoh telemetry",
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    watch = actions.add_parser("watch", help="print a live table of the swarm")
-    watch.add_argument("--refresh-s", type=float, default=0.5, help="table refresh period, seconds")
-    record = actions.add_parser("record", help="record every message to a JSON-lines file")
+    watch = actions.add_parser("watch", help="print a live table of the swarm",
+                               description="Print a live table of the swarm: one row per UAV (position, "
+                               "speed, battery, target), then the last plan and the last QoS.")
+    watch.add_argument("--refresh-s", type=number(float, gt=0.0), default=0.5,
+                       help="table refresh period, seconds")
+    record = actions.add_parser("record", help="record every message to a JSON-lines file",
+                                description="Record every telemetry message to a JSON-lines file (one "
+                                "object per line: key, time received, payload); the file appears when "
+                                "recording ends.")
     record.add_argument("--out", type=Path, required=True, help="the .jsonl file to write")
-    for sub in (watch, record):
-        sub.add_argument("--config", type=Path, help="TOML file with a [telemetry] table")
+    ros2 = actions.add_parser("ros2", help="republish the swarm on ROS 2 topics (needs the ros2 extra)",
+                              description="Republish the swarm's states, plans and QoS on the ROS 2 topics "
+                              "of --ros2 (docs/ros2.md), stamped when each payload was produced.")
+    ros2.add_argument("--n-uavs", type=number(int, ge=1, le=10), default=10, metavar="N",
+                      help="UAV ids 0..N-1 get topics, 1..10 (default: %(default)s)")
+    ros2.add_argument("--namespace", default="",
+                      help="ROS 2 namespace of the topics (default: /uav_swarm/<swarm>)")
+    ros2.add_argument("--wait-for-subscriber-s", type=number(float, ge=0.0, le=600.0), default=0.0,
+                      metavar="S", help="wait at most S s for a ROS 2 subscriber of the poses "
+                      "(default: %(default)s)")
+    ros2.add_argument("--ros2-subnet", action="store_true",
+                      help="let DDS discover beyond this machine (default: this machine only)")
+    for sub in (watch, record, ros2):
+        sub.add_argument("--config", type=Path, help="TOML file with a [telemetry] table (default: none)")
         sub.add_argument("--swarm", help="swarm name (default: 'default')")
         sub.add_argument("--mode", choices=["peer", "client"], help="Zenoh session mode (default: peer)")
         sub.add_argument("--connect", action="append", metavar="ENDPOINT",
@@ -39,8 +65,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          help="endpoint to listen on, repeatable (default: none)")
         sub.add_argument("--multicast-scouting", action="store_true",
                          help="discover peers by UDP multicast (sends traffic to the network)")
-        sub.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-        sub.add_argument("--count", type=int, metavar="N", help="stop after N messages")
+        sub.add_argument("--duration-s", type=number(float, gt=0.0), metavar="S",
+                         help="stop after S seconds (default: until interrupted)")
+        sub.add_argument("--count", type=number(int, ge=1), metavar="N",
+                         help="stop after N messages (default: until interrupted)")
         sub.set_defaults(func=run)
 
 
@@ -70,21 +98,20 @@ def run(args: argparse.Namespace) -> int:
     """Subscribe and watch or record until interrupted or the bound is reached."""
     from bridge.telemetry import SwarmSubscriber
     from bridge.telemetry.config import TelemetryConnectionError
+    from typed_config import ConfigError
 
-    for name in ("duration", "count"):
-        value = getattr(args, name)
-        if value is not None and value <= 0:
-            print(f"uav-swarm telemetry: --{name} = {value} must be > 0", file=sys.stderr)
-            return 2
     config = _config(args)
-    subscriber = SwarmSubscriber(config)
-    try:
-        subscriber.open()
-    except TelemetryConnectionError as exc:
-        print(f"uav-swarm telemetry: {exc}", file=sys.stderr)
-        return 2
-    with subscriber:
-        if args.action == "record":
+    with ExitStack() as stack:
+        try:
+            ros = _ros_node(args, config.swarm, stack) if args.action == "ros2" else None
+            subscriber = stack.enter_context(SwarmSubscriber(config))
+        except (TelemetryConnectionError, ConfigError) as exc:
+            print(f"uav-swarm telemetry: {exc}", file=sys.stderr)
+            return 2
+        if ros is not None:
+            count = _republish(subscriber, ros, args)
+            print(f"republished {count} messages on ROS 2 under {ros.namespace}", file=sys.stderr)
+        elif args.action == "record":
             count = _record(subscriber, args.out, args)
             print(f"recorded {count} messages to {args.out}", file=sys.stderr)
         else:
@@ -92,28 +119,59 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _ros_node(args: argparse.Namespace, swarm: str, stack: ExitStack) -> Any:
+    """The republishing ROS 2 node, open until ``stack`` closes (ConfigError: no ros2 extra)."""
+    from uav_swarm.runs.ros2.config import Ros2Config, import_rclpy
+
+    config = Ros2Config(enabled=True, namespace=args.namespace, localhost_only=not args.ros2_subnet)
+    import_rclpy()
+    from uav_swarm.runs.ros2.node import RunNode
+
+    node = RunNode(config, swarm=swarm, n_uavs=args.n_uavs, node_name="uav_swarm_telemetry", sim_time=False)
+    node.open()
+    stack.callback(node.close)
+    if args.wait_for_subscriber_s and not node.wait_for_subscriber(args.wait_for_subscriber_s):
+        logging.getLogger(__name__).warning("no ROS 2 subscriber after %.1f s: republishing anyway",
+                                            args.wait_for_subscriber_s)
+    return node
+
+
+def _republish(subscriber: Any, ros: Any, args: argparse.Namespace) -> int:
+    """Each Zenoh payload on its ROS 2 topic, with the stamp it was produced at; the count republished."""
+    from bridge.telemetry.schema import Plan, Qos, UavState
+
+    count = 0
+    for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
+        if isinstance(item, UavState):
+            ros.state(item)
+        elif isinstance(item, Plan):
+            ros.plan(None, item)
+        elif isinstance(item, Qos):
+            ros.qos(None, item)
+        else:
+            continue
+        count += 1
+    return count
+
+
 def _record(subscriber: Any, out: Path, args: argparse.Namespace) -> int:
     """Write one JSON object per line; the file appears (atomically) when recording ends."""
     from bridge.telemetry.keys import alive_key
     from bridge.telemetry.schema import Presence
+    from typed_config.files import atomic_path
 
     swarm = subscriber.config.swarm
     out.parent.mkdir(parents=True, exist_ok=True)
-    partial = out.with_name(out.name + ".part")
     count = 0
-    try:
-        with partial.open("w", encoding="utf-8") as stream:
-            for item in subscriber.messages(duration_s=args.duration, count=args.count):
-                if isinstance(item, Presence):
-                    line = {"key": alive_key(swarm, item.uav_id), "received_s": item.received_s,
-                            "presence": "alive" if item.alive else "lost", "uav_id": item.uav_id}
-                else:
-                    line = {"key": item.key(swarm), "received_s": time.time(), "payload": item.to_dict()}
-                stream.write(json.dumps(line, separators=(",", ":")) + "\n")
-                count += 1
-        os.replace(partial, out)
-    finally:
-        partial.unlink(missing_ok=True)
+    with atomic_path(out) as partial, partial.open("w", encoding="utf-8") as stream:
+        for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
+            if isinstance(item, Presence):
+                line = {"key": alive_key(swarm, item.uav_id), "received_s": item.received_s,
+                        "presence": "alive" if item.alive else "lost", "uav_id": item.uav_id}
+            else:
+                line = {"key": item.key(swarm), "received_s": time.time(), "payload": item.to_dict()}
+            stream.write(json.dumps(line, separators=(",", ":")) + "\n")
+            count += 1
     return count
 
 
@@ -124,7 +182,7 @@ def _watch(subscriber: Any, args: argparse.Namespace, stream: TextIO) -> None:
     snapshot = subscriber.latest()
     alive = subscriber.alive()
     next_draw = 0.0
-    for item in subscriber.messages(duration_s=args.duration, count=args.count):
+    for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
         if isinstance(item, Presence):
             (alive.add if item.alive else alive.discard)(item.uav_id)
         else:

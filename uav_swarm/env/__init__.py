@@ -2,6 +2,8 @@
 
 - :mod:`~uav_swarm.env.parallel`: ``uav_swarm_v0``, the PettingZoo *parallel* environment
   (``parallel_env``, ``raw_env``, the AEC ``env``), re-exported here.
+- :mod:`~uav_swarm.env.core`: the batch-first core, B worlds in arrays, under every view.
+- :mod:`~uav_swarm.env.observe`: observations, rewards and infos over the batch.
 - :mod:`~uav_swarm.env.config`: its configuration (:class:`~uav_swarm.env.config.EnvConfig`).
 - :mod:`~uav_swarm.env.actions`: action spaces and the parsing that rejects malformed actions.
 - :mod:`~uav_swarm.env.render`: RGB frames and the human viewer.

@@ -9,7 +9,7 @@ Examples:
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -45,7 +45,7 @@ def parse_actions(actions: Mapping[str, Any], agent_index: Mapping[str, int]) ->
     return given, values
 
 
-def _raise_bad_action(actions: Mapping[str, Any]) -> None:
+def _raise_bad_action(actions: Mapping[str, Any]) -> NoReturn:
     """Raise a ValueError naming the first agent whose action has a bad shape or dtype."""
     for agent, action in actions.items():
         value = np.asarray(action)

@@ -1,4 +1,4 @@
-"""The ``uav_swarm_v0`` PettingZoo parallel environment: a thin shell over :mod:`uav_swarm.world`.
+"""The ``uav_swarm_v0`` PettingZoo parallel environment: a shell over one world of :mod:`uav_swarm.env.core`.
 
 Examples:
     >>> from uav_swarm.env.parallel import parallel_env
@@ -22,24 +22,19 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from uav_swarm.env.actions import parse_actions
-from uav_swarm.env.config import MAX_UAVS, EnvConfig, merge_overrides
+from uav_swarm.env.config import EnvConfig, merge_overrides
+from uav_swarm.env.core import SwarmCore
+from uav_swarm.env.observe import AGENT_INFO_KEYS, TEAM_INFO_KEYS
 from uav_swarm.env.render import HumanViewer, draw_frame
-from uav_swarm.world.comms import Association, Coverage
-from uav_swarm.world.crowd import CrowdSim
-from uav_swarm.world.raster import density_map
-from uav_swarm.world.scenario import Scenario, random_scenario
-from uav_swarm.world.separation import separation_penalty
-from uav_swarm.world.uav import UAVFleet
+from uav_swarm.world.comms import Coverage
+from uav_swarm.world.scenario import Scenario
 
 __all__ = ["raw_env", "parallel_env", "env", "EnvConfig"]
 
 logger = logging.getLogger(__name__)
 
-_N_OTHERS = MAX_UAVS - 1
-_N_STATS = 4
 
-
-class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment class)
+class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
     """UAV swarm over a moving crowd (``uav_swarm_v0``).
 
     **Description.** Up to 10 UAVs fly at a fixed altitude over a rectangular area where a
@@ -55,11 +50,17 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     - ``action_mode="velocity"``: ``[-1, 1]^2``, the commanded velocity (East, North) as a
       fraction of ``uav.max_speed_m_s`` (per axis; the speed is then capped at the maximum).
     - ``action_mode="waypoint"``: ``[0, width_m] x [0, height_m]``, a target position in metres;
-      a controller flies there at most at the caps and brakes to a stop on it.
+      a controller flies there at most at the caps and brakes to a stop on it. Its commands pass a
+      separation guard (:func:`~uav_swarm.world.separation.guard_commands`) that keeps every pair of
+      UAVs at least ``uav.min_separation_m`` apart: a UAV whose command would close a gap below it is
+      turned around its neighbour or brakes (``separation_held = 1``), lower indices first. UAVs start
+      at random and may start closer than the minimum; such a pair may only widen its gap.
 
+    Velocity actions (the learning path) are not guarded: separation is learnt from the reward's penalty.
     Speeds are capped at ``uav.max_speed_m_s`` and velocity changes at ``uav.max_accel_m_s2``;
-    UAVs stay inside the area. Out-of-bounds values are clipped into the box; a missing
-    agent keeps its last target (waypoint) or is commanded to stop (velocity). Any float
+    UAVs stay inside the area (:func:`~uav_swarm.world.uav.fly_step`). Out-of-bounds values are
+    clipped into the box; a missing agent keeps its last target (waypoint) or is commanded to stop
+    (velocity). Any float
     or int numpy dtype is accepted; an unknown agent, a shape other than ``(2,)`` or a NaN/inf
     raises ``ValueError`` naming the agent.
 
@@ -88,10 +89,17 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     share of pedestrians with network; strategy 2: share with network and at least
     ``radio.min_user_rate_mbps``, 5 Mbps) minus
     ``separation_weight * separation_penalty``, where the penalty sums ``1 - d / min_separation_m``
-    over UAV pairs closer than ``uav.min_separation_m``. ``infos[agent]`` holds ``qos_s1``,
+    over UAV pairs closer than ``uav.min_separation_m``. ``infos[agent]`` holds the team's ``qos_s1``,
     ``qos_s2``, ``mean_throughput_mbps``, ``covered_users``, ``n_pedestrians``,
-    ``separation_penalty``, and the agent's own ``users_served`` and ``throughput_per_user_mbps``
-    (numbers only, so that RL libraries can stack them; ``env.coverage.model`` names the association).
+    ``separation_penalty`` and ``closest_separation_m`` (the distance of the closest pair of UAVs, m),
+    and the agent's own ``users_served``, ``throughput_per_user_mbps`` and ``separation_held`` (1 when
+    the guard held its waypoint command back this step, else 0) (numbers only, so that RL libraries can
+    stack them; ``env.coverage.model`` names the association).
+
+    **Altitudes.** UAV ``k`` flies at ``uav.alt_m + k * uav.layer_step_m`` (``env.uav_altitudes_m``; one
+    layer by default). With layers, distances between UAVs (the guard, the penalty, the closest pair) are
+    3-D, and with ``use_3d_distance`` the radio measures each user's distance to each UAV at that UAV's
+    own altitude.
 
     **Association.** ``radio.station_limit`` chooses it (:mod:`uav_swarm.world.comms`): ``None``, the
     paper's model, joins every user in range to its strongest UAV at every step; a limit (an integer, or
@@ -115,12 +123,17 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     ``scene`` (a :class:`~uav_swarm.world.scenario.Scenario`) fixes the scene for every episode
     (else a random one is drawn from ``config.scenario`` at each reset). ``reset(seed)``
     seeds the one ``numpy.random.Generator`` that draws the scenario, the crowd and the UAV
-    start positions. ``render_mode`` is ``None``, ``"rgb_array"`` or ``"human"``.
+    start positions (``env.np_random``, Gymnasium's name, which wrappers such as SuperSuit's frame
+    skip draw from). ``render_mode`` is ``None``, ``"rgb_array"`` or ``"human"``.
+
+    **Implementation.** This class is a PettingZoo shell over one world of
+    :class:`~uav_swarm.env.core.SwarmCore`; :class:`~uav_swarm.env.batched.BatchedUAVSwarm` is the same
+    core over B worlds, so both compute the same numbers with the same code.
 
     **Version history.** v0: initial release.
     """
 
-    metadata = {
+    metadata: dict[str, Any] = {
         "name": "uav_swarm_v0",
         "render_modes": ["human", "rgb_array"],
         "is_parallelizable": True,
@@ -139,51 +152,22 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
                 f"render_mode = {render_mode!r}: choose None or one of {self.metadata['render_modes']}")
         self.config = merge_overrides(config or EnvConfig(), overrides)
         self.render_mode = render_mode
-        self._scene = scene
-        cfg = self.config
-        if scene is not None:
-            self.width_m, self.height_m = float(scene.width_m), float(scene.height_m)
-        else:
-            self.width_m, self.height_m = float(cfg.scenario.width_m), float(cfg.scenario.height_m)
-        self._area_m = np.array([self.width_m, self.height_m])
-        self.dt_s = cfg.crowd_steps_per_env_step * cfg.crowd.dt_s
-        self.radio = cfg.effective_radio
-        self._association = Association(self.radio)
-        self.possible_agents = [f"uav_{i}" for i in range(cfg.n_uavs)]
+        self._core = core = SwarmCore(1, self.config, scene, stacked_crowd=False)
+        self.width_m, self.height_m = core.width_m, core.height_m
+        self.dt_s = core.dt_s
+        self.radio = core.radio
+        self.possible_agents = [f"uav_{i}" for i in range(self.config.n_uavs)]
         self.agents: list[str] = []
         self._agent_index = {agent: i for i, agent in enumerate(self.possible_agents)}
-
-        n, p = cfg.n_uavs, cfg.patch_px
-        self._obs_dim = 4 + 3 * _N_OTHERS + p * p + _N_STATS
-        low = np.zeros(self._obs_dim, dtype=np.float32)
-        low[2:4 + 2 * _N_OTHERS] = -1.0
-        self._obs_low, self._obs_high = low, np.ones(self._obs_dim, dtype=np.float32)
-        self._observation_spaces = {
-            a: spaces.Box(low, self._obs_high, dtype=np.float32) for a in self.possible_agents}
-        if cfg.action_mode == "velocity":
-            act_low, act_high = np.full(2, -1.0, np.float32), np.ones(2, np.float32)
-        else:
-            act_low, act_high = np.zeros(2, np.float32), self._area_m.astype(np.float32)
-        self._act_low, self._act_high = act_low.astype(np.float64), act_high.astype(np.float64)
-        self._action_spaces = {
-            a: spaces.Box(act_low, act_high, dtype=np.float32) for a in self.possible_agents}
-        h, w = cfg.density_shape
-        self.state_space = spaces.Box(0.0, 1.0, shape=(h * w + 2 * n,), dtype=np.float32)
-        # Index pairs (i, j != i) of the other UAVs, in agent order, for the observation.
-        self._others = (np.repeat(np.arange(n), n - 1),
-                        np.array([j for i in range(n) for j in range(n) if j != i], dtype=np.intp))
-        # Flat offsets of a p x p patch in the zero-bordered map, whose top-left is the UAV's pixel.
-        self._patch_flat = (np.arange(p)[:, None] * (w + p - 1) + np.arange(p)[None, :]).ravel()
-        self._px_per_m = np.array([w / self.width_m, h / self.height_m])
-        self._last_px = np.array([w - 1, h - 1])
-        self._padded_share_map = np.zeros((h + p - 1, w + p - 1), dtype=np.float32)  # zero border
+        observation_space, action_space = core.layout.observation_space(), core.layout.action_space()
+        self._observation_spaces = {a: observation_space for a in self.possible_agents}
+        self._action_spaces = {a: action_space for a in self.possible_agents}
+        self.state_space = core.layout.state_space()
         # Horizontal radius within which a user is covered (for drawing).
         self.coverage_radius_m = self.radio.coverage_radius_m
-
-        self._rng: np.random.Generator | None = None
-        self._scenario: Scenario | None = None
-        self._crowd: CrowdSim | None = None
-        self._fleet: UAVFleet | None = None
+        self._given = np.zeros((1, self.config.n_uavs), dtype=bool)
+        self._values = np.zeros((1, self.config.n_uavs, 2))
+        self._reset_done = False
         self._viewer: HumanViewer | None = None
 
     # --- PettingZoo API -----------------------------------------------------------------
@@ -196,6 +180,11 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         """The action space of ``agent`` (see the class docstring)."""
         return self._action_spaces[agent]
 
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The environment's one generator (Gymnasium's name): it draws scenario, crowd and UAV starts."""
+        return self._core.rng(0)
+
     def reset(
         self, seed: int | None = None, options: dict | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
@@ -205,18 +194,9 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
             seed: Seeds the environment's generator; None continues the current one.
             options: Unused.
         """
-        if seed is not None or self._rng is None:
-            self._rng = np.random.default_rng(seed)
-        rng, cfg = self._rng, self.config
-        self._scenario = self._scene if self._scene is not None else random_scenario(rng, cfg.scenario)
-        self._crowd = CrowdSim(self._scenario, cfg.crowd, rng)
-        self._fleet = UAVFleet(rng.uniform(0.0, self._area_m, size=(cfg.n_uavs, 2)), cfg.uav,
-                               self.width_m, self.height_m)
-        self._targets_m = self._fleet.positions_m.copy()
+        self._core.reset([seed], np.zeros(1, np.intp))
+        self._reset_done = True
         self.agents = self.possible_agents[:]
-        self._cycle = 0
-        self._association.reset()
-        self._update_world_view()
         if self.render_mode == "human":
             self.render()
         return self._observations(), self._infos()
@@ -232,17 +212,22 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
         """
         if not self.agents:
             raise RuntimeError("step() called on a finished episode: call reset() first")
-        command = self._command(actions)
-        self._crowd.step(self.config.crowd_steps_per_env_step)
-        self._fleet.step(command, self.dt_s)
-        self._cycle += 1
-        self._update_world_view()
-        agents = self.agents
-        rewards = dict.fromkeys(agents, self._reward)
+        given, values = parse_actions(actions, self._agent_index)
+        every = len(given) == self.config.n_uavs
+        if every and given == list(range(len(given))):
+            self._core.step(values[None])
+        else:
+            self._given[:] = False
+            self._given[0, given] = True
+            self._values[0, given] = values
+            self._core.step(self._values, None if every else self._given)
+        core, agents = self._core, self.agents
+        done = bool(core.cycle[0] >= self.config.max_cycles)
+        rewards = dict.fromkeys(agents, float(core.reward[0]))
         terminations = dict.fromkeys(agents, False)
-        truncations = dict.fromkeys(agents, self._cycle >= self.config.max_cycles)
+        truncations = dict.fromkeys(agents, done)
         observations, infos = self._observations(), self._infos()
-        if self._cycle >= self.config.max_cycles:
+        if done:
             self.agents = []
         if self.render_mode == "human":
             self.render()
@@ -251,8 +236,7 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     def state(self) -> np.ndarray:
         """The global density map (share of the crowd per pixel) and all UAV positions, normalised."""
         self._require_reset()
-        positions = self._fleet.positions_m / self._area_m
-        return np.concatenate([self._share_map.ravel(), positions.ravel().astype(np.float32)])
+        return self._core.states()[0]
 
     def render(self) -> np.ndarray | None:
         """An (H, W, 3) uint8 picture in ``rgb_array`` mode; shows it in ``human`` mode."""
@@ -261,9 +245,9 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
             return None
         self._require_reset()
         frame = draw_frame(
-            self.width_m, self.height_m, obstacles_m=self._scenario.obstacles,
-            pedestrians_m=self._crowd.positions_m, covered=self._coverage.covered,
-            uavs_m=self._fleet.positions_m, coverage_radius_m=self.coverage_radius_m)
+            self.width_m, self.height_m, obstacles_m=self.scenario.obstacles,
+            pedestrians_m=self.pedestrian_positions_m, covered=self._core.coverage.association >= 0,
+            uavs_m=self.uav_positions_m, coverage_radius_m=self.coverage_radius_m)
         if self.render_mode == "rgb_array":
             return frame
         if self._viewer is None:
@@ -282,108 +266,63 @@ class raw_env(ParallelEnv):  # noqa: N801 (PettingZoo's name for the environment
     @property
     def scenario(self) -> Scenario:
         """The current scenario (obstacles, waypoints, groups)."""
-        return self._scenario
+        self._require_reset()
+        return self._core.crowd.scenario
 
     @property
     def pedestrian_positions_m(self) -> np.ndarray:
         """(N, 2) pedestrian positions in metres (read-only view)."""
-        return _read_only(self._crowd.positions_m)
+        self._require_reset()
+        return _read_only(self._core.crowd.positions_m)
 
     @property
     def pedestrian_velocities_m_s(self) -> np.ndarray:
         """(N, 2) pedestrian velocities in m/s (read-only view)."""
-        return _read_only(self._crowd.velocities_m_s)
+        self._require_reset()
+        return _read_only(self._core.crowd.velocities_m_s)
 
     @property
     def uav_positions_m(self) -> np.ndarray:
         """(K, 2) UAV positions in metres (read-only view)."""
-        return _read_only(self._fleet.positions_m)
+        return _read_only(self._core.positions_m[0])
 
     @property
     def uav_velocities_m_s(self) -> np.ndarray:
         """(K, 2) UAV velocities in m/s (read-only view)."""
-        return _read_only(self._fleet.velocities_m_s)
+        return _read_only(self._core.velocities_m_s[0])
+
+    @property
+    def uav_altitudes_m(self) -> np.ndarray:
+        """(K,) UAV flight altitudes in metres (``uav.alt_m`` plus ``uav.layer_step_m`` per index)."""
+        return _read_only(self._core.altitudes_m)
 
     @property
     def coverage(self) -> Coverage:
         """The coverage of the crowd after the last reset or step."""
-        return self._coverage
+        self._require_reset()
+        return self._core.coverage.copy(0)
 
     @property
     def density(self) -> np.ndarray:
         """(h, w) float32 pedestrian counts per pixel after the last reset or step (read-only view)."""
-        return _read_only(self._density)
+        self._require_reset()
+        return _read_only(self._core.density[0])
 
     # --- internals ----------------------------------------------------------------------
 
     def _require_reset(self) -> None:
-        if self._fleet is None:
+        if not self._reset_done:
             raise RuntimeError("the environment has not been reset: call reset() first")
 
-    def _command(self, actions: Mapping[str, Any]) -> np.ndarray:
-        """Validate the actions and turn them into (K, 2) velocity commands in m/s."""
-        given, values = parse_actions(actions, self._agent_index)
-        values = np.minimum(np.maximum(values, self._act_low), self._act_high)
-        if self.config.action_mode == "velocity":
-            command = np.zeros_like(self._fleet.positions_m)
-            command[given] = values * self.config.uav.max_speed_m_s
-            return command
-        self._targets_m[given] = values
-        return self._fleet.waypoint_command(self._targets_m, self.dt_s)
-
-    def _update_world_view(self) -> None:
-        """Density map, coverage and reward after the world moved (once per step)."""
-        cfg, peds = self.config, self._crowd.positions_m
-        self._density = density_map(peds, self.width_m, self.height_m, cfg.density_shape)
-        self._share_map = self._density / max(1, peds.shape[0])
-        half, (h, w) = cfg.patch_px // 2, cfg.density_shape
-        self._padded_share_map[half:half + h, half:half + w] = self._share_map
-        self._coverage = self._association.update(peds, self._fleet.positions_m)
-        self._separation = float(separation_penalty(self._fleet.positions_m, cfg.uav.min_separation_m))
-        qos = self._coverage.qos_s1 if cfg.strategy == 1 else self._coverage.qos_s2
-        self._reward = float(qos - cfg.separation_weight * self._separation)
-
     def _observations(self) -> dict[str, np.ndarray]:
-        cfg, fleet, cov = self.config, self._fleet, self._coverage
-        n, p = cfg.n_uavs, cfg.patch_px
-        obs = np.zeros((n, self._obs_dim), dtype=np.float32)
-        pos = fleet.positions_m / self._area_m
-        obs[:, 0:2] = pos
-        obs[:, 2:4] = fleet.velocities_m_s / cfg.uav.max_speed_m_s
-        if n > 1:
-            rel = pos[self._others[1]] - pos[self._others[0]]  # (n (n - 1), 2), grouped by observer
-            obs[:, 4:4 + 2 * (n - 1)] = rel.reshape(n, -1)
-            obs[:, 4 + 2 * _N_OTHERS:4 + 2 * _N_OTHERS + n - 1] = 1.0
-        start = 4 + 3 * _N_OTHERS
-        # The patch is centred on the density-map pixel that contains the UAV (as density_map bins it).
-        pixel = np.minimum((fleet.positions_m * self._px_per_m).astype(np.intp), self._last_px)  # (n, 2) x, y
-        flat = (pixel[:, 1] * self._padded_share_map.shape[1] + pixel[:, 0])[:, None] + self._patch_flat
-        obs[:, start:start + p * p] = self._padded_share_map.ravel()[flat]  # (n, p * p)
-        served = cov.users_per_uav
-        stats = obs[:, -_N_STATS:]
-        stats[:, 0] = served / max(1, cov.covered.shape[0])
-        stats[:, 1] = 1.0 / np.maximum(served, 1) * (served > 0)
-        stats[:, 2:] = (cov.qos_s1, cov.qos_s2)
-        np.minimum(obs, self._obs_high, out=obs)  # guards against rounding only
-        np.maximum(obs, self._obs_low, out=obs)
-        return dict(zip(self.agents, obs, strict=True))
+        return dict(zip(self.agents, self._core.observations()[0], strict=True))
 
     def _infos(self) -> dict[str, dict[str, Any]]:
-        cov = self._coverage
-        team = {
-            "qos_s1": cov.qos_s1,
-            "qos_s2": cov.qos_s2,
-            "mean_throughput_mbps": cov.mean_throughput_mbps,
-            "covered_users": int(np.count_nonzero(cov.covered)),
-            "n_pedestrians": int(cov.covered.shape[0]),
-            "separation_penalty": self._separation,
-        }
-        served = cov.users_per_uav.tolist()
-        capacity = self.radio.capacity_mbps
-        return {
-            agent: {**team, "users_served": k, "throughput_per_user_mbps": capacity / k if k else 0.0}
-            for agent, k in zip(self.agents, served, strict=True)
-        }
+        arrays = self._core.infos()
+        team = {key: arrays[key][0].item() for key in TEAM_INFO_KEYS}
+        served, rate, held = (arrays[key][0].tolist() for key in AGENT_INFO_KEYS)
+        return {agent: {**team, "users_served": k, "throughput_per_user_mbps": r, "separation_held": h}
+                for agent, k, r, h in zip(self.agents, served, rate, held, strict=True)}
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:

@@ -30,8 +30,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from learning.files import write_bytes_atomic, write_json_atomic, write_text_atomic
 from typed_config import Config, param
+from typed_config.files import write_bytes_atomic, write_json_atomic, write_text_atomic
 from uav_swarm.env.config import MAX_UAVS, EnvConfig
 
 __all__ = ["MappoConfig", "train_mappo", "load_policy", "MappoPolicy", "FeatureNorm"]

@@ -216,8 +216,13 @@ def make_task(name: str, config_path: str | Path | None = None, overrides: Mappi
         overrides: ``[task]`` values that replace the file's.
 
     Raises:
-        ConfigError: Unknown name, bad file, or invalid config values.
+        ConfigError: Unknown name, bad file, or invalid config values (named with the file).
     """
     _entry(name)
     table = {**_read_tables(config_path).get("task", {}), **(overrides or {})}
-    return build_task(name, table)
+    try:
+        return build_task(name, table)
+    except ConfigError as exc:
+        if config_path is None:
+            raise
+        raise ConfigError(f"{config_path}: {exc} (the [task] table of task {name!r})") from None

@@ -9,8 +9,10 @@ module decides which UAV flies to which candidate:
    Which previous targets survive is itself decided by a Hungarian matching
    between previous targets and candidates, so two UAVs never claim one candidate.
 2. **Hungarian assignment.** The remaining candidates go to the remaining UAVs by
-   :func:`scipy.optimize.linear_sum_assignment` on Euclidean travel distance,
-   minimising the total distance flown.
+   :func:`scipy.optimize.linear_sum_assignment` on *squared* travel distance
+   (:func:`uav_swarm.planning.transitions.squared_assignment`): a convex cost, so no two
+   assigned straight paths cross where exchanging their targets would shorten the sum
+   (the transition between two plans then has fewer conflicts to resolve).
 3. **Fallback.** With fewer candidates than UAVs, the spare UAVs *hold their
    current position*. Targets are always pairwise distinct: a spare UAV sitting on
    another UAV's target is given the nearest free position on a ring around it.
@@ -29,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+
+from uav_swarm.planning.transitions import squared_assignment
 
 __all__ = ["Assignment", "assign_targets", "separate_spares"]
 
@@ -121,7 +125,7 @@ def assign_targets(
     uav_ids = np.flatnonzero(free_uavs)
     cand_ids = np.flatnonzero(free_cands)
     if len(uav_ids) and len(cand_ids):
-        rows, cols = linear_sum_assignment(_pairwise(uavs[uav_ids], cands[cand_ids]))
+        rows, cols = squared_assignment(uavs[uav_ids], cands[cand_ids])
         targets[uav_ids[rows]] = cands[cand_ids[cols]]
         index[uav_ids[rows]] = cand_ids[cols]
     separate_spares(targets, index < 0, min_gap_m)

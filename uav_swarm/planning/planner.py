@@ -30,7 +30,8 @@ Snapshot assignment (:func:`uav_swarm.planning.assignment.assign_targets`), the 
 
 1. **Hysteresis (no churn).** A UAV whose previous target is within ``hysteresis_m`` of a new
    candidate keeps its previous target, so small crowd motion does not reshuffle the swarm.
-2. **Hungarian.** The other candidates go to the other UAVs with the least total travel distance.
+2. **Hungarian.** The other candidates go to the other UAVs with the least sum of squared travel
+   distances (paths that do not cross where an exchange would shorten them).
 3. **Fallback.** With fewer candidates than UAVs (the expert justifies a UAV only by more than
    ``min_group_size`` users; the network's peaks must pass the checkpoint's thresholds), the spare
    UAVs *hold their current position*, nudged off any other UAV's target so that targets stay

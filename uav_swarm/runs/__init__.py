@@ -8,4 +8,8 @@
 - :mod:`~uav_swarm.runs.recording`, :mod:`~uav_swarm.runs.foxglove_scene`, :mod:`~uav_swarm.runs.live_view`:
   ``--record`` and ``--live``, a run in Foxglove's message types through the Foxglove SDK, as an MCAP
   file for replay and/or streamed to the Foxglove app while it runs (the only modules that import the SDK).
+- :mod:`~uav_swarm.runs.outputs`: the one object both loops hand each step and plan to (Zenoh telemetry,
+  the Foxglove recorder, ROS 2); :mod:`~uav_swarm.runs.summary`: the results summary of both jobs.
+- :mod:`~uav_swarm.runs.ros2`: ``--ros2``, the run on ROS 2 topics (the only package that imports rclpy);
+  :mod:`~uav_swarm.runs.steering`: the operator targets it takes, validated.
 """

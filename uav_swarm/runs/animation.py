@@ -27,7 +27,7 @@ from matplotlib.patches import Circle, Patch, Rectangle
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 from PIL import Image
 
-from learning.files import write_bytes_atomic
+from typed_config.files import write_bytes_atomic
 from uav_swarm.missions.wifi.task import crowd_raster
 from uav_swarm.runs.records import Frame, SequenceRun
 

@@ -31,8 +31,8 @@ from bridge.flight.preflight import PreflightError
 from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.flight_safety import FlightSafety
 from uav_swarm.runs.fly_config import FlyConfig
+from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import QosTrace
-from uav_swarm.runs.service import STATIC_EVERY_S
 from uav_swarm.world.comms import Association
 from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.scenario import random_scenario
@@ -42,8 +42,7 @@ if TYPE_CHECKING:
     from bridge.flight.fleet import Fleet
     from bridge.flight.vehicle_home import ReportedHome
     from bridge.link.vehicle_state import VehicleState
-    from bridge.telemetry import SwarmPublisher
-    from uav_swarm.runs.recording import RunRecorder
+    from uav_swarm.runs.steering import OperatorTargets
 
 __all__ = ["Flight"]
 
@@ -79,21 +78,22 @@ class Flight:
         config: The flight's settings.
         bridge: The bridge config (:func:`load_flight_bridge`).
         fleet: The open fleet of ``bridge``'s vehicles.
-        publisher: An open telemetry publisher, or None.
+        outputs: The flight's sinks (:mod:`uav_swarm.runs.outputs`, states on arrival): each vehicle's
+            state as it arrives, the plans, and every ``record_every_s`` the scene, the states and the QoS,
+            at crowd time.
         planner: The planner for every vehicle of the flight, when already built (others are built
             when vehicles are lost).
-        recorder: Records the plans, and every ``record_every_s`` the scene, the vehicles' states
-            and the QoS, at crowd time (:mod:`uav_swarm.runs.recording`).
+        steering: Operator targets that replace the planner's for the UAVs they name, sent at once.
     """
 
     def __init__(self, config: FlyConfig, bridge: BridgeConfig, fleet: Fleet,
-                 publisher: SwarmPublisher | None = None, planner: Planner | None = None,
-                 recorder: RunRecorder | None = None) -> None:
+                 outputs: RunOutputs | None = None, planner: Planner | None = None,
+                 steering: OperatorTargets | None = None) -> None:
         self.config = config
-        self.recorder = recorder
+        self.outputs = outputs or RunOutputs(states_on_arrival=True)
+        self.steering = steering
         self.bridge = bridge
         self.fleet = fleet
-        self.publisher = publisher
         n = config.n_uavs or len(bridge.vehicles)
         self.vehicles = [_Vehicle(v.system_id, uav_id) for uav_id, v in enumerate(bridge.vehicles[:n])]
         self._by_sid = {v.system_id: v for v in self.vehicles}
@@ -105,7 +105,7 @@ class Flight:
         self.plans: list[dict[int, tuple[float, float]]] = []
         """Each replan's targets by UAV id (for the target jumps of the summary)."""
         self.crowd_samples: list[tuple[float, np.ndarray, np.ndarray]] = []
-        """``(time_s, positions, velocities)`` of the crowd every ``STATIC_EVERY_S`` (static reference)."""
+        """``(time_s, positions, velocities)`` of the crowd every ``static_every_s`` (static reference)."""
         self._clock_s = 0.0
         rng = np.random.default_rng(config.seed)
         self.scenario = random_scenario(rng, config.task.scenario)
@@ -186,8 +186,7 @@ class Flight:
             return
         if vehicle.status == "launching":
             vehicle.status = "live"
-            if self.publisher is not None:
-                self.publisher.announce(vehicle.uav_id)
+            self.outputs.announce(vehicle.uav_id)
             self._event("live", vehicle)
 
     def _check_all(self) -> dict[int, ReportedHome]:
@@ -254,16 +253,14 @@ class Flight:
             state = self._state(vehicle)
             if vehicle.status == "live" and state is not None and state.armed is False:
                 vehicle.status, vehicle.target_m = "landed", None
-                if self.publisher is not None:
-                    self.publisher.retire(vehicle.uav_id)
+                self.outputs.retire(vehicle.uav_id)
                 logger.warning("vehicle %d disarmed in flight (landed or taken over): left out of the plan",
                                vehicle.system_id)
                 self._event("disarmed", vehicle)
             elif vehicle.status in ("live", "launching") and not self._heard_within(vehicle, timeout_s):
                 vehicle.status, vehicle.lost_at_s = "lost", time.time()
                 vehicle.target_m = None
-                if self.publisher is not None:
-                    self.publisher.retire(vehicle.uav_id)
+                self.outputs.retire(vehicle.uav_id)
                 logger.warning("vehicle %d lost: no heartbeat for %.1f s; replanning without it",
                                vehicle.system_id, timeout_s)
                 self._event("lost", vehicle)
@@ -302,20 +299,42 @@ class Flight:
         targets = [(float(x), float(y), self.safety.cruise_alt_m[v.system_id])
                    for (v, _), (x, y) in zip(live, result.targets_m, strict=True)]
         self.plans.append({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
-        if self.publisher is not None or self.recorder is not None:
+        targets = self._steered(live, targets)
+        if self.outputs.active:
             from bridge.telemetry.schema import Plan, PlanTarget
 
-            plan = Plan(stamp_s=time.time(), seq=seq, source="vehicle", planner=planner.name,
-                        latency_ms=float(result.latency_ms),
-                        targets=tuple(PlanTarget(uav_id=v.uav_id, target_enu_m=t)
-                                      for (v, _), t in zip(live, targets, strict=True)))
-            if self.publisher is not None:
-                self.publisher.publish_plan(plan)
-            if self.recorder is not None:
-                self.recorder.plan(self._clock_s, plan)
+            self.outputs.plan(self._clock_s, Plan(
+                stamp_s=time.time(), seq=seq, source="vehicle", planner=planner.name,
+                latency_ms=float(result.latency_ms), targets=tuple(
+                    PlanTarget(uav_id=v.uav_id, target_enu_m=t)
+                    for (v, _), t in zip(live, targets, strict=True))))
+        self._send(live, targets)
+        return ids
+
+    def _steered(self, live: list[tuple[_Vehicle, VehicleState]], targets: list[tuple[float, float, float]]
+                 ) -> list[tuple[float, float, float]]:
+        """The planner's targets with the operator's in place (and told to the operator's validation)."""
+        if self.steering is None:
+            return targets
+        self.steering.planned({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
+        held = self.steering.held()
+        return [(*held[v.uav_id], self.safety.cruise_alt_m[v.system_id]) if v.uav_id in held else t
+                for (v, _), t in zip(live, targets, strict=True)]
+
+    def _steer(self) -> None:
+        """Operator targets changed: send each live vehicle the operator's target, or its planned one back."""
+        live = self._live()
+        planned = self.plans[-1] if self.plans else {}
+        here = [planned.get(v.uav_id, (float(s.x_m or 0.0), float(s.y_m or 0.0))) for v, s in live]
+        targets = self._steered(live, [(x, y, self.safety.cruise_alt_m[v.system_id])
+                                       for (v, _), (x, y) in zip(live, here, strict=True)])
+        self._send(live, targets)
+
+    def _send(self, live: list[tuple[_Vehicle, VehicleState]], targets: list[tuple[float, float, float]]
+              ) -> None:
+        """Each live vehicle's new target, flown through the separation guard (:meth:`_guard_tick`)."""
         for (vehicle, _), target in zip(live, targets, strict=True):
             vehicle.target_m = target  # sent through the guard (_guard_tick)
-        return ids
 
     # -- separation guard ----------------------------------------------------------------------
     def _guard_if_due(self) -> None:
@@ -391,15 +410,12 @@ class Flight:
         cov = self._association.update(users, uavs, [vehicle.uav_id for vehicle, _ in live])
         times.append(self._clock_s)
         rows.append((float(cov.qos_s1), float(cov.qos_s2), float(cov.mean_throughput_mbps)))
-        if self.publisher is not None or self.recorder is not None:
+        if self.outputs.active:
             from bridge.telemetry.schema import Qos
 
             qos = Qos(stamp_s=time.time(), seq=seq, source="vehicle", qos_s1=rows[-1][0], qos_s2=rows[-1][1],
                       mean_throughput_mbps=rows[-1][2], n_users=int(users.shape[0]))
-            if self.publisher is not None:
-                self.publisher.publish_qos(qos)
-            if self.recorder is not None:
-                self._record_step(qos, users, cov.covered, seq)
+            self._record_step(qos, users, cov.covered, seq)
         for vehicle in self.vehicles:
             state = self._state(vehicle)
             if state is None or state.x_m is None:
@@ -416,15 +432,14 @@ class Flight:
         heard = [(v, self._state(v)) for v in self.vehicles]
         states = [state_from_vehicle(state, seq, uav_id=v.uav_id, target_enu_m=v.target_m)
                   for v, state in heard if state is not None]
-        self.recorder.step(self._clock_s, [s for s in states if s is not None], qos, users,  # type: ignore[union-attr]
-                           covered)
+        self.outputs.step(self._clock_s, [s for s in states if s is not None], qos, users, covered)
 
     def _loop(self) -> tuple[QosTrace, list[dict[str, Any]]]:
         cfg = self.config
         dt_s = cfg.task.crowd.dt_s
         steps_per_replan = max(1, round(cfg.replan_every_s / dt_s))
         steps_per_record = max(1, round(cfg.record_every_s / dt_s))
-        steps_per_sample = max(1, round(STATIC_EVERY_S / dt_s))
+        steps_per_sample = max(1, round(cfg.static_every_s / dt_s))
         n_steps = max(1, round(cfg.duration_s / dt_s))
         times: list[float] = []
         rows: list[tuple[float, float, float]] = []
@@ -433,8 +448,8 @@ class Flight:
         start_s = time.monotonic()
         step = 0
         self._event("loop_started", None)
-        if self.recorder is not None:
-            self.recorder.static_scene(self.scenario.obstacles)
+        self.outputs.static_scene(self.scenario.obstacles)
+        steered = 0
         while step < n_steps and not self._stop.is_set():
             self._guard_if_due()
             due = min(n_steps, int((time.monotonic() - start_s) * cfg.speedup / dt_s) + 1)
@@ -442,6 +457,10 @@ class Flight:
                 self._check_links()
                 if step % steps_per_replan == 0:
                     ids = self._replan(step // steps_per_replan, ids)
+                    steered = self.steering.version if self.steering is not None else 0
+                elif self.steering is not None and self.steering.version != steered:
+                    steered = self.steering.version
+                    self._steer()
                 if step % steps_per_sample == 0:
                     self.crowd_samples.append((step * dt_s, np.array(self.crowd.positions_m),
                                                np.array(self.crowd.velocities_m_s)))
@@ -520,14 +539,14 @@ class Flight:
         from bridge.telemetry.schema import state_from_vehicle
 
         vehicle = self._by_sid.get(state.system_id)
-        if (self.publisher is None or vehicle is None or vehicle.status in ("waiting", "lost")
+        if (not self.outputs.live or vehicle is None or vehicle.status in ("waiting", "lost")
                 or state.position_time_s != state.updated_time_s):
             return
         payload = state_from_vehicle(state, vehicle.seq, uav_id=vehicle.uav_id, target_enu_m=vehicle.target_m)
         if payload is not None:
             vehicle.seq += 1
             try:
-                self.publisher.publish_state(payload, announce=False)  # the token means "live"
+                self.outputs.state(payload)  # the token means "live": announced at launch
             except Exception as exc:  # a closing session must not break the reader thread
                 logger.debug("vehicle %d: state not published: %s", state.system_id, exc)
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import json
 import threading
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -41,8 +42,9 @@ from bridge.flight.preflight import PreflightError
 from uav_swarm.planning.planner import make_planner
 from uav_swarm.runs.flight_loop import Flight
 from uav_swarm.runs.fly_config import FlyConfig
+from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import QosTrace
-from uav_swarm.runs.service import flight_figures
+from uav_swarm.runs.summary import summarise_flight
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
@@ -99,7 +101,7 @@ def load_flight_bridge(config: FlyConfig) -> BridgeConfig:
 
 
 def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
-    from learning.files import write_bytes_atomic
+    from typed_config.files import write_bytes_atomic
 
     columns = ["time_s", "uav_id", "system_id", "status", "x_m", "y_m", "z_m", "target_x_m", "target_y_m",
                "target_z_m"]
@@ -140,9 +142,10 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     """
     from bridge.flight.fleet import Fleet
     from bridge.telemetry import SwarmPublisher
-    from learning.files import write_bytes_atomic
+    from typed_config.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
+    from uav_swarm.runs.ros2 import open_run_node
 
     out_dir = Path(out_dir)
     bridge = load_flight_bridge(config)
@@ -153,18 +156,23 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     if planner is None:
         planner = make_planner(config.planner, n, config.task, checkpoint=config.checkpoint or None,
                                config=config.planning, uav_config=config.uav)
-    publisher = SwarmPublisher(config.telemetry, home=bridge.home) if config.publish_telemetry else None
-    if publisher is not None:
-        publisher.open()
     summary: dict[str, Any] = {"config": config.to_dict(), "mode": config.mode}
     trace: QosTrace | None = None
     track: list[dict[str, Any]] = []
     error: BaseException | None = None
-    try:
+    with ExitStack() as stack:
+        publisher = ros = steering = None
+        if config.publish_telemetry:
+            publisher = stack.enter_context(SwarmPublisher(config.telemetry, home=bridge.home))
+        if config.ros2.enabled:
+            ros, steering = open_run_node(config.ros2, stack, swarm=config.telemetry.swarm, n_uavs=n,
+                                          command="fly", sim_time=False, task=config.task, uav=config.uav,
+                                          geofence=bridge.geofence)
         with (Fleet(bridge) as fleet,
               open_recorder(scene, record=record, live=live, command="fly",
                             config=config.to_dict()) as recorder):
-            flight = Flight(config, bridge, fleet, publisher, planner, recorder)
+            outputs = RunOutputs(publisher, recorder, ros, states_on_arrival=True)
+            flight = Flight(config, bridge, fleet, outputs, planner, steering)
             watcher = None
             if stop_event is not None:
                 watcher = threading.Thread(target=lambda: (stop_event.wait(), flight.stop()), daemon=True)
@@ -176,9 +184,6 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
             except BridgeError as exc:
                 error = exc
             summary |= flight.summary()
-    finally:
-        if publisher is not None:
-            publisher.close()
     out_dir.mkdir(parents=True, exist_ok=True)
     files: list[Path] = []
     if trace is not None and trace.times_s.size:
@@ -186,13 +191,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
 
         files += [write_qos_figure({"flown": trace}, out_dir / "qos.png"),
                   write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]
-        summary |= {"duration_s": float(trace.times_s[-1]), "planner": trace.planner_name,
-                    "mean_qos_s1": float(trace.qos_s1.mean()), "mean_qos_s2": float(trace.qos_s2.mean()),
-                    "mean_throughput_mbps": float(trace.throughput_mbps.mean()),
-                    "association": config.task.radio.association_name}
-        flown = trace.qos_s1 if config.task.strategy == 1 else trace.qos_s2
-        summary["service"] = flight_figures(flown, flight.plans, track, flight.crowd_samples, config.task, n,
-                                            float(trace.times_s[-1]))
+        summary |= summarise_flight(trace, config, n, flight.plans, track, flight.crowd_samples)
     files.append(_write_track(track, out_dir / "track.csv"))
     if error is not None:
         summary["error"] = f"{type(error).__name__}: {error}"

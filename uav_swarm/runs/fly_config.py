@@ -3,10 +3,11 @@
 A TOML file (``uav-swarm fly --config file.toml``) holds the top-level keys below and the tables
 ``[task]`` (the crowd world and Wi-Fi model, as for ``simulate``), ``[uav]`` (``alt_m`` is the cruise
 altitude above each vehicle's home; ``min_separation_m`` the distance the guard keeps between any two
-vehicles), ``[planning]``, ``[telemetry]``, ``[flight]`` (:class:`bridge.flight.guided.FlightConfig`:
-launch timeouts, link timeout, end action), ``[launch]`` (:class:`uav_swarm.runs.launch_plan.LaunchConfig`:
-where the vehicles take off) and ``[guard]`` (:class:`uav_swarm.runs.flight_guard.GuardConfig`: the
-separation guard). Every key is optional except the bridge config, which names the vehicles.
+vehicles), ``[planning]``, ``[telemetry]``, ``[ros2]``, ``[flight]``
+(:class:`bridge.flight.guided.FlightConfig`: launch timeouts, link timeout, end action), ``[launch]``
+(:class:`uav_swarm.runs.launch_plan.LaunchConfig`: where the vehicles take off) and ``[guard]``
+(:class:`uav_swarm.runs.flight_guard.GuardConfig`: the separation guard). Every key is optional except
+the bridge config, which names the vehicles.
 
 Examples:
     >>> cfg = FlyConfig.from_dict({"bridge_config": "configs/bridge/ardupilot_sitl_10.toml", "speedup": 2})
@@ -28,6 +29,7 @@ from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.planner import PlannerConfig
 from uav_swarm.runs.flight_guard import GuardConfig
 from uav_swarm.runs.launch_plan import LaunchConfig, check_launch_grid
+from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["FlyConfig", "load_fly_config"]
@@ -45,8 +47,10 @@ class FlyConfig(Config):
     replan_every_s: float = param(1.0, ge=0.1, le=600.0, doc="simulated seconds between two replans")
     record_every_s: float = param(0.5, ge=0.1, le=60.0,
                                   doc="simulated seconds between two QoS / track records (and /qos messages)")
+    static_every_s: float = param(10.0, gt=0.0, le=3600.0,
+                                  doc="crowd seconds between static reference instants (summary.json)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
-    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     mode: Literal["guided", "mission"] = param(
         "guided", doc="how targets reach the vehicles: 'guided' (MAV_CMD_DO_REPOSITION) or 'mission' "
                       "(a new mission uploaded and flown in AUTO)")
@@ -55,6 +59,7 @@ class FlyConfig(Config):
     uav: UAVConfig = param(UAVConfig(), doc="alt_m: cruise altitude above each vehicle's home ([uav])")
     planning: PlannerConfig = param(PlannerConfig(), doc="assignment and inference ([planning])")
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
+    ros2: Ros2Config = param(Ros2Config(), doc="ROS 2 topics and operator targets ([ros2]); loopback only")
     flight: FlightConfig = param(FlightConfig(), doc="launch, link and end of the flight ([flight])")
     launch: LaunchConfig = param(LaunchConfig(), doc="where the vehicles take off ([launch])")
     guard: GuardConfig = param(GuardConfig(), doc="the separation guard on measured positions ([guard])")
@@ -64,7 +69,7 @@ class FlyConfig(Config):
     def check(self) -> None:
         """A bridge config; strategy 2 under admission control unless told; a 2-D radio; a separated grid."""
         if not self.bridge_config:
-            raise ConfigError("FlyConfig.bridge_config is empty: name the bridge TOML that lists the "
+            raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
         if self.task.strategy == 2 and self.task.radio.station_limit is None:
             # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);

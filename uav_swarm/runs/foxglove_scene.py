@@ -1,9 +1,10 @@
 """A run's scene as Foxglove's own message types (``foxglove.messages`` of the ``foxglove-sdk``).
 
 Foxglove draws these in its 3D, Map and Plot panels without setup: ``SceneUpdate`` (the area, the
-obstacles, the UAVs, their coverage discs and their targets), ``PointCloud`` (the crowd, with a
-``covered`` field), ``FrameTransforms``, ``LocationFix`` and ``PosesInFrame``. Each builder takes
-numbers and returns one SDK message; the recorder (:mod:`uav_swarm.runs.recording`) logs them.
+obstacles, the UAVs, their coverage discs, their targets, their separation circles and conflicts),
+``PointCloud`` (the crowd, with a ``covered`` field), ``FrameTransforms``, ``LocationFix`` and
+``PosesInFrame``. Each builder takes numbers and returns one SDK message; the recorder
+(:mod:`uav_swarm.runs.recording`) logs them.
 
 Positions are East-North-Up metres in the frame :data:`MAP_FRAME` (origin: the run's home, the
 area's South-West corner); a UAV ``i`` has its own frame ``uav_<i>``. Times are run seconds.
@@ -57,6 +58,8 @@ Vec3 = tuple[float, float, float]
 
 _UAV, _TARGET = Color(r=0.10, g=0.35, b=0.85, a=1.0), Color(r=0.90, g=0.45, b=0.05, a=1.0)
 _DISC = Color(r=0.10, g=0.35, b=0.85, a=0.15)
+_SEPARATED, _HELD = Color(r=0.15, g=0.65, b=0.25, a=0.35), Color(r=0.95, g=0.70, b=0.05, a=0.5)
+_CONFLICT, _CONFLICT_LINE = Color(r=0.90, g=0.10, b=0.10, a=0.6), Color(r=0.90, g=0.10, b=0.10, a=1.0)
 _WALL, _OUTLINE = Color(r=0.25, g=0.25, b=0.25, a=1.0), Color(r=0.55, g=0.55, b=0.55, a=1.0)
 _UAV_SIZE_M, _TARGET_SIZE_M, _DISC_HEIGHT_M = 3.0, 2.0, 0.1
 _COVERED_FIELDS = ("x", "y", "z", "covered")
@@ -108,14 +111,21 @@ def static_scene(width_m: float, height_m: float, obstacles_m: np.ndarray,
                                  _entity("obstacles", t, lines=[walls] if len(segments) else [])])
 
 
-def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]],
-                coverage_radius_m: float) -> SceneUpdate:
+def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]], coverage_radius_m: float,
+                min_separation_m: float = 0.0, held: Sequence[bool] = ()) -> SceneUpdate:
     """The UAVs (``uavs``), their coverage discs (``coverage``) and targets (``targets``, a leg to each).
+
+    With a minimum separation also each UAV's separation circle (``separation``: a flat disc of radius
+    ``min_separation_m / 2`` at its altitude, so two circles overlap exactly when the pair is closer than
+    the minimum; red for a UAV in such a pair, amber for one the guard holds, green otherwise) and a red
+    line between the UAVs of every such pair (``conflicts``; 3-D distances).
 
     Args:
         time_s: Run time.
         placed: Position and target (or None) of each UAV with a position fix.
         coverage_radius_m: Radius of a disc on the ground.
+        min_separation_m: The minimum distance between two UAVs (0: no circles).
+        held: Whether the separation guard holds each UAV of ``placed`` (empty: none known).
     """
     uavs = [SpherePrimitive(pose=pose(*position), size=_UAV_BOX, color=_UAV) for position, _ in placed]
     disc = Vector3(x=2.0 * coverage_radius_m, y=2.0 * coverage_radius_m, z=_DISC_HEIGHT_M)
@@ -126,8 +136,31 @@ def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]],
     legs = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=pose(0.0, 0.0, 0.0), thickness=0.3,
                          color=_TARGET, points=[_point(*p) for pair in aimed for p in pair])
     t = stamp(time_s)
-    return SceneUpdate(entities=[_entity("uavs", t, spheres=uavs), _entity("coverage", t, cylinders=discs),
-                                 _entity("targets", t, cubes=targets, lines=[legs] if aimed else [])])
+    entities = [_entity("uavs", t, spheres=uavs), _entity("coverage", t, cylinders=discs),
+                _entity("targets", t, cubes=targets, lines=[legs] if aimed else [])]
+    if min_separation_m > 0:
+        entities += _separation(t, [position for position, _ in placed], min_separation_m, held)
+    return SceneUpdate(entities=entities)
+
+
+def _separation(t: Timestamp, positions: Sequence[Vec3], min_separation_m: float, held: Sequence[bool]
+                ) -> list[SceneEntity]:
+    """The separation circles (entity ``separation``) and the conflict lines (entity ``conflicts``)."""
+    p = np.asarray(positions, np.float64).reshape(-1, 3)
+    d = np.linalg.norm(p[:, None] - p[None], axis=-1) + np.diag(np.full(len(p), np.inf))
+    pairs = np.argwhere(np.triu(d < min_separation_m, 1))
+    conflicted = np.zeros(len(p), dtype=bool)
+    conflicted[pairs.ravel()] = True
+    size = Vector3(x=float(min_separation_m), y=float(min_separation_m), z=_DISC_HEIGHT_M)
+    circles = [CylinderPrimitive(pose=pose(*position), size=size, bottom_scale=1.0, top_scale=1.0,
+                                 color=_CONFLICT if conflicted[i] else _HELD if i < len(held) and held[i]
+                                 else _SEPARATED)
+               for i, position in enumerate(positions)]
+    ends = [_point(*positions[k]) for pair in pairs for k in pair]
+    lines = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=pose(0.0, 0.0, 0.0), thickness=0.6,
+                          color=_CONFLICT_LINE, points=ends)
+    return [_entity("separation", t, cylinders=circles),
+            _entity("conflicts", t, lines=[lines] if ends else [])]
 
 
 def crowd_cloud(time_s: float, users_m: np.ndarray, covered: np.ndarray) -> PointCloud:

@@ -106,20 +106,28 @@ def parse_live_view(text: str, wait_for_client_s: float = 0.0, speed: float | No
                     speed=None if speed is None else float(speed))
 
 
+_FLAGS = {"live": "--live", "live_wait_s": "--live-wait-s", "live_speed": "--speedup"}
+"""The command line's names of :func:`parse_live_view`'s values."""
+
+
 def live_view_option(live: str | None, wait_for_client_s: float | None = None,
                      speed: float | None = None) -> LiveView | None:
-    """The ``--live``, ``--live-wait-s`` and ``--live-speed`` options as a :class:`LiveView`, or None.
+    """The ``--live``, ``--live-wait-s`` and ``--speedup`` options as a :class:`LiveView`, or None.
 
     Raises:
-        ConfigError: As :func:`parse_live_view`, or naming ``live_wait_s`` or ``live_speed`` given
-            without ``live``.
+        ConfigError: As :func:`parse_live_view`, naming the flags; or ``--live-wait-s`` or ``--speedup``
+            given without ``--live``.
     """
     if live is None:
         for name, value in (("live_wait_s", wait_for_client_s), ("live_speed", speed)):
             if value is not None:
-                raise ConfigError(f"{name} = {value}: it is for the live view, give --live too")
+                raise ConfigError(f"{_FLAGS[name]} {value}: it is for the live view, give --live too")
         return None
-    return parse_live_view(live, 0.0 if wait_for_client_s is None else wait_for_client_s, speed)
+    try:
+        return parse_live_view(live, 0.0 if wait_for_client_s is None else wait_for_client_s, speed)
+    except ConfigError as exc:
+        name, _, rest = str(exc).partition(" = ")
+        raise ConfigError(f"{_FLAGS.get(name, name)} {rest}" if name in _FLAGS else str(exc)) from None
 
 
 def _valid_host(host: str) -> bool:

@@ -14,7 +14,7 @@ from typing import Protocol
 
 import numpy as np
 
-from learning.files import write_bytes_atomic
+from typed_config.files import write_bytes_atomic
 from uav_swarm.runs.animation import write_scene_gif
 from uav_swarm.runs.service import StaticReference
 

@@ -10,7 +10,10 @@ The channels (Foxglove's own types are protobuf; the project's are JSON):
 
 - ``/scene`` (``foxglove.SceneUpdate``): at the start, the area's outline (entity ``area``) and the
   obstacles (``obstacles``); every recorded step, the UAVs (``uavs``), their coverage discs
-  (``coverage``) and their targets with a line from each UAV (``targets``);
+  (``coverage``), their targets with a line from each UAV (``targets``) and, with a minimum separation
+  (:attr:`SceneInfo.min_separation_m`), each UAV's separation circle (``separation``, radius half the
+  minimum: red in a conflict, amber while held) and a red line between the UAVs of every pair closer
+  than the minimum (``conflicts``);
 - ``/pedestrians`` (``foxglove.PointCloud``): every recorded step, the crowd; field ``covered`` is 1
   for a user a UAV serves, else 0;
 - ``/tf`` (``foxglove.FrameTransforms``): every recorded step, ``map`` -> ``uav_<id>``;
@@ -21,7 +24,7 @@ The channels (Foxglove's own types are protobuf; the project's are JSON):
 
 The ``uav_swarm.*`` channels carry exactly the JSON that telemetry publishes over Zenoh; their
 schemas are generated from the payload types. The file is written beside its final path and
-renamed when the run ends (:func:`learning.files.atomic_path`): a run that fails leaves no file.
+renamed when the run ends (:func:`typed_config.files.atomic_path`): a run that fails leaves no file.
 The live view has its own SDK context, so that a client subscribing to ``/scene`` late gets the
 static scene again at once without a second copy in the file. It gets at most
 :attr:`~uav_swarm.runs.live_view.LiveView.max_rate_hz` recorded steps per wall-clock second, and a
@@ -67,8 +70,8 @@ from foxglove.channels import (
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
 from bridge.telemetry.schema import GeoPoint, Plan, Qos, UavState, encode_payload
-from learning.files import atomic_path
 from typed_config import ConfigError
+from typed_config.files import atomic_path
 from uav_swarm.runs import foxglove_scene as fox
 from uav_swarm.runs.live_view import LiveListener, LiveView
 
@@ -102,12 +105,15 @@ class SceneInfo:
         height_m: North extent of the area.
         coverage_radius_m: Radius of a UAV's coverage disc on the ground.
         home: The geodetic home of the local frame; ``None``: no WGS84 fixes for simulated states.
+        min_separation_m: The minimum distance between two UAVs: each UAV's separation circle (radius
+            half of it) and every pair closer than it are drawn; 0 draws none.
     """
 
     width_m: float
     height_m: float
     coverage_radius_m: float
     home: Home | None = None
+    min_separation_m: float = 0.0
 
 
 def _json_channel(name: str) -> Callable[[str, foxglove.Context], foxglove.Channel]:
@@ -282,8 +288,10 @@ class RunRecorder:
                           f=fix: fox.location_fix(time_s, i, f.lat_deg, f.lon_deg, f.alt_m))
         self._log("/tf", _RUN_CHANNELS["/tf"], time_s,
                   lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
+        held = [bool(s.separation_held) for s in states if s.position_enu_m is not None]
         self._log(_SCENE, _scene_channel, time_s,
-                  lambda: fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m))
+                  lambda: fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m,
+                                          self.scene.min_separation_m, held))
         self._log("/pedestrians", _RUN_CHANNELS["/pedestrians"], time_s,
                   lambda: fox.crowd_cloud(time_s, pedestrians_m, covered))
         self.qos(time_s, qos)
@@ -360,7 +368,7 @@ def _start_live(live: LiveView, context: foxglove.Context, recorder: RunRecorder
                                        context=context, server_listener=listener,
                                        message_backlog_size=LIVE_BACKLOG_MESSAGES)
     except RuntimeError as exc:
-        raise ConfigError(f"live = {live.host}:{live.port}: the live view cannot listen there: "
+        raise ConfigError(f"--live {live.host}:{live.port}: the live view cannot listen there: "
                           f"{exc}") from exc
     host = f"[{live.host}]" if ":" in live.host else live.host
     logger.info("live view on ws://%s:%d (Foxglove: Open connection, Foxglove WebSocket)", host, server.port)

@@ -52,6 +52,10 @@ class SequenceRun:
         qos_s2_paper: ``(T,)`` strategy 2's QoS of the same UAVs judged with the paper's radio (no admission
             control), when the run flew under admission control; empty otherwise.
         association: Which radio association the run's QoS used.
+        separation: How close the UAVs came (:meth:`uav_swarm.runs.separation_watch.SeparationWatch.summary`).
+        uav_tracks_m: ``(T, n, 2)`` the UAVs' positions after each step.
+        crowd_samples: ``(time_s, positions, velocities)`` of the crowd every ``static_every_s`` from 0, for
+            the static reference (empty unless asked for).
     """
 
     planner: str
@@ -71,6 +75,9 @@ class SequenceRun:
     distance_m: float = 0.0
     qos_s2_paper: np.ndarray = field(default_factory=lambda: np.zeros(0))
     association: str = "paper (no admission control)"
+    separation: dict = field(default_factory=dict)
+    uav_tracks_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
+    crowd_samples: list[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=list)
 
 
 @dataclass

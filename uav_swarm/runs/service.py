@@ -21,15 +21,11 @@ import numpy as np
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask
 from uav_swarm.world.comms import evaluate_coverage
 
-__all__ = ["JUMP_M", "STATIC_EVERY_S", "StaticReference", "static_reference", "reference_qos", "target_jumps",
+__all__ = ["JUMP_M", "StaticReference", "static_reference", "reference_qos", "target_jumps",
            "metres_per_uav_minute", "flight_figures"]
 
 JUMP_M = 5.0
 """A target that moves more than this between two replans has jumped (metres)."""
-
-STATIC_EVERY_S = 10.0
-"""Seconds between two instants of the static reference of a flight."""
-
 
 @dataclass(frozen=True)
 class StaticReference:
@@ -108,19 +104,24 @@ def metres_per_uav_minute(distance_m: float, n_uavs: int, duration_s: float) -> 
 
 def flight_figures(flown_qos: np.ndarray, plans: list[dict[int, tuple[float, float]]],
                    track: list[dict], crowd_samples: list[tuple[float, np.ndarray, np.ndarray]],
-                   task_config: WifiConfig, n_uavs: int, duration_s: float) -> dict[str, float | None]:
+                   task_config: WifiConfig, n_uavs: int, duration_s: float, every_s: float
+                   ) -> tuple[dict[str, float | None], StaticReference]:
     """The service figures of a live flight (``uav-swarm fly``), as ``simulate`` reports them.
 
     Args:
         flown_qos: ``(T,)`` the strategy's QoS recorded over the flight.
         plans: Each replan's targets by UAV id.
         track: The recorded vehicle positions (``uav_id``, ``time_s``, ``x_m``, ``y_m`` rows).
-        crowd_samples: The crowd every :data:`STATIC_EVERY_S`, for the static reference.
+        crowd_samples: The crowd every ``every_s``, for the static reference.
         task_config: The Wi-Fi task (strategy, radio, experts).
         n_uavs: Vehicles flown.
         duration_s: Flight time.
+        every_s: Seconds between two crowd samples.
+
+    Returns:
+        The figures, and the static reference they were judged against.
     """
-    reference = static_reference(crowd_samples, task_config, n_uavs, STATIC_EVERY_S)
+    reference = static_reference(crowd_samples, task_config, n_uavs, every_s)
     jumps = [sum(1 for uav, xy in after.items() if uav in before
                  and np.hypot(xy[0] - before[uav][0], xy[1] - before[uav][1]) > JUMP_M)
              for before, after in zip(plans[:-1], plans[1:], strict=True)]
@@ -133,4 +134,4 @@ def flight_figures(flown_qos: np.ndarray, plans: list[dict[int, tuple[float, flo
     return {"flown_qos": flown, "static_reference_qos": reference.mean,
             "flown_over_static": flown / reference.mean if reference.mean > 0 else None,
             "target_jumps_per_replan": float(np.mean(jumps)) if jumps else 0.0,
-            "metres_per_uav_minute": metres_per_uav_minute(distance, n_uavs, duration_s)}
+            "metres_per_uav_minute": metres_per_uav_minute(distance, n_uavs, duration_s)}, reference

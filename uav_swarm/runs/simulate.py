@@ -3,7 +3,9 @@
 :func:`simulate` runs ``uav_swarm_v0`` in waypoint mode for ``duration_s`` of simulated time,
 replanning every ``replan_every`` steps with the configured planner (:mod:`uav_swarm.planning.planner`),
 and records per step the QoS of both strategies and the mean user throughput, and per replan the
-planning latency. The same sequence is then flown with the expert planner: the environment is reset
+planning latency. One untimed replan before the first step compiles and loads what the planner needs
+(numba kernels, the network's first call), so the latencies are those of a warm planner. The same
+sequence is then flown with the expert planner: the environment is reset
 with the same seed, and the crowd does not react to the UAVs, so both planners face the same crowd.
 
 While the flown planner runs, UAV states, plans and QoS are published over Zenoh
@@ -28,6 +30,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -37,19 +40,21 @@ from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
+from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import Frame, SequenceRun
-from uav_swarm.runs.service import StaticReference, metres_per_uav_minute, static_reference, target_jumps
+from uav_swarm.runs.separation_watch import SeparationWatch
+from uav_swarm.runs.service import static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
+from uav_swarm.runs.summary import ratios_learned_over_expert, reference_record, summarise_run
 from uav_swarm.world.comms import evaluate_coverage
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
-    from bridge.telemetry import SwarmPublisher
     from bridge.telemetry.schema import Plan, Qos, UavState
     from uav_swarm.runs.live_view import LiveView
-    from uav_swarm.runs.recording import RunRecorder
+    from uav_swarm.runs.steering import OperatorTargets
 
-__all__ = ["SimulationResult", "run_sequence", "simulate", "summarise_run"]
+__all__ = ["SimulationResult", "run_sequence", "sequence_crowds", "simulate"]
 
 logger = logging.getLogger(__name__)
 
@@ -63,17 +68,24 @@ class SimulationResult:
     files: list[Path]
 
 
-def _telemetry(env: Any, targets_m: np.ndarray, alt_m: float, step: int) -> tuple[list[UavState], Qos]:
-    """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them."""
+def _telemetry(env: Any, targets_m: np.ndarray, altitudes_m: np.ndarray, step: int,
+               guard: tuple[np.ndarray, np.ndarray]) -> tuple[list[UavState], Qos]:
+    """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them.
+
+    ``guard``: each UAV's distance to its nearest other UAV and whether it is held (SeparationWatch.observe).
+    """
     from bridge.telemetry.schema import Qos, UavState
 
     stamp_s = time.time()
     positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
+    nearest, held = guard
     states = [UavState(
         stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
-        position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), alt_m),
+        position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), float(altitudes_m[uav_id])),
         velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
-        target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), alt_m))
+        target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), float(altitudes_m[uav_id])),
+        separation_held=bool(held[uav_id]),
+        nearest_uav_m=float(nearest[uav_id]) if np.isfinite(nearest[uav_id]) else None)
         for uav_id in range(len(positions))]
     cov = env.coverage
     qos = Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1), qos_s2=float(cov.qos_s2),
@@ -90,18 +102,21 @@ def _plan(planner: Planner, targets_m: np.ndarray, alt_m: float, latency_ms: flo
                 latency_ms=float(latency_ms))
 
 
-def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
-                 publisher: SwarmPublisher | None = None, recorder: RunRecorder | None = None,
-                 frame_every: int = 0, progress: bool = False) -> SequenceRun:
+def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs: RunOutputs | None = None,
+                 steering: OperatorTargets | None = None, frame_every: int = 0, sample_every_s: float = 0.0,
+                 progress: bool = False) -> SequenceRun:
     """Fly one planner over the sequence of ``config`` (same seed, same crowd, for every planner).
 
     Args:
         config: The sequence (seed, duration, UAVs, replanning period, world).
         planner: The planner, for ``config.n_uavs`` UAVs.
         kind: Its label in the results (``"learned"`` or ``"expert"``).
-        publisher: Publish states and QoS every ``config.telemetry_every`` steps and every plan.
-        recorder: Record them too, with the scene (:mod:`uav_swarm.runs.recording`), at simulated time.
+        outputs: The run's sinks (Zenoh, Foxglove, ROS 2): states and QoS every ``config.telemetry_every``
+            steps, every plan, the scene, at simulated time (:mod:`uav_swarm.runs.outputs`).
+        steering: Operator targets that replace the planner's for the UAVs they name, from the next step.
         frame_every: Keep a :class:`Frame` every this many steps (and the last); 0 keeps none.
+        sample_every_s: Keep the crowd every this many simulated seconds from 0 (the static reference's
+            instants); 0 keeps none.
         progress: Show a progress bar.
 
     Raises:
@@ -111,9 +126,12 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
         raise ValueError(f"the planner is for {planner.n_uavs} UAVs, the sequence has {config.n_uavs}")
     env = parallel_env(config=config.env_config())
     env.reset(seed=config.seed)
+    # One untimed replan first: compilation (numba) and first calls (the network) land here, not in the
+    # latencies; the planner then forgets it (planning draws no random numbers, the sequence is unchanged).
+    planner.plan(env.pedestrian_positions_m, env.uav_positions_m, env.pedestrian_velocities_m_s)
     planner.reset()
-    if recorder is not None:
-        recorder.static_scene(env.scenario.obstacles)
+    outputs = outputs or RunOutputs()
+    outputs.static_scene(env.scenario.obstacles)
     agents = list(env.possible_agents)
     steps, alt_m = config.n_steps, float(config.uav.alt_m)
     qos_s1, qos_s2, rate = (np.zeros(steps) for _ in range(3))
@@ -125,8 +143,13 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
     frames: list[Frame] = []
     targets = np.asarray(env.uav_positions_m).copy()
     plans: list[np.ndarray] = []
+    samples: list[tuple[float, np.ndarray, np.ndarray]] = []
+    sample_every = max(1, round(sample_every_s / env.dt_s)) if sample_every_s else 0
     distance_m = 0.0
     result = None
+    area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
+    watch = SeparationWatch(config.uav, config.n_uavs, area_m)  # transitions between plans, closest approach
+    steered = 0  # the operator targets' version the transition was planned for
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
         if step % config.replan_every == 0:
             result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
@@ -137,42 +160,51 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *,
             targets = result.targets_m
             plans.append(targets.copy())
             latencies.append(result.latency_ms)
-            if publisher is not None or recorder is not None:
-                plan = _plan(planner, targets, alt_m, result.latency_ms, len(latencies) - 1)
-                if publisher is not None:
-                    publisher.publish_plan(plan)
-                if recorder is not None:
-                    recorder.plan(step * env.dt_s, plan)
+            if steering is not None:
+                steering.planned(dict(enumerate(map(tuple, targets))))
+            if outputs.active:
+                plan = _plan(planner, _steered(targets, steering), alt_m, result.latency_ms,
+                             len(latencies) - 1)
+                outputs.plan(step * env.dt_s, plan)
+        if step % config.replan_every == 0 or (steering is not None and steering.version != steered):
+            steered = steering.version if steering is not None else 0  # an operator's change: a transition
+            flown = _steered(targets, steering)
+            watch.replan(step * env.dt_s, env.uav_positions_m, env.uav_velocities_m_s, flown)
+        if sample_every and step % sample_every == 0:  # the crowd walks the same whatever the UAVs do
+            samples.append((step * env.dt_s, np.array(env.pedestrian_positions_m),
+                            np.array(env.pedestrian_velocities_m_s)))
         before = np.array(env.uav_positions_m)
-        env.step(dict(zip(agents, targets, strict=True)))
+        infos = env.step(dict(zip(agents, watch.commands(step * env.dt_s), strict=True)))[-1]
+        guard = watch.observe((step + 1) * env.dt_s, env.uav_positions_m, infos)
         distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
         cov = env.coverage
         qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
         if admission:  # the same flight judged with the paper's radio, for the paper's table and qos.png
             qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
                                                    paper_radio).qos_s2
-        if (publisher is not None or recorder is not None) and step % config.telemetry_every == 0:
-            states, qos = _telemetry(env, targets, alt_m, step)
-            if publisher is not None:
-                for state in states:
-                    publisher.publish_state(state)
-                publisher.publish_qos(qos)
-            if recorder is not None:
-                recorder.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
+        if outputs.active and step % config.telemetry_every == 0:
+            states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard)
+            outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
             frames.append(Frame(
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
-                covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=targets.copy(),
+                covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=np.array(flown),
                 peaks_m=result.peaks_m.copy(), utility=result.utility, qos_s1=float(cov.qos_s1),
                 qos_s2=float(cov.qos_s2)))
     return SequenceRun(
         planner=kind, planner_name=planner.name, times_s=np.arange(1, steps + 1) * env.dt_s, qos_s1=qos_s1,
         qos_s2=qos_s2, throughput_mbps=rate, latency_ms=np.asarray(latencies),
-        target_changes=np.asarray(changes, dtype=np.int64), final_targets_m=np.array(targets),
+        target_changes=np.asarray(changes, dtype=np.int64), final_targets_m=np.array(flown),
         final_pedestrians_m=np.array(env.pedestrian_positions_m), n_pedestrians=int(cov.covered.shape[0]),
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
         target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
-        association=cov.model)
+        association=cov.model, separation=watch.summary(), uav_tracks_m=watch.tracks_m,
+        crowd_samples=samples)
+
+
+def _steered(targets_m: np.ndarray, steering: OperatorTargets | None) -> np.ndarray:
+    """The planner's targets with the operator's in place for the UAVs it holds."""
+    return targets_m if steering is None else steering.apply_array(targets_m)
 
 
 def sequence_crowds(config: SimulateConfig, every_s: float
@@ -190,53 +222,6 @@ def sequence_crowds(config: SimulateConfig, every_s: float
             yield (step * env.dt_s, np.array(env.pedestrian_positions_m),
                    np.array(env.pedestrian_velocities_m_s))
         env.step(hold)
-
-
-def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
-                  reference: StaticReference | None = None) -> dict[str, float | int | str | None]:
-    """Mean/min QoS S1 and S2, mean throughput, median/p95 latency, churn and service figures of one run.
-
-    With the run's ``config`` and the sequence's static ``reference``: the strategy's flown QoS over the
-    static reference, target jumps per replan and metres flown per UAV-minute
-    (:mod:`uav_swarm.runs.service`).
-    """
-    changes = float(run.target_changes.mean()) if run.target_changes.size else 0.0
-    figures: dict[str, float | None] = {}
-    if config is not None:
-        flown = run.qos_s1 if config.task.strategy == 1 else run.qos_s2
-        figures = {
-            "flown_qos": float(flown.mean()),
-            "static_reference_qos": None if reference is None else reference.mean,
-            "flown_over_static": (float(flown.mean()) / reference.mean
-                                  if reference is not None and reference.mean > 0 else None),
-            "target_jumps_per_replan": float(run.target_jumps.mean()) if run.target_jumps.size else 0.0,
-            "metres_per_uav_minute": metres_per_uav_minute(
-                run.distance_m, config.n_uavs, float(run.times_s[-1]) if run.times_s.size else 0.0),
-        }
-    return {**figures,
-        "planner": run.planner_name,
-        "mean_qos_s1": float(run.qos_s1.mean()), "min_qos_s1": float(run.qos_s1.min()),
-        "mean_qos_s2": float(run.qos_s2.mean()), "min_qos_s2": float(run.qos_s2.min()),
-        "mean_throughput_mbps": float(run.throughput_mbps.mean()),
-        "median_latency_ms": float(np.median(run.latency_ms)),
-        "p95_latency_ms": float(np.percentile(run.latency_ms, 95)),
-        "n_replans": int(run.latency_ms.size), "n_pedestrians": run.n_pedestrians,
-        "mean_target_changes_per_replan": changes, "association": run.association,
-        **({"mean_qos_s2_paper_radio": float(run.qos_s2_paper.mean())} if run.qos_s2_paper.size else {}),
-    }
-
-
-def _ratios(learned: dict[str, Any], expert: dict[str, Any]) -> dict[str, float | None]:
-    def ratio(a: float, b: float) -> float | None:
-        return float(a / b) if b > 0 else None
-
-    return {
-        "mean_qos_s1": ratio(learned["mean_qos_s1"], expert["mean_qos_s1"]),
-        "mean_qos_s2": ratio(learned["mean_qos_s2"], expert["mean_qos_s2"]),
-        "mean_throughput_mbps": ratio(learned["mean_throughput_mbps"], expert["mean_throughput_mbps"]),
-        "expert_over_learned_median_latency": ratio(expert["median_latency_ms"],
-                                                    learned["median_latency_ms"]),
-    }
 
 
 def _load_bridge(config: SimulateConfig) -> BridgeConfig:
@@ -328,9 +313,10 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     """
     from bridge.errors import BridgeError
     from bridge.telemetry import SwarmPublisher
-    from learning.files import write_bytes_atomic
+    from typed_config.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
+    from uav_swarm.runs.ros2 import open_run_node
 
     out_dir = Path(out_dir)
     bridge = _load_bridge(config)
@@ -340,27 +326,32 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                                    config=config.planning, uav_config=config.uav) for kind in kinds}
     frame_every = -(-config.n_steps // (config.gif_max_frames - 1)) if config.gif else 0
     runs: dict[str, SequenceRun] = {}
-    publisher = SwarmPublisher(config.telemetry, home=bridge.home) if config.publish_telemetry else None
-    if publisher is not None:
-        publisher.open()
-    try:
+    scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
+                      coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home,
+                      min_separation_m=config.uav.min_separation_m)
+    with ExitStack() as stack:
+        publisher = ros = steering = None
+        if config.publish_telemetry:
+            publisher = stack.enter_context(SwarmPublisher(config.telemetry, home=bridge.home))
+        if config.ros2.enabled:
+            ros, steering = open_run_node(config.ros2, stack, swarm=config.telemetry.swarm,
+                                          n_uavs=config.n_uavs, command="simulate", sim_time=True,
+                                          task=config.task, uav=config.uav, geofence=bridge.geofence)
         if publisher is not None and config.wait_for_subscriber_s > 0:
             if not publisher.wait_for_subscriber(config.wait_for_subscriber_s):
                 logger.warning("no telemetry subscriber after %.1f s: flying anyway",
                                config.wait_for_subscriber_s)
-        scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
-                          coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
         for kind, planner in planners.items():
             flown = kind == config.planner
             with open_recorder(scene, record=record if flown else None, live=live if flown else None,
                                command="simulate", config=config.to_dict()) as recorder:
-                runs[kind] = run_sequence(config, planner, kind, publisher=publisher if flown else None,
-                                          recorder=recorder, frame_every=frame_every if flown else 0,
-                                          progress=progress)
-    finally:
-        if publisher is not None:
-            publisher.close()
-    reference = (static_reference(sequence_crowds(config, config.static_every_s), config.task, config.n_uavs,
+                outputs = RunOutputs(publisher, recorder, ros) if flown else None
+                sample_every_s = config.static_every_s if flown and config.static_reference else 0.0
+                runs[kind] = run_sequence(config, planner, kind, outputs=outputs,
+                                          steering=steering if flown else None,
+                                          frame_every=frame_every if flown else 0,
+                                          sample_every_s=sample_every_s, progress=progress)
+    reference = (static_reference(runs[config.planner].crowd_samples, config.task, config.n_uavs,
                                   config.static_every_s) if config.static_reference else None)
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -369,12 +360,10 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                                "flown": config.planner, "duration_s": config.n_steps * config.dt_s,
                                "n_uavs": config.n_uavs, "seed": config.seed, "config": config.to_dict()}
     if reference is not None:
-        summary["static_reference"] = {"mean_qos": reference.mean, "every_s": reference.every_s,
-                                       "experts": list(reference.experts), "strategy": config.task.strategy,
-                                       "times_s": reference.times_s.tolist(), "qos": reference.qos.tolist()}
+        summary["static_reference"] = reference_record(reference, config.task.strategy)
     if "learned" in runs and "expert" in runs:
-        summary["ratios_learned_over_expert"] = _ratios(summary["planners"]["learned"],
-                                                        summary["planners"]["expert"])
+        summary["ratios_learned_over_expert"] = ratios_learned_over_expert(summary["planners"]["learned"],
+                                                                           summary["planners"]["expert"])
     learned = planners.get("learned")
     if learned is not None:
         summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]

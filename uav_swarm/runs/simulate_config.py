@@ -3,8 +3,10 @@
 A TOML file (``uav-swarm simulate --config file.toml``) holds the top-level keys below and the
 tables ``[task]`` (:class:`uav_swarm.missions.wifi.task.WifiConfig`: raster, scenario, crowd, radio,
 expert; the same table as a task settings file), ``[uav]`` (flight limits), ``[planning]``
-(:class:`uav_swarm.planning.planner.PlannerConfig`) and ``[telemetry]``
-(:class:`bridge.telemetry.config.TelemetryConfig`). Every key is optional.
+(:class:`uav_swarm.planning.planner.PlannerConfig`), ``[telemetry]``
+(:class:`bridge.telemetry.config.TelemetryConfig`) and ``[ros2]``
+(:class:`uav_swarm.runs.ros2.config.Ros2Config`).
+Every key is optional.
 
 Examples:
     >>> cfg = SimulateConfig.from_dict({"duration_s": 10, "task": {"scenario": {"n_groups_max": 8}}})
@@ -27,6 +29,7 @@ from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS, EnvConfig
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.planner import PlannerConfig
+from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["SimulateConfig", "load_simulate_config"]
@@ -41,7 +44,7 @@ class SimulateConfig(Config):
     n_uavs: int = param(MAX_UAVS, ge=1, le=MAX_UAVS, doc="number of UAVs")
     replan_every: int = param(10, ge=1, le=100_000, doc="environment steps between replans (0.1 s each)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner flown (and published)")
-    checkpoint: str = param("", doc="learned planner checkpoint (empty: uav_swarm/checkpoints/wifi-s<k>.pt)")
+    checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     compare_expert: bool = param(True, doc="run the same sequence with the expert planner too")
     static_reference: bool = param(
         True, doc="judge the expert's placement of the crowd every static_every_s as if reached, and report "
@@ -60,6 +63,7 @@ class SimulateConfig(Config):
     uav: UAVConfig = param(UAVConfig(), doc="UAV flight limits ([uav])")
     planning: PlannerConfig = param(PlannerConfig(), doc="assignment and inference ([planning])")
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
+    ros2: Ros2Config = param(Ros2Config(), doc="ROS 2 topics and operator targets ([ros2]); loopback only")
 
     def check(self) -> None:
         """Strategy 2 takes admission control unless the radio says otherwise; the radio is 2-D."""

@@ -22,7 +22,7 @@ at least ``signal_at_range``. A UAV's capacity is shared equally among its assoc
   first (ties: lower UAV index, then lower user index) and admits a pair while the user has no UAV and the
   UAV has room. A sequence (:class:`Association`, for the environment, ``simulate`` and ``fly``) keeps
   every incumbent on its UAV while it stays in range, even when a newcomer is nearer; newcomers fill
-  the free places strongest first.
+  the free places strongest first. The admission itself is :mod:`uav_swarm.world.admission`.
 
 A user *has network* (``covered``) when it is associated; strategy 1's QoS is the share of users
 with network, strategy 2's the share with network and at least ``min_user_rate_mbps``. Under
@@ -49,9 +49,10 @@ from typing import Literal
 import numpy as np
 
 from typed_config import Config, ConfigError, param
+from uav_swarm.world.admission import admit_stations
 
 __all__ = ["RadioConfig", "Coverage", "Association", "rescaled_signal", "evaluate_coverage",
-           "admit_stations"]
+           "coverage_of"]
 
 
 @dataclass(frozen=True)
@@ -108,7 +109,7 @@ class RadioConfig(Config):
             return self.rate_bound_stations
         if self.station_limit == "off":
             return None
-        return self.station_limit  # type: ignore[return-value]
+        return self.station_limit
 
     @property
     def association_name(self) -> str:
@@ -166,15 +167,25 @@ def _check_points(name: str, points: np.ndarray) -> np.ndarray:
     return points
 
 
-def _squared_distances(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig) -> np.ndarray:
-    """(K, N) squared UAV-user distances (m^2); UAV-major, which makes reductions over K fast."""
+def _squared_distances(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
+                       altitudes_m: np.ndarray | None = None) -> np.ndarray:
+    """(K, N) squared UAV-user distances (m^2); UAV-major, which makes reductions over K fast.
+
+    The height of a UAV above the users is its entry of ``altitudes_m`` ((K,), metres) when given, else
+    ``config.altitude_m``; a height adds its square.
+    """
     users_m = _check_points("users_m", users_m)
     uavs_m = _check_points("uavs_m", uavs_m)
     dx = uavs_m[:, 0:1] - users_m[:, 0]  # (K, N)
     dy = uavs_m[:, 1:2] - users_m[:, 1]
     d2 = dx * dx
     d2 += dy * dy
-    if config.altitude_m:
+    if altitudes_m is not None:
+        heights = np.asarray(altitudes_m, dtype=np.float64).reshape(-1)
+        if heights.shape != (len(uavs_m),):
+            raise ValueError(f"altitudes_m must have shape ({len(uavs_m)},), got {heights.shape}")
+        d2 += (heights * heights)[:, None]
+    elif config.altitude_m:
         d2 += config.altitude_m**2
     return d2
 
@@ -197,58 +208,16 @@ def rescaled_signal(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig
     return np.exp(-d2 / (2.0 * config.effective_sigma_sq_m2)).T
 
 
-def admit_stations(d2: np.ndarray, in_range: np.ndarray, free: np.ndarray,
-                   association: np.ndarray | None = None) -> np.ndarray:
-    """Admission control: pairs strongest first, a full UAV refuses, a refused user tries its next UAV.
-
-    The (user, UAV) pairs in range are ordered by squared distance (strongest signal first), then
-    UAV index, then user index; a pair is admitted while its user has no UAV and its UAV has a free
-    place. Because both sides rank pairs by the same order, this greedy gives the unique stable
-    matching, which deferred acceptance computes in vectorised rounds: every waiting user
-    asks its strongest UAV that has not refused it, and every UAV keeps its strongest askers up to
-    its free places.
+def coverage_of(association: np.ndarray, in_range_any: np.ndarray, n_uavs: int, config: RadioConfig
+              ) -> Coverage:
+    """The :class:`Coverage` of an association: per-UAV loads, per-user throughput and the QoS.
 
     Args:
-        d2: (K, N) squared UAV-user distances.
-        in_range: (K, N) bool, the user is in range of the UAV.
-        free: (K,) int, places each UAV still has.
-        association: (N,) int, users already associated (kept as they are, not re-admitted); -1 waits.
-
-    Returns:
-        (N,) int association, -1 for users refused everywhere or out of range.
+        association: (N,) int, each user's UAV, -1 without network.
+        in_range_any: (N,) bool, the user's strongest signal reaches ``signal_at_range``.
+        n_uavs: Number of UAVs K.
+        config: The radio model.
     """
-    n_uavs, n_users = d2.shape
-    result = np.full(n_users, -1, np.int64) if association is None else association.copy()
-    waiting = result < 0
-    # Each waiting user's UAVs in range, strongest first (a stable sort keeps the lower index on ties).
-    order = np.argsort(np.where(in_range, d2, np.inf), axis=0, kind="stable")  # (K, N)
-    reach = in_range.sum(axis=0)
-    tried = np.zeros(n_users, np.int64)
-    held = np.zeros(n_users, bool)  # a tentative place (deferred acceptance)
-    while True:
-        asking = np.flatnonzero(waiting & ~held & (tried < reach))
-        if asking.size == 0:
-            break
-        choice = order[tried[asking], asking]
-        tried[asking] += 1
-        holders = np.flatnonzero(held)
-        cand_u = np.concatenate([holders, asking])
-        cand_k = np.concatenate([result[holders], choice])
-        # Each UAV keeps its strongest candidates (ties: lower user index) up to its free places.
-        rank_key = np.lexsort((cand_u, d2[cand_k, cand_u], cand_k))
-        cand_u, cand_k = cand_u[rank_key], cand_k[rank_key]
-        first = np.searchsorted(cand_k, cand_k, side="left")
-        keep = (np.arange(cand_k.size) - first) < free[cand_k]
-        held[:] = False
-        result[waiting] = -1
-        held[cand_u[keep]] = True
-        result[cand_u[keep]] = cand_k[keep]
-    return result
-
-
-def _coverage(association: np.ndarray, in_range_any: np.ndarray, n_uavs: int, config: RadioConfig
-              ) -> Coverage:
-    """The :class:`Coverage` of an association."""
     n_users = association.shape[0]
     covered = association >= 0
     served_by = association[covered]
@@ -271,24 +240,26 @@ def _coverage(association: np.ndarray, in_range_any: np.ndarray, n_uavs: int, co
     )
 
 
-def evaluate_coverage(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig) -> Coverage:
+def evaluate_coverage(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
+                      altitudes_m: np.ndarray | None = None) -> Coverage:
     """Associate the users (the config's association, snapshot) and share each UAV's capacity.
 
     Args:
         users_m: (N, 2) user positions in metres.
         uavs_m: (K, 2) UAV positions in metres.
         config: The radio model; ``config.station_limit`` chooses the association (module docstring).
+        altitudes_m: (K,) each UAV's height above the users (metres); None: ``config.altitude_m`` for all.
 
     Returns:
         The :class:`Coverage` of the users.
 
     Raises:
-        ValueError: An input is not of shape (n, 2).
+        ValueError: An input is not of shape (n, 2), or ``altitudes_m`` not of shape (K,).
     """
-    d2 = _squared_distances(users_m, uavs_m, config)  # (K, N)
+    d2 = _squared_distances(users_m, uavs_m, config, altitudes_m)  # (K, N)
     n_uavs, n_users = d2.shape
     if n_users == 0 or n_uavs == 0:
-        return _coverage(np.full(n_users, -1, np.int64), np.zeros(n_users, bool), n_uavs, config)
+        return coverage_of(np.full(n_users, -1, np.int64), np.zeros(n_users, bool), n_uavs, config)
     # The signal decreases with distance: the strongest UAV is the nearest (argmin keeps the lowest index).
     nearest = d2.argmin(axis=0)
     best_signal = np.exp(d2.min(axis=0) * (-0.5 / config.effective_sigma_sq_m2))
@@ -298,7 +269,7 @@ def evaluate_coverage(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConf
     # Admission control changes nothing while no UAV's nearest users exceed its limit.
     if limit is not None and np.bincount(nearest[in_range_any], minlength=n_uavs).max() > limit:
         association = admit_stations(d2, _signal_in_range(d2, config), np.full(n_uavs, limit, np.int64))
-    return _coverage(association, in_range_any, n_uavs, config)
+    return coverage_of(association, in_range_any, n_uavs, config)
 
 
 def _signal_in_range(d2: np.ndarray, config: RadioConfig) -> np.ndarray:
@@ -346,8 +317,8 @@ class Association:
         rows = np.array([row_of.get(int(uav_id), -1) for uav_id in self._ids] + [-1], np.int64)
         return rows[self._association]  # -1 (no UAV) indexes the appended -1
 
-    def update(self, users_m: np.ndarray, uavs_m: np.ndarray, uav_ids: Sequence[int] | None = None
-               ) -> Coverage:
+    def update(self, users_m: np.ndarray, uavs_m: np.ndarray, uav_ids: Sequence[int] | None = None,
+               altitudes_m: np.ndarray | None = None) -> Coverage:
         """Associate the users of this snapshot, keeping incumbents in range, and return the coverage.
 
         Args:
@@ -355,9 +326,10 @@ class Association:
             uavs_m: (K, 2) UAV positions.
             uav_ids: (K,) a stable id per UAV row, for fleets whose rows change (a vehicle lost or back);
                 default: the row index.
+            altitudes_m: (K,) each UAV's height above the users; None: ``config.altitude_m`` for all.
 
         Raises:
-            ValueError: An input is not of shape (n, 2), or ``uav_ids`` not of length K.
+            ValueError: An input is not of shape (n, 2), ``uav_ids`` or ``altitudes_m`` not of length K.
         """
         config, limit = self.config, self.config.max_stations
         ids = np.arange(len(uavs_m)) if uav_ids is None else np.asarray(uav_ids, np.int64).reshape(-1)
@@ -366,13 +338,13 @@ class Association:
         previous = self._previous_rows(ids)
         self._ids = ids
         if limit is None:
-            coverage = evaluate_coverage(users_m, uavs_m, config)
+            coverage = evaluate_coverage(users_m, uavs_m, config, altitudes_m)
             self._association = coverage.association
             return coverage
-        d2 = _squared_distances(users_m, uavs_m, config)  # (K, N)
+        d2 = _squared_distances(users_m, uavs_m, config, altitudes_m)  # (K, N)
         n_uavs, n_users = d2.shape
         in_range = _signal_in_range(d2, config)
-        in_range_any = in_range.any(axis=0) if n_uavs else np.zeros(n_users, bool)
+        in_range_any = np.asarray(in_range.any(axis=0)) if n_uavs else np.zeros(n_users, bool)
         kept = np.full(n_users, -1, np.int64)
         if previous is not None and previous.shape[0] == n_users and n_uavs:
             stays = (previous >= 0) & (previous < n_uavs)
@@ -382,4 +354,4 @@ class Association:
         free = limit - np.bincount(kept[kept >= 0], minlength=n_uavs)
         association = admit_stations(d2, in_range, np.maximum(free, 0), kept) if n_uavs else kept
         self._association = association
-        return _coverage(association, in_range_any, n_uavs, config)
+        return coverage_of(association, in_range_any, n_uavs, config)

@@ -129,7 +129,7 @@ class CrowdSim:
         self.scenario = scenario
         self.config = config
         self.dt_s = config.dt_s
-        self.time_s = 0.0
+        self.time_s: float | np.ndarray = 0.0  # (B,) in BatchedCrowd
         sizes = np.array([g.size for g in scenario.groups], dtype=np.int64)
         n = int(sizes.sum())
         self.group_ids = np.repeat(np.arange(len(sizes)), sizes)
@@ -322,8 +322,8 @@ class CrowdSim:
             return np.zeros_like(p)
         g = self.group_ids
         n_groups = len(self._group_sizes)
-        centroid = np.stack([np.bincount(g, p[:, 0], n_groups), np.bincount(g, p[:, 1], n_groups)], axis=1)
-        centroid /= self._group_sizes[:, None]
+        sums = np.stack([np.bincount(g, p[:, 0], n_groups), np.bincount(g, p[:, 1], n_groups)], axis=1)
+        centroid = sums / self._group_sizes[:, None]
         to_centre = centroid[g] - p
         dist = np.sqrt(to_centre[:, 0] ** 2 + to_centre[:, 1] ** 2)
         pull = cfg.group_cohesion_m_s2 * np.clip(dist - self._group_radius_m[g], 0.0, 1.0)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -65,6 +66,8 @@ class BatchedCrowd(CrowdSim):
         copy_index: ``(N,)`` copy of each pedestrian.
         offsets: ``(B + 1,)`` copy ``c``'s pedestrians are ``offsets[c]:offsets[c + 1]``.
     """
+
+    time_s: np.ndarray
 
     def __init__(self, sims: Sequence[CrowdSim]) -> None:
         if not len(sims):
@@ -273,6 +276,6 @@ class BatchedCrowd(CrowdSim):
         return self._local_index[i] * 7 + self._local_index[j]
 
 
-def _state_of(sim: CrowdSim) -> tuple[np.ndarray, ...]:
+def _state_of(sim: CrowdSim) -> tuple[Any, ...]:
     """A crowd's positions, velocities, route positions, waypoints reached and time."""
     return sim._positions, sim._velocities, sim._route_position, sim.waypoints_reached, sim.time_s

@@ -11,15 +11,18 @@ Examples:
     >>> import numpy as np
     >>> density_map(np.array([[1.0, 1.0], [1.5, 0.2], [9.9, 9.9]]), 10.0, 10.0, (2, 2)).tolist()
     [[2.0, 0.0], [0.0, 1.0]]
+    >>> density_maps(np.array([[1.0, 1.0], [9.9, 9.9]]), np.array([0, 1]), 2, 10.0, 10.0, (1, 1)).tolist()
+    [[[1.0]], [[1.0]]]
     >>> metres_to_pixels(np.array([[2.5, 7.5]]), 10.0, 10.0, (2, 2)).tolist()
     [[0.0, 1.0]]
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
-__all__ = ["density_map", "metres_to_pixels", "pixels_to_metres"]
+__all__ = ["density_map", "density_maps", "metres_to_pixels", "pixels_to_metres"]
 
 
 def _check_shape(shape: tuple[int, int]) -> tuple[int, int]:
@@ -70,15 +73,54 @@ def density_map(
         weights = np.asarray(weights, dtype=np.float64).reshape(-1)
         if len(weights) != len(positions_m) or not np.all(np.isfinite(weights)):
             raise ValueError(f"weights must be {len(positions_m)} finite values, got shape {weights.shape}")
-    x_m, y_m = positions_m[:, 0], positions_m[:, 1]
-    inside = (x_m >= 0) & (x_m <= width_m) & (y_m >= 0) & (y_m <= height_m)
-    if not inside.all():
-        x_m, y_m = x_m[inside], y_m[inside]
-        weights = None if weights is None else weights[inside]
-    cols = np.minimum((x_m * (w / width_m)).astype(np.intp), w - 1)
-    rows = np.minimum((y_m * (h / height_m)).astype(np.intp), h - 1)
-    counts = np.bincount(rows * w + cols, weights=weights, minlength=h * w)
-    return counts.reshape(h, w).astype(np.float32)
+    sums = _binned(positions_m, np.zeros(len(positions_m), np.int64),
+                   np.ones(1) if weights is None else weights, weights is None, 1, h, w, float(width_m),
+                   float(height_m))
+    return sums.reshape(h, w).astype(np.float32)
+
+
+@numba.njit(cache=True, nogil=True)
+def _binned(positions_m: np.ndarray, copy_index: np.ndarray, weights: np.ndarray, ones: bool, n_copies: int,
+            h: int, w: int, width_m: float, height_m: float) -> np.ndarray:
+    """(B * h * w,) float64 sums of the weights (or counts) of the points inside the area, per pixel.
+
+    A point's column is ``min(floor(x * (w / width_m)), w - 1)`` (so the far edge counts in the last
+    column), its row likewise; the sums run in the points' order.
+    """
+    sums = np.zeros(n_copies * h * w)
+    col_scale, row_scale = w / width_m, h / height_m
+    for n in range(positions_m.shape[0]):
+        x, y = positions_m[n, 0], positions_m[n, 1]
+        if x >= 0 and x <= width_m and y >= 0 and y <= height_m:
+            col = min(int(x * col_scale), w - 1)
+            row = min(int(y * row_scale), h - 1)
+            sums[(copy_index[n] * h + row) * w + col] += 1.0 if ones else weights[n]
+    return sums
+
+
+def density_maps(
+    positions_m: np.ndarray, copy_index: np.ndarray, n_copies: int, width_m: float, height_m: float,
+    shape: tuple[int, int],
+) -> np.ndarray:
+    """:func:`density_map` of B worlds at once, whose points are stacked in one array.
+
+    Args:
+        positions_m: (N, 2) positions in metres of all worlds.
+        copy_index: (N,) int, the world of each point (``0 <= copy_index < n_copies``).
+        n_copies: Number of worlds B.
+        width_m: Area width (x extent) in metres, the same for every world.
+        height_m: Area height (y extent) in metres.
+        shape: Raster shape ``(h, w)``.
+
+    Returns:
+        (B, h, w) float32 counts of points per pixel of each world.
+    """
+    h, w = _check_shape(shape)
+    _check_area(width_m, height_m)
+    sums = _binned(np.ascontiguousarray(positions_m, dtype=np.float64),
+                   np.ascontiguousarray(copy_index, dtype=np.int64), np.ones(1), True, n_copies, h, w,
+                   float(width_m), float(height_m))
+    return sums.reshape(n_copies, h, w).astype(np.float32)
 
 
 def metres_to_pixels(

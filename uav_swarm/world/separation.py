@@ -43,7 +43,7 @@ from uav_swarm.world.uav import UAVConfig, fly_step
 
 __all__ = [
     "ClosestPair", "SeparationMonitor", "braking_paths", "check_fleet_fits", "closest_distances_m",
-    "closest_pair", "guard_commands", "max_spread_m", "pair_distances_m", "path_distances_m",
+    "closest_pair", "draw_apart_m", "guard_commands", "max_spread_m", "pair_distances_m", "path_distances_m",
     "required_distances_m", "separation_penalty", "stopping_distance_m",
 ]
 
@@ -72,8 +72,12 @@ def pair_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None = N
     return d
 
 
-def closest_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None = None) -> np.ndarray:
+def closest_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None = None, *,
+                        distances_m: np.ndarray | None = None) -> np.ndarray:
     """(...) distance of the closest pair of UAVs (``inf`` with fewer than two UAVs).
+
+    ``distances_m``, the :func:`pair_distances_m` of the same positions when the caller has them, saves
+    computing them again.
 
     Examples:
         >>> float(closest_distances_m(np.array([[0.0, 0.0], [3.0, 4.0], [20.0, 0.0]])))
@@ -82,7 +86,8 @@ def closest_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None 
     p = np.asarray(positions_m, dtype=np.float64)
     if p.shape[-2] < 2:
         return np.full(p.shape[:-2], np.inf)
-    return pair_distances_m(p, altitudes_m).min(axis=(-2, -1))
+    d = pair_distances_m(p, altitudes_m) if distances_m is None else distances_m
+    return d.min(axis=(-2, -1))
 
 
 @dataclass(frozen=True)
@@ -105,11 +110,13 @@ def closest_pair(positions_m: np.ndarray, altitudes_m: np.ndarray | None = None)
 
 
 def separation_penalty(positions_m: np.ndarray, min_separation_m: float,
-                       altitudes_m: np.ndarray | None = None) -> np.ndarray:
+                       altitudes_m: np.ndarray | None = None, *, distances_m: np.ndarray | None = None
+                       ) -> np.ndarray:
     """(...) total intrusion of pairs closer than ``min_separation_m``: ``sum(1 - d / d_min)`` over them.
 
     Each pair at distance ``d < min_separation_m`` adds ``1 - d / min_separation_m`` (1 when they
-    coincide); 0 disables the penalty. The result lies in ``[0, K (K - 1) / 2]``.
+    coincide); 0 disables the penalty. The result lies in ``[0, K (K - 1) / 2]``. ``distances_m``, the
+    :func:`pair_distances_m` of the same positions when the caller has them, saves computing them again.
 
     Examples:
         >>> float(separation_penalty(np.array([[0.0, 0.0], [2.5, 0.0]]), 5.0))
@@ -118,7 +125,7 @@ def separation_penalty(positions_m: np.ndarray, min_separation_m: float,
     p = np.asarray(positions_m, dtype=np.float64)
     if p.shape[-2] < 2 or min_separation_m <= 0:
         return np.zeros(p.shape[:-2])
-    d = pair_distances_m(p, altitudes_m)
+    d = pair_distances_m(p, altitudes_m) if distances_m is None else distances_m
     intrusion = np.where(d < min_separation_m, 1.0 - d / min_separation_m, 0.0)
     return intrusion.sum(axis=(-2, -1)) / 2.0
 
@@ -178,6 +185,34 @@ uav.min_separation_m <= 84.2
         raise ConfigError(
             f"{field} = {min_separation_m:g} m cannot be kept by {n_uavs} UAVs in a "
             f"{width_m:g} x {height_m:g} m area: allowed 0 <= {field} <= {math.floor(spread * 10) / 10:g}")
+
+
+def draw_apart_m(rng: np.random.Generator, n_uavs: int, area_m: np.ndarray, required_m: np.ndarray, *,
+                 max_tries: int = 10_000) -> np.ndarray:
+    """(K, 2) uniform positions in ``[0, area_m]``, redrawn one UAV at a time until pairs keep ``required_m``.
+
+    The first draw is ``rng.uniform(0, area_m, (K, 2))``; only a UAV closer than ``required_m`` (K, K) to an
+    earlier one is drawn again, so a draw that already keeps its distances costs nothing more.
+
+    Raises:
+        ValueError: No such positions were found in ``max_tries`` draws (the minimum barely fits).
+
+    Examples:
+        >>> p = draw_apart_m(np.random.default_rng(0), 10, np.array([30.0, 30.0]), np.full((10, 10), 5.0))
+        >>> bool(closest_distances_m(p) >= 5.0)
+        True
+    """
+    area = np.asarray(area_m, dtype=np.float64)
+    positions = rng.uniform(0.0, area, size=(n_uavs, 2))
+    tries = 0
+    for uav in range(1, n_uavs):
+        while np.any(np.linalg.norm(positions[:uav] - positions[uav], axis=1) < required_m[uav, :uav]):
+            tries += 1
+            if tries > max_tries:
+                raise ValueError(f"no start positions {required_m.max():g} m apart for {n_uavs} UAVs "
+                                 f"in {max_tries} draws")
+            positions[uav] = rng.uniform(0.0, area)
+    return positions
 
 
 def stopping_distance_m(speed_m_s: np.ndarray, max_accel_m_s2: float, dt_s: float) -> np.ndarray:
@@ -278,7 +313,7 @@ def guard_commands(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_
     v = np.asarray(velocities_m_s, dtype=np.float64)
     wanted = np.asarray(command_m_s, dtype=np.float64)
     k = p.shape[-2]
-    held = np.zeros(p.shape[:-1], dtype=bool)
+    held: np.ndarray = np.zeros(p.shape[:-1], dtype=bool)
     if k < 2 or config.min_separation_m <= 0:
         return wanted.copy(), held
     batch = p.shape[:-2]

@@ -39,7 +39,7 @@ class Walls:
         bounds = np.array([[0.0, 0.0, w, 0.0], [w, 0.0, w, h], [w, h, 0.0, h], [0.0, h, 0.0, 0.0]])
         self.segments = np.vstack([scenario.obstacles, bounds])
         self.segments.flags.writeable = False
-        self.n_obstacles = len(scenario.obstacles)
+        self.n_obstacles: int | np.ndarray = len(scenario.obstacles)  # (B,) in BatchedWalls
         self._obstacles = scenario.obstacles
         self._is_obstacle = np.arange(len(self.segments)) < self.n_obstacles
         self._a = self.segments[:, :2].copy()

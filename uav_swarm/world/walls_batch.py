@@ -45,6 +45,8 @@ class BatchedWalls(Walls):
         n_obstacles: ``(B,)`` obstacle count of each copy.
     """
 
+    n_obstacles: np.ndarray
+
     def __init__(self, walls: Sequence[Walls], copy_index: np.ndarray, waypoint_offsets: np.ndarray,
                  near_cells: Sequence[np.ndarray], grid: tuple[int, int], cell_m: float) -> None:
         n_copies, slots = len(walls), max(len(w.segments) for w in walls) + 1  # + a padding wall

@@ -8,7 +8,7 @@ by more than 30 admitted users (the paper's rule as strategy 2 reads it, order-f
 least ``rules.min_users`` users).
 
 The optimiser (:func:`place_uavs_capacitated`) judges every placement it keeps with the true
-association (:func:`uav_swarm.world.comms.admit_stations`), never with a surrogate. It runs from the
+association (:func:`uav_swarm.world.admission.admit_stations`), never with a surrogate. It runs from the
 greedy's start and from every seed it is given (the expert entry point,
 :func:`uav_swarm.missions.wifi.expert.place_uavs`, seeds it with the search expert's placement, whose
 31-40 users per UAV leave fewer stranded users than the greedy's full cells), and keeps the best:
@@ -38,7 +38,7 @@ from scipy.spatial import cKDTree
 
 from typed_config import Config, param
 from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid
-from uav_swarm.world.comms import admit_stations
+from uav_swarm.world.admission import admit_stations
 
 __all__ = ["CapacitatedExpertConfig", "admitted_users", "place_uavs_capacitated", "complete_capacitated"]
 

@@ -1,0 +1,175 @@
+"""What ``simulate --ros2`` costs: wall time of the same run with ROS 2 and a subscriber, and without.
+
+The default sequence (``SimulateConfig()``: 10 UAVs, seed 0, the learned planner with the shipped
+checkpoint, replanning every 10 steps, every step published) for ``--duration-s`` simulated seconds,
+``--rounds`` times without and with ROS 2 (alternating, so that a changing machine load hits both
+alike), as fast as it computes. ``--scope loop`` times the flown planner's loop alone (the run's node
+opened beforehand); ``--scope command`` times the whole job as ``uav-swarm simulate [--ros2]`` runs it
+(both planners, the static reference, the pictures, Zenoh telemetry on a free loopback port, the ROS 2
+node's start and its wait for the subscriber), writing into a temporary folder. The subscriber is a
+separate process in a ROS domain of its own, on this machine only, that takes every topic of the run
+(the poses, the targets, the plans, the QoS, the markers, the crowd, the scene, ``/clock``) and counts
+what it received. Printed: the machine and its load
+average before and after, the median wall time of each kind, the ratio (goal <= 1.10) and the messages
+the subscriber received per round.
+
+Usage: python benchmarks/ros2_cost.py [--scope loop|command] [--duration-s 60] [--rounds 3] [--domain-id 77]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import ExitStack
+
+import numpy as np
+
+from uav_swarm.runs.ros2.config import Ros2Config, ros2_environment
+
+_NAMESPACE = "/uav_swarm/benchmark"
+
+
+def _subscriber(n_uavs: int) -> None:
+    """The subscriber process: every topic, until the run's poses have no publisher left; prints counts."""
+    ros2_environment(Ros2Config())
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from geometry_msgs.msg import PoseArray, PoseStamped
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import PointCloud2
+    from visualization_msgs.msg import MarkerArray
+
+    best_effort = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+    reliable = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    counts: dict[str, int] = {}
+
+    def count(topic: str):
+        return lambda _: counts.__setitem__(topic, counts.get(topic, 0) + 1)
+
+    rclpy.init()
+    node = rclpy.create_node("ros2_cost_subscriber")
+    topics = [(PoseStamped, f"uav_{i}/pose", best_effort) for i in range(n_uavs)]
+    topics += [(PoseStamped, f"uav_{i}/target", latched) for i in range(n_uavs)]
+    topics += [(PoseArray, "plan", reliable), (DiagnosticArray, "plan/info", reliable),
+               (DiagnosticArray, "qos", reliable), (MarkerArray, "markers", reliable),
+               (PointCloud2, "crowd", reliable),
+               (MarkerArray, "scene", latched)]
+    for kind, topic, qos in topics:
+        node.create_subscription(kind, f"{_NAMESPACE}/{topic}", count(topic), qos)
+    node.create_subscription(Clock, "/clock", count("/clock"), best_effort)
+    print("ready", flush=True)
+    heard = False
+    for line in sys.stdin:  # one line per round from the benchmark: "go", then "end"
+        if line.strip() == "end":
+            break
+        counts.clear()
+        heard = False
+        while True:
+            rclpy.spin_once(node, timeout_sec=0.05)
+            publishers = node.count_publishers(f"{_NAMESPACE}/uav_0/pose")
+            heard = heard or bool(counts)
+            if heard and publishers == 0:
+                break
+        print(json.dumps(counts), flush=True)
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def _round(config, planner, with_ros: bool, subscriber: subprocess.Popen, scope: str) -> tuple[float, dict]:
+    from uav_swarm.runs.outputs import RunOutputs
+    from uav_swarm.runs.ros2 import open_run_node
+    from uav_swarm.runs.simulate import run_sequence, simulate
+
+    if scope == "command":
+        if with_ros:
+            subscriber.stdin.write("go\n")
+            subscriber.stdin.flush()
+        with tempfile.TemporaryDirectory() as folder:
+            start_s = time.perf_counter()
+            simulate(config.replace(ros2=config.ros2.replace(enabled=with_ros)), folder, progress=False)
+            wall_s = time.perf_counter() - start_s
+        return wall_s, json.loads(subscriber.stdout.readline()) if with_ros else {}
+    with ExitStack() as stack:
+        outputs = None
+        if with_ros:
+            subscriber.stdin.write("go\n")
+            subscriber.stdin.flush()
+            ros, steering = open_run_node(config.ros2, stack, swarm=config.telemetry.swarm,
+                                          n_uavs=config.n_uavs, command="simulate", sim_time=True,
+                                          task=config.task, uav=config.uav, geofence=None)
+            outputs = RunOutputs(ros=ros)
+        start_s = time.perf_counter()
+        run_sequence(config, planner, "learned", outputs=outputs, steering=steering if with_ros else None)
+        wall_s = time.perf_counter() - start_s
+    counts = json.loads(subscriber.stdout.readline()) if with_ros else {}
+    return wall_s, counts
+
+
+def main() -> None:
+    """Run the comparison and print it."""
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scope", choices=("loop", "command"), default="loop",
+                        help="time the flown loop or the whole simulate job (default: %(default)s)")
+    parser.add_argument("--duration-s", type=float, default=60.0, help="simulated seconds per run")
+    parser.add_argument("--rounds", type=int, default=3, help="runs of each kind")
+    parser.add_argument("--domain-id", type=int, default=77,
+                        help="ROS_DOMAIN_ID of the run and its subscriber")
+    parser.add_argument("--subscriber", type=int, metavar="N_UAVS", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
+    if args.subscriber is not None:
+        _subscriber(args.subscriber)
+        return
+    from uav_swarm.planning.planner import make_planner
+    from uav_swarm.runs.simulate_config import SimulateConfig
+
+    with socket.socket() as probe:  # Zenoh telemetry of the command scope: a free loopback port
+        probe.bind(("127.0.0.1", 0))
+        endpoint = f"tcp/127.0.0.1:{probe.getsockname()[1]}"
+    config = SimulateConfig.from_dict({"duration_s": args.duration_s,
+                                       "telemetry": {"listen": [endpoint], "swarm": "benchmark"},
+                                       "ros2": {"enabled": True, "wait_for_subscriber_s": 120.0}})
+    planner = make_planner("learned", config.n_uavs, config.task, config=config.planning)
+    load_before = os.getloadavg()
+    subscriber = subprocess.Popen([sys.executable, __file__, "--subscriber", str(config.n_uavs),
+                                   "--domain-id", str(args.domain_id)],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert subscriber.stdout.readline().strip() == "ready"
+    plain_s, ros_s, received = [], [], []
+    try:
+        _round(config, planner, False, subscriber, "loop")  # warm-up, not timed: the planner's first calls
+        for _ in range(args.rounds):
+            plain_s.append(_round(config, planner, False, subscriber, args.scope)[0])
+            wall_s, counts = _round(config, planner, True, subscriber, args.scope)
+            ros_s.append(wall_s)
+            received.append(sum(counts.values()))
+    finally:
+        subscriber.stdin.write("end\n")
+        subscriber.stdin.flush()
+        subscriber.wait(timeout=60)
+    plain, with_ros = float(np.median(plain_s)), float(np.median(ros_s))
+    load_after = os.getloadavg()
+    print(f"python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPUs; load average "
+          f"before {', '.join(f'{x:.1f}' for x in load_before)}, "
+          f"after {', '.join(f'{x:.1f}' for x in load_after)}")
+    print(f"scope {args.scope}: {config.n_uavs} UAVs, {args.duration_s:g} s simulated ({config.n_steps} "
+          f"steps, every one published), {args.rounds} rounds, ROS_DOMAIN_ID {args.domain_id}, loopback only")
+    print(f"without ROS 2          : {plain:6.2f} s (median; runs {', '.join(f'{t:.2f}' for t in plain_s)})")
+    print(f"with ROS 2, subscribed : {with_ros:6.2f} s (median; runs {', '.join(f'{t:.2f}' for t in ros_s)})")
+    print(f"ratio                  : {with_ros / plain:.3f} (goal <= 1.10); the subscriber received "
+          f"{', '.join(map(str, received))} messages per round")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,224 @@
+"""The conventions of the ``uav-swarm`` command line (docs/cli.md), kept in one place.
+
+- :class:`CliParser`: no abbreviated flags; a mistyped flag is answered with the usage of the
+  (sub)command it was given to and the closest flag; descriptions and help are plain text.
+- :class:`CliHelpFormatter`: keeps the line breaks of descriptions; every flag's help ends with its
+  default, read from the config field the flag sets when it sets one (never retyped).
+- :func:`config_flag`: a flag tied to a config field: its help, default and allowed range come from the
+  field's ``param(...)`` and the range is checked when the command line is parsed, naming the flag.
+- :func:`number`: a number type checked when parsed (``--n -5`` is refused naming ``--n``).
+
+Examples:
+    >>> parser = CliParser(prog="demo")
+    >>> _ = parser.add_argument("--n", type=number(int, ge=1), default=3, help="scenes")
+    >>> parser.parse_args(["--n", "4"]).n
+    4
+    >>> plain_text("``uav-swarm place``: see :mod:`uav_swarm.world`")
+    'uav-swarm place: see uav_swarm.world'
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import difflib
+import importlib
+import re
+from collections.abc import Callable, Iterator
+from types import UnionType
+from typing import Any, Union, get_args, get_origin, get_type_hints
+
+__all__ = ["CliParser", "CliHelpFormatter", "config_flag", "number", "plain_text", "iter_parsers",
+           "add_verbosity", "SWITCH_ACTIONS"]
+
+SWITCH_ACTIONS = (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._StoreConstAction,
+                  argparse._HelpAction, argparse._VersionAction, argparse._CountAction)
+"""Flags without a value: off unless given (their help needs no default)."""
+
+_FIELD_DOC = "<the field's doc>"
+_ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
+
+
+def plain_text(text: str | None) -> str | None:
+    """Text for a terminal: reStructuredText roles and literals without their markup."""
+    if text is None:
+        return None
+    text = _ROLE.sub(r"\1", text).replace("``", "")
+    return re.sub(r"::$", ":", text, flags=re.MULTILINE)
+
+
+def number(kind: type, *, ge: float | None = None, gt: float | None = None, le: float | None = None,
+           lt: float | None = None) -> Callable[[str], Any]:
+    """An argparse ``type``: text to ``kind`` (int or float), refused outside the bounds given."""
+    bounds = [(ge, ">=", lambda v, b: v >= b), (gt, ">", lambda v, b: v > b),
+              (le, "<=", lambda v, b: v <= b), (lt, "<", lambda v, b: v < b)]
+    allowed = " and ".join(f"{op} {b}" for b, op, _ in bounds if b is not None)
+    noun = "an integer" if kind is int else "a number"
+
+    def convert(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not {noun}" + (f": allowed {allowed}" if allowed else "")) from None
+        if value != value or not all(b is None or ok(value, b) for b, _, ok in bounds):
+            raise argparse.ArgumentTypeError(f"{text} is out of range: allowed {allowed}")
+        return value
+
+    convert.__name__ = kind.__name__
+    return convert
+
+
+def _field(spec: str) -> tuple[type, dataclasses.Field]:
+    """``"package.module:Class.field"`` -> the config class and its field (imported only now)."""
+    module_name, _, qualified = spec.partition(":")
+    class_name, _, field_name = qualified.partition(".")
+    cls = getattr(importlib.import_module(module_name), class_name)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    return cls, fields[field_name]
+
+
+def _shown(value: Any) -> str:
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    if value == "" or value is None:
+        return "none"
+    return str(value)
+
+
+def config_flag(parser: argparse.ArgumentParser, flag: str, spec: str, help: str | None = None, *,
+                key: str | None = None, **kwargs: Any) -> argparse.Action:
+    """Add ``flag`` setting the config field ``spec`` (``"module:Class.field"``).
+
+    The flag's value is converted to the field's type and checked against its range when parsed; its
+    help is ``help`` (or the field's doc) followed by the field's default and the ``--config`` key
+    (``key``, by default the field's name) that replaces it. The config class is imported only when the
+    flag is given or its help is shown, so that ``uav-swarm --help`` stays fast.
+    """
+
+    def convert(text: str) -> Any:
+        cls, field = _field(spec)
+        kind = get_type_hints(cls)[field.name]
+        if get_origin(kind) in (Union, UnionType):  # an optional number
+            kind = next(k for k in get_args(kind) if k is not type(None))
+        if get_origin(kind) is not None or kind not in (int, float):
+            options = get_args(kind)
+            if options and text not in options:
+                raise argparse.ArgumentTypeError(f"{text!r} is not allowed: choose one of {list(options)}")
+            if not options:
+                _check_text(cls, field.name, text)
+            return text
+        meta = field.metadata
+        return number(kind, ge=meta.get("ge"), gt=meta.get("gt"), le=meta.get("le"), lt=meta.get("lt"))(text)
+
+    convert.__name__ = "value"
+    action = parser.add_argument(flag, type=convert, help=help or _FIELD_DOC, **kwargs)
+    action.config_field = spec  # type: ignore[attr-defined]
+    action.config_key = spec.rpartition(".")[2] if key is None else key  # type: ignore[attr-defined]
+    return action
+
+
+def _check_text(cls: type, name: str, text: str) -> None:
+    """A text field's own check (its config's ``check``), the message without the config's name."""
+    from typed_config import ConfigError
+
+    try:
+        cls(**{name: text})
+    except ConfigError as exc:
+        message = str(exc)
+        prefix = f"{cls.__name__}.{name}"
+        if prefix in message:  # about this field, not another one the defaults leave unset
+            message = message.replace(f"{prefix} = ", "").replace(prefix, name)
+            raise argparse.ArgumentTypeError(message) from None
+
+
+class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions as written; each flag's help followed by its default (from its config field if any)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        spec = getattr(action, "config_field", None)
+        if spec is not None:
+            _, field = _field(spec)
+            if text == _FIELD_DOC:
+                text = field.metadata.get("doc", "").replace("%", "%%")
+            meta = field.metadata
+            bounds = [f"{op} {meta[k]}" for k, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<"))
+                      if meta.get(k) is not None]
+            allowed = f"; allowed {' and '.join(bounds)}" if bounds else ""
+            if "(default" not in text:
+                shown = _shown(field.default).replace("%", "%%")
+                source = f", or {action.config_key} of --config" if action.config_key else ""
+                text += f" (default: {shown}{source}{allowed})"
+            return text
+        if isinstance(action, SWITCH_ACTIONS) or action.required or "default" in text:
+            return text
+        if action.default is not None and action.default is not argparse.SUPPRESS and action.option_strings:
+            listed = isinstance(action.default, list)
+            default = " ".join(map(str, action.default)) if listed else "%(default)s"
+            return f"{text} (default: {default})"
+        return text
+
+
+class CliParser(argparse.ArgumentParser):
+    """An ArgumentParser with the command line's conventions (see the module's docstring)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs["allow_abbrev"] = False
+        kwargs.setdefault("formatter_class", CliHelpFormatter)
+        if kwargs.get("formatter_class") is argparse.RawDescriptionHelpFormatter:
+            kwargs["formatter_class"] = CliHelpFormatter
+        kwargs["description"] = plain_text(kwargs.get("description"))
+        super().__init__(*args, **kwargs)
+
+    def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action:
+        """As ArgumentParser's, with the help in plain text."""
+        if isinstance(kwargs.get("help"), str):
+            kwargs["help"] = plain_text(kwargs["help"])
+        return super().add_argument(*args, **kwargs)
+
+    def parse_known_args(self, args: Any = None, namespace: Any = None
+                         ) -> tuple[argparse.Namespace, list[str]]:
+        """Parse; an argument this parser does not know is an error in its own usage, with a suggestion."""
+        if args is not None and not any(isinstance(a, argparse._SubParsersAction) for a in self._actions):
+            args = list(args)
+            flags = args[:args.index("--")] if "--" in args else args
+            known = self._option_string_actions
+            unknown = [a for a in flags if a.startswith("--") and a.split("=", 1)[0] not in known]
+            if unknown:  # before the check of required arguments, which would hide the typo
+                self.error(f"unrecognized arguments: {' '.join(unknown)}{self._suggestion(unknown)}")
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}{self._suggestion(extras)}")
+        return namespace, extras
+
+    def _suggestion(self, extras: list[str]) -> str:
+        known = sorted(self._option_string_actions)
+        for extra in extras:
+            if not extra.startswith("-"):
+                continue
+            name = extra.split("=", 1)[0]
+            close = [k for k in known if k.startswith(name) and name.startswith("--")]
+            close = close or difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+            if close:
+                return f" (did you mean {close[0]}?)"
+        return ""
+
+
+def add_verbosity(parser: argparse.ArgumentParser, *, top_level: bool = False) -> None:
+    """``-v/--verbose`` and ``-q/--quiet``; after a subcommand they are unset unless given there."""
+    default: Any = False if top_level else argparse.SUPPRESS
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("-v", "--verbose", action="store_true", default=default, help="log debug messages")
+    group.add_argument("-q", "--quiet", action="store_true", default=default,
+                       help="log warnings only, no progress bars")
+
+
+def iter_parsers(parser: argparse.ArgumentParser, path: tuple[str, ...] = ()
+                 ) -> Iterator[tuple[tuple[str, ...], argparse.ArgumentParser]]:
+    """Every parser of the command line with its subcommand path, the top-level one first."""
+    yield path, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from iter_parsers(sub, (*path, name))
