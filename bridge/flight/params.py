@@ -25,12 +25,14 @@ import math
 import queue
 import struct
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError
+from bridge.link.frames import MavMessage
 from bridge.link.mavlink import MavlinkLink
 
 __all__ = ["ParamValue", "ParamError", "read_param", "set_param", "encode_param", "decode_param"]
@@ -81,8 +83,8 @@ def decode_param(value: float, param_type: int, *, bytewise: bool) -> float:
     return float(struct.unpack(fmt, raw[:struct.calcsize(fmt)])[0])
 
 
-def _exchange(link: MavlinkLink, system_id: int, name: str, send, protocol: ProtocolConfig,
-              what: str) -> object:
+def _exchange(link: MavlinkLink, system_id: int, name: str, send: Callable[[], None],
+              protocol: ProtocolConfig, what: str) -> MavMessage:
     """Send with ``send()`` until a PARAM_VALUE of ``name`` arrives; that message."""
     with link.inbox(system_id) as box:
         for _ in range(protocol.max_retries + 1):

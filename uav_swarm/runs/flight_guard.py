@@ -235,14 +235,13 @@ class FlightGuard:
         decided = brakes.copy()
         order = sorted(range(k), key=lambda i: (bool(steerable[i]), i))
         decisions: list[GuardDecision | None] = [None] * k
-        done = np.zeros(k, dtype=bool)
         for i in order:
-            done[i] = True
-            if not steerable[i] or goals_m[i] is None:
+            goal = goals_m[i]
+            if not steerable[i] or goal is None:
                 self.forget(i)
                 decisions[i] = GuardDecision("free", None)
                 continue
-            decisions[i], decided[i] = self._choose(i, p, v, goals_m[i], decided, threshold[i], now_s)
+            decisions[i], decided[i] = self._choose(i, p, v, goal, decided, threshold[i], now_s)
         self.states = {i: d.state for i, d in enumerate(decisions) if d is not None}
         return [d if d is not None else GuardDecision("free", None) for d in decisions]
 

@@ -524,7 +524,7 @@ class Flight:
             self._guard_if_due()
             for vehicle in (v for v in flying if v.status == "live"):
                 state, home = self._state(vehicle), homes[vehicle.system_id]
-                over = (state is not None and state.x_m is not None
+                over = (state is not None and state.x_m is not None and state.y_m is not None
                         and np.hypot(state.x_m - home[0], state.y_m - home[1]) <= _HOME_M)
                 if over and (vehicle.job is None or vehicle.job.done()):
                     vehicle.status = "ending"

@@ -154,7 +154,7 @@ class FlightSafety:
         """
         armed = [(sid, s) for sid, s, _, _ in flying if s.armed]
         with self._lock:
-            self._airborne = {sid: (float(s.x_m), float(s.y_m)) for sid, s in armed}
+            self._airborne = {sid: (float(s.x_m or 0.0), float(s.y_m or 0.0)) for sid, s in armed}
         if armed:
             positions = np.array([(s.x_m, s.y_m, s.z_m) for _, s in armed], dtype=np.float64)
             self.monitor.observe(clock_s, positions, [self._uav_of[sid] for sid, _ in armed])
