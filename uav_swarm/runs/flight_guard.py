@@ -8,18 +8,19 @@ position and velocity (its GLOBAL_POSITION_INT in the flight's East-North frame)
   the command's round trip), then flies the route's points in turn to ``uav.max_speed_m_s``, speeding
   up at ``uav.max_accel_m_s2`` or faster (an autopilot's own acceleration is not known): at each
   instant it is somewhere on the stretch of the route between the two;
-- **braking**: it keeps its velocity for ``latency_s``, then stops, at once or slowing at
-  ``uav.max_accel_m_s2`` (``v^2 / 2a`` further, the continuous form of
-  :func:`uav_swarm.world.separation.stopping_distance_m`): where a *hold* leaves it.
+- **held**: sent back to where it is now, it keeps its velocity for ``latency_s``, slows at
+  ``uav.max_accel_m_s2`` to a stop (``v^2 / 2a`` further, the continuous form of
+  :func:`uav_swarm.world.separation.stopping_distance_m`) and comes back: it stays between the two.
 
 Vehicles are decided one after the other (the ones the bridge cannot steer first: climbing, or in
 a mission of their own; then by UAV id). A vehicle gets its route only when its predicted track
 keeps ``min_separation_m + margin_m`` (horizontal distance, whatever the altitudes) in every step of
 ``step_s`` (between the two stretches of the step, :func:`uav_swarm.world.separation.path_distances_m`)
-from the tracks of the vehicles decided before it *and* from the braking tracks of those not decided
-yet; otherwise it is **held**: sent to where it stops braking (``MAV_CMD_DO_REPOSITION`` to that point,
-kept while it is held), until its route is clear again. A hold is always possible:
-every route chosen before was checked against this vehicle's braking track. Two vehicles that must
+from the tracks of the vehicles decided before it *and* from the held tracks of those not decided
+yet; otherwise it is **held**: sent back to the point where it was when held (``MAV_CMD_DO_REPOSITION``
+to its measured position, kept while it is held: a position hold inside the fence), until its route
+is clear again. A hold is always possible:
+every route chosen before was checked against this vehicle's held track. Two vehicles that must
 swap places hold each other; one held and standing still for ``sidestep_after_s`` then steps aside,
 across its way, by ``1.5 (min_separation_m + margin_m)`` (when that is clear), and the other passes.
 
@@ -138,23 +139,24 @@ def route_band_m(p: np.ndarray, v: np.ndarray, route_m: Sequence[tuple[float, fl
                  latency_s: float, speed_m_s: float, accel_m_s2: float) -> np.ndarray:
     """(T, 2, 2): where on its route a vehicle is from ``times_s[k]`` to ``times_s[k + 1]``.
 
-    From where one speeding up at ``accel_m_s2`` is at the first to where one at full speed at once is at
-    the second: an autopilot's own acceleration lies between, and so does every instant of the step.
+    From where one speeding up at ``accel_m_s2`` to ``speed_m_s`` is at the first to where one at full
+    speed at once is at the second (its measured speed when faster: an autopilot may fly faster than
+    asked): an autopilot's own acceleration lies between, and so does every instant of the step.
     """
     slow = route_track_m(p, v, route_m, times_s, latency_s, speed_m_s, accel_m_s2)
-    fast = route_track_m(p, v, route_m, times_s, latency_s, speed_m_s, math.inf)
+    fast = route_track_m(p, v, route_m, times_s, latency_s, max(speed_m_s, float(np.hypot(*v))), math.inf)
     return np.stack([slow, np.concatenate([fast[1:], fast[-1:]])], axis=1)
 
 
 def braking_band_m(p: np.ndarray, v: np.ndarray, times_s: np.ndarray, latency_s: float,
                    accel_m_s2: float) -> np.ndarray:
-    """(T, 2, 2): where a braking vehicle is from ``times_s[k]`` to ``times_s[k + 1]``.
+    """(T, 2, 2): where a held vehicle is from ``times_s[k]`` to ``times_s[k + 1]``.
 
-    From where one stopped at once after ``latency_s`` is at the first to where one slowing at
-    ``accel_m_s2`` is at the second.
+    Sent back to where it is now (``p``), it is between ``p`` and where one slowing at ``accel_m_s2``
+    after ``latency_s`` stops (its overshoot, and the way back).
     """
     late = braking_track_m(p, v, times_s, latency_s, accel_m_s2)
-    early = p[None, :] + np.minimum(times_s, latency_s)[:, None] * v[None, :]
+    early = np.repeat(p[None, :], times_s.size, axis=0)
     return np.stack([early, np.concatenate([late[1:], late[-1:]])], axis=1)
 
 
@@ -283,9 +285,8 @@ class FlightGuard:
         else:
             self._aside.pop(i, None)  # its step aside is no longer clear: it holds, then starts again
             self._held_since.setdefault(i, now_s)
-        brake = decided[i]
-        stop = self._hold_at.setdefault(i, (float(brake[-1, 1, 0]), float(brake[-1, 1, 1])))  # kept, held
-        return GuardDecision("held", stop, blocker), brake
+        here = self._hold_at.setdefault(i, (float(p[i, 0]), float(p[i, 1])))  # kept while it is held
+        return GuardDecision("held", here, blocker), decided[i]
 
     def _sidesteps(self, p: np.ndarray, goal: tuple[float, float]) -> list[tuple[float, float]]:
         way = np.asarray(goal, dtype=np.float64) - p
