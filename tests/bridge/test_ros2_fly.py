@@ -49,7 +49,7 @@ def test_a_ros2_operator_flies_a_px4_and_an_ardupilot_vehicle_to_its_targets(tmp
     domain = domain_id()
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 40.0,
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 80.0,  # guarded
         "speedup": 4.0, "publish_telemetry": False,
         "flight": {"link_timeout_s": 3.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         "ros2": {"enabled": True, "namespace": "/fleet", "wait_for_subscriber_s": 120.0}})

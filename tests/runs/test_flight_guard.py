@@ -99,3 +99,9 @@ def test_predicted_tracks_follow_the_kinematics():
     route = route_track_m(np.zeros(2), np.zeros(2), [(30.0, 0.0), (30.0, 40.0)], times, 0.0, 10.0, 5.0)
     assert route[-1].tolist() == pytest.approx([30.0, 40.0])  # the whole route, then it stays
     assert route[10, 0] == pytest.approx(0.5 * 5.0 * 1.0**2)  # speeding up at 5 m/s^2
+
+
+def test_a_vehicle_parked_on_the_way_is_gone_round():
+    """UAV 0 hovers on its target, on UAV 1's way: UAV 1 goes round it and arrives (no deadlock)."""
+    closest, reached, _ = _fly([(30.0, 30.0), (10.0, 0.0)], [(30.0, 30.0), (170.0, 170.0)], 12.0, 0.4)
+    assert closest >= 5.0 and reached <= 0.5  # held for ever before it went round (the way passes 6.0 m)

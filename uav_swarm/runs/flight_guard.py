@@ -20,9 +20,11 @@ from the tracks of the vehicles decided before it *and* from the held tracks of 
 yet; otherwise it is **held**: sent back to the point where it was when held (``MAV_CMD_DO_REPOSITION``
 to its measured position, kept while it is held: a position hold inside the fence), until its route
 is clear again. A hold is always possible:
-every route chosen before was checked against this vehicle's held track. Two vehicles that must
-swap places hold each other; one held and standing still for ``sidestep_after_s`` then steps aside,
-across its way, by ``1.5 (min_separation_m + margin_m)`` (when that is clear), and the other passes.
+every route chosen before was checked against this vehicle's held track. A vehicle whose way
+is blocked by one parked on it (still, and not on its goal) goes round it, by a point
+``1.5 (min_separation_m + margin_m)`` beside it. Two vehicles that must swap places hold each other;
+one held and standing still for ``sidestep_after_s`` then steps aside, across its way, by the same
+distance (when that is clear), and the other passes.
 
 Each hold is an event (which vehicle, for which other) and is counted; the guard's state per
 vehicle is ``"free"``, ``"held"`` or ``"aside"``.
@@ -198,7 +200,7 @@ class FlightGuard:
         self.need_m = uav.min_separation_m + config.margin_m
         self._times = _times(config)
         self._held_since: dict[int, float] = {}
-        self._aside: dict[int, tuple[float, float]] = {}
+        self._aside: dict[int, tuple[tuple[float, float], bool]] = {}  # a way point, then the goal?
         self._hold_at: dict[int, tuple[float, float]] = {}
         self.states: dict[int, str] = {}
         """Each vehicle's guard state after the last :meth:`decide` (by index)."""
@@ -259,45 +261,60 @@ class FlightGuard:
                 return True, -1
             return False, int(np.flatnonzero(others)[int(np.argmax(short))])
 
-        aside = self._aside.get(i)
-        if aside is not None and math.dist(aside, p[i]) <= _ARRIVED_M:
+        via = self._aside.get(i)
+        if via is not None and math.dist(via[0], p[i]) <= _ARRIVED_M:
             del self._aside[i]  # reached: from here on to its goal
-            aside = None
-        route = [aside] if aside is not None else [goal]
+            via = None
+        route = [goal] if via is None else [via[0], goal] if via[1] else [via[0]]
         track = route_band_m(p[i], v[i], route, times, cfg.latency_s, uav.max_speed_m_s, uav.max_accel_m_s2)
         ok, blocker = clear(track)
         if ok:
             self._held_since.pop(i, None)
             self._hold_at.pop(i, None)
-            return GuardDecision("aside" if aside is not None else "free", route[0]), track
-        if aside is None:
-            since = self._held_since.setdefault(i, now_s)
-            still = float(np.hypot(*v[i])) < 0.5
-            if still and now_s - since >= cfg.sidestep_after_s:
-                for point in self._sidesteps(p[i], goal):
-                    step = route_band_m(p[i], v[i], [point], times, cfg.latency_s, uav.max_speed_m_s,
-                                        uav.max_accel_m_s2)
-                    if clear(step)[0]:
-                        self._aside[i] = point
-                        self._held_since.pop(i, None)
-                        self._hold_at.pop(i, None)
-                        return GuardDecision("aside", point, blocker), step
-        else:
-            self._aside.pop(i, None)  # its step aside is no longer clear: it holds, then starts again
-            self._held_since.setdefault(i, now_s)
+            return GuardDecision("free" if via is None else "aside", route[0]), track
+        if via is not None:
+            self._aside.pop(i, None)  # its way round is no longer clear: it holds, then starts again
+        since = self._held_since.setdefault(i, now_s)
+        still = float(np.hypot(*v[i])) < 0.5
+        parked = float(np.hypot(*v[blocker])) < 0.5 and math.dist(p[blocker], goal) >= self.need_m
+        ways = [(point, True) for point in self._around(p[i], goal, p[blocker])] if parked else []
+        if still and now_s - since >= cfg.sidestep_after_s:
+            ways += [(point, False) for point in self._sidesteps(p[i], goal)]
+        for point, then_goal in ways:  # round a parked vehicle, or (held long) aside
+            way = [point, goal] if then_goal else [point]
+            step = route_band_m(p[i], v[i], way, times, cfg.latency_s, uav.max_speed_m_s, uav.max_accel_m_s2)
+            if clear(step)[0]:
+                self._aside[i] = (point, then_goal)
+                self._held_since.pop(i, None)
+                self._hold_at.pop(i, None)
+                return GuardDecision("aside", point, blocker), step
         here = self._hold_at.setdefault(i, (float(p[i, 0]), float(p[i, 1])))  # kept while it is held
         return GuardDecision("held", here, blocker), decided[i]
 
-    def _sidesteps(self, p: np.ndarray, goal: tuple[float, float]) -> list[tuple[float, float]]:
+    def _around(self, p: np.ndarray, goal: tuple[float, float],
+                other: np.ndarray) -> list[tuple[float, float]]:
+        """Points beside a vehicle parked on the way, on either side of the way, the shorter way first."""
         way = np.asarray(goal, dtype=np.float64) - p
         length = float(np.hypot(*way))
         if length < 1e-9:
             return []
         across = np.array([-way[1], way[0]]) / length
-        distance_m = 1.5 * self.need_m
-        points = [p + side * distance_m * across for side in (1.0, -1.0)]
+        points = [other + side * 1.5 * self.need_m * across for side in (1.0, -1.0)]
+        points.sort(key=lambda q: float(np.hypot(*(q - p)) + np.hypot(*(np.asarray(goal) - q))))
+        return self._inside(points)
+
+    def _sidesteps(self, p: np.ndarray, goal: tuple[float, float]) -> list[tuple[float, float]]:
+        """Points across its way, on either side, to step aside to."""
+        way = np.asarray(goal, dtype=np.float64) - p
+        length = float(np.hypot(*way))
+        if length < 1e-9:
+            return []
+        across = np.array([-way[1], way[0]]) / length
+        return self._inside([p + side * 1.5 * self.need_m * across for side in (1.0, -1.0)])
+
+    def _inside(self, points: list[np.ndarray]) -> list[tuple[float, float]]:
+        """The points inside the area (all of them without one)."""
         if self.area_m is not None:
             w, h = self.area_m
             points = [q for q in points if 0.0 <= q[0] <= w and 0.0 <= q[1] <= h]
         return [(float(q[0]), float(q[1])) for q in points]
-
