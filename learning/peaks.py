@@ -10,6 +10,8 @@ decreasing value, dropping any closer than ``min_distance_px`` to one already
 taken (non-maximum suppression), up to ``max_peaks``. A single-pixel peak is
 refined to sub-pixel precision by a 1-D parabola through it and its two
 neighbours along each axis (skipped on the border, where a neighbour is missing).
+With ``min_separation_px`` a peak is also dropped when its refined position stands closer than that to
+a peak already taken, so the returned peaks are that far apart (the UAVs' minimum separation).
 
 Thresholds are in the utility map's units: the network regresses ``R / α1``
 (see :mod:`learning.targets`), so an isolated expert peaks near ``1 + α2/α1``.
@@ -62,14 +64,15 @@ def _has_plateau(candidates: np.ndarray) -> bool:
     )
 
 
-def find_peaks(utility: np.ndarray, config: PeakConfig | None = None, max_peaks: int | None = None
-               ) -> np.ndarray:
+def find_peaks(utility: np.ndarray, config: PeakConfig | None = None, max_peaks: int | None = None,
+               min_separation_px: float = 0.0) -> np.ndarray:
     """Local maxima of a utility map after thresholds and non-maximum suppression.
 
     Args:
         utility: ``(h, w)`` map.
         config: Thresholds and distances; defaults to ``PeakConfig()``.
         max_peaks: Overrides ``config.max_peaks`` (e.g. the number of UAVs available).
+        min_separation_px: The returned (refined) peaks stand at least this far apart, pixels.
 
     Returns:
         ``(k, 2)`` float64 pixel positions ``(x=column, y=row)``, by decreasing value.
@@ -123,6 +126,8 @@ def find_peaks(utility: np.ndarray, config: PeakConfig | None = None, max_peaks:
                 x += _parabola_offset(u[r, c - 1], u[r, c], u[r, c + 1])
             if 0 < r < h - 1:
                 y += _parabola_offset(u[r - 1, c], u[r, c], u[r + 1, c])
+        if any(math.hypot(x - cx, y - cy) < min_separation_px for cx, cy in chosen):
+            continue
         chosen.append((x, y))
         if len(chosen) == limit:
             break

@@ -183,3 +183,20 @@ def test_export_refuses_a_target_for_a_vehicle_the_config_lacks(tmp_path, capsys
     err = capsys.readouterr().err
     assert "vehicle(s) [9] are not in the bridge config; configured vehicle ids: [1, 2]" in err
     assert not out.exists()
+
+
+def test_export_refuses_targets_closer_than_the_minimum_separation_and_writes_nothing(tmp_path, capsys):
+    config = _config(tmp_path, {1: free_udp_port(), 2: free_udp_port(), 3: free_udp_port()})
+    out = tmp_path / "o"
+    targets = ["--target", "1:5,5", "--target", "2:8,9", "--target", "3:40,5"]  # 1 and 2: 5 m apart
+    assert main(["mission", "export", "--config", str(config), *targets, "--min-separation-m", "6",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "the targets of vehicles 1 and 2 are 5.00 m apart: allowed >= --min-separation-m = 6 m" in err
+    assert not out.exists()
+    assert main(["mission", "export", "--config", str(config), *targets[:4], "--target", "3:8,9,31",
+                 "--out", str(out)]) == 2  # over 2's target, 1 m above its cruise altitude (30 m)
+    assert "the targets of vehicles 2 and 3 are 1.00 m apart" in capsys.readouterr().err
+    layered = [*targets[:4], "--target", "3:8,9,40"]  # over 2's target, 10 m above it: 3-D apart
+    assert main(["mission", "export", "--config", str(config), *layered, "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["vehicle_1.plan", "vehicle_2.plan", "vehicle_3.plan"]

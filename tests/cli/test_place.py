@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
+from scipy.spatial.distance import pdist
 
 from bridge.geo import Home, geodetic_to_enu
 from bridge.missions.files import load_plan
@@ -262,3 +263,24 @@ def test_swapped_coordinates_far_from_home_are_warned_about_before_the_fence_ref
     assert main(["place", "--task", "agp", "--building", str(unswapped), "--out", str(out), "--method",
                  "expert", "--bridge-config", str(bridge)]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("method", ["expert", "refined", "learned"])
+def test_guards_of_a_site_keep_the_minimum_separation_across_buildings(tmp_path, method):
+    site = BUILDINGS / ("ferguson_two_parts.geojson" if method != "learned" else "urban_market.geojson")
+
+    def guards(*options):
+        out = tmp_path / "-".join(options or ("default",))
+        assert main(["place", "--task", "fp", "--building", str(site), "--out", str(out), "--method", method,
+                     *options]) == 0
+        summary = json.loads((out / "placement.json").read_text())
+        assert summary["sight"]["min_separation_m"] == (float(options[1]) if options else 5.0)
+        return summary, np.concatenate([np.reshape(b["guards_m"], (-1, 2)) for b in summary["buildings"]])
+
+    if method != "refined":  # without the minimum: the parts' guards meet where the parts do, peaks crowd
+        _, loose = guards("--min-separation-m", "0")
+        assert pdist(loose).min() < 5.0
+    for options in ((), ("--min-separation-m", "12")):
+        summary, kept = guards(*options)
+        assert pdist(kept).min() >= (12.0 if options else 5.0)
+        assert method == "learned" or summary["fully_covered"]

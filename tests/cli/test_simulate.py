@@ -256,3 +256,13 @@ def test_the_strategy_2_config_flies_the_evaluated_relocation_refinement(tmp_pat
     run = simulate(short, tmp_path / "out", progress=False).runs["learned"]
     assert run.planner_name == "cnn-peaks-refine-hungarian" and run.latency_ms.size == 2
     assert np.all(run.qos_s2 <= run.qos_s1 + 1e-12)
+
+
+def test_a_minimum_separation_the_fleet_cannot_keep_exits_2_naming_the_field(tmp_path, capsys):
+    out = tmp_path / "never"
+    config = tmp_path / "far.toml"
+    config.write_text("n_uavs = 10\n[uav]\nmin_separation_m = 90.0\n", encoding="utf-8")
+    assert main(["simulate", "--out", str(out), "--config", str(config), "--no-telemetry", "--quiet"]) == 2
+    assert ("uav.min_separation_m = 90 m cannot be kept by 10 UAVs in a 200 x 200 m area: allowed 0 <= "
+            "uav.min_separation_m <= 84.2") in capsys.readouterr().err
+    assert not out.exists()

@@ -7,6 +7,10 @@ point of each plan the target: ``--target ID:X,Y[,Z]`` (once per vehicle, after 
 with JSON ``{"ID": [[x_m, y_m], [x_m, y_m, z_m], ...]}``. Mission files are named
 ``vehicle_<ID>.plan`` (QGroundControl) or ``vehicle_<ID>.waypoints`` (QGC WPL 110).
 
+The vehicles' targets (each plan's last point, 2-D points at the mission's cruise altitude)
+must stand at least ``--min-separation-m`` apart (3-D; default the UAVs' 5 m): export and upload
+refuse closer targets, naming the pair, before anything is written or sent.
+
 Each vehicle is handled on its own: an absent or failing vehicle does not stop the
 others. Every failure is listed at the end, one line each (a vehicle's failure with its error class).
 Exit codes: 0 done, 1 a vehicle failed, 2 bad input or a safety refusal (nothing sent).
@@ -90,6 +94,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="ID",
         help="download/clear: only these vehicles (repeatable; default: all)",
     )
+    add("--min-separation-m", type=float, default=None, metavar="M",
+        help="export/upload: least distance between two vehicles' targets, metres (default: [uav] "
+             "min_separation_m's default, 5; 0: no check)")
     add("--no-verify", action="store_true", help="upload: skip the download-and-compare check")
     add(
         "--strict",
@@ -198,6 +205,28 @@ def _check_plans(plans: dict[int, list[list[float]]], config: BridgeConfig) -> N
             raise type(exc)(f"vehicle {sid}: {exc}") from None
 
 
+def _check_separation(plans: dict[int, list[list[float]]], config: BridgeConfig,
+                      min_separation_m: float | None) -> None:
+    """Refuse two vehicles' targets (last points, 3-D) closer than ``--min-separation-m``."""
+    from uav_swarm.world.uav import UAVConfig
+
+    minimum = UAVConfig().min_separation_m if min_separation_m is None else min_separation_m
+    if not (minimum >= 0.0 and math.isfinite(minimum)):
+        raise ValueError(f"--min-separation-m = {minimum}: allowed a finite value >= 0")
+    ids = sorted(plans)
+    cruise = config.mission.cruise_alt_m
+    ends = [plans[sid][-1] for sid in ids]
+    targets = [(*end[:2], end[2] if len(end) == 3 else cruise) for end in ends]
+    for a in range(len(ids)):
+        for b in range(a + 1, len(ids)):
+            gap = math.dist(targets[a], targets[b])
+            if gap < minimum:
+                raise ValueError(
+                    f"the targets of vehicles {ids[a]} and {ids[b]} are {gap:.2f} m apart: allowed >= "
+                    f"--min-separation-m = {minimum:g} m (move a target, or give the vehicles different "
+                    "altitudes)")
+
+
 def _check_ids(ids: object, config: BridgeConfig) -> None:
     """Refuse vehicle ids the bridge config lacks, naming the configured ones."""
     configured = sorted(v.system_id for v in config.vehicles)
@@ -274,6 +303,7 @@ def _export(args: argparse.Namespace, config: BridgeConfig) -> int:
     if not plans or args.out is None:
         raise ValueError("export needs --target or --plans, and --out")
     _check_ids(plans, config)  # a mission for a vehicle the config does not list is refused, not written
+    _check_separation(plans, config, args.min_separation_m)
     missions = {
         sid: build_mission(
             points,
@@ -327,6 +357,7 @@ def _upload(args: argparse.Namespace, config: BridgeConfig) -> int:
         raise ValueError("upload needs either --target/--plans or --from-dir")
     if plans:
         _check_plans(plans, config)
+        _check_separation(plans, config, args.min_separation_m)
         builders = {sid: _plan_builder(points, config) for sid, points in plans.items()}
     else:
         files = _mission_files(args.from_dir)

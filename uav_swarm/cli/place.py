@@ -8,7 +8,8 @@ The buildings (:mod:`uav_swarm.missions.monitoring.footprint`: GeoJSON in WGS84,
 courtyards, a MultiPolygon or a FeatureCollection of a whole site, or vertices in metres) are placed one
 by one, each on its own outline in metres (:mod:`uav_swarm.missions.monitoring.outline`): witnesses every
 ``--witness-spacing-m`` (interior grid and vertices for AGP, walls for FP), sight lines keeping
-``--min-clearance-m`` from the walls, guards ``--standoff-m`` from them. Three methods:
+``--min-clearance-m`` from the walls, guards ``--standoff-m`` from them and ``--min-separation-m`` from each
+other, across all the buildings (guards fly: the UAVs' minimum separation). Three methods:
 
 - ``learned``: the shipped network's peaks on the raster, as they are (milliseconds, no guarantee);
 - ``refined`` (default): the peaks repaired on the real outline until every witness is seen
@@ -78,6 +79,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(parser, "--witness-spacing-m", sight + "witness_spacing_m", key="")
     config_flag(parser, "--min-clearance-m", sight + "min_clearance_m", key="")
     config_flag(parser, "--standoff-m", sight + "standoff_m", key="")
+    config_flag(parser, "--min-separation-m", sight + "min_separation_m", key="")
     add("--bridge-config", type=Path,
         help="bridge TOML: home, mission shape, fence and vehicle ids (default: none, no missions)")
     add("--alt-m", type=number(float, gt=0.0),
@@ -113,8 +115,13 @@ def _tiles(footprint: Any, size_px: int, margin_px: int, max_pixel_m: float) -> 
     return pieces
 
 
-def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float) -> tuple[np.ndarray, tuple]:
-    """The network's peaks (metres) over the building's raster or tiles, and the rasters it saw."""
+def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float, min_separation_m: float = 0.0
+            ) -> tuple[np.ndarray, tuple]:
+    """The network's peaks (metres) over the building's raster or tiles, and the rasters it saw.
+
+    Each raster's peaks stand ``min_separation_m`` apart; across tiles a peak closer than that to an earlier
+    one is dropped.
+    """
     from learning.inference import utility_maps
     from learning.peaks import find_peaks
     from uav_swarm.missions.monitoring.footprint import FootprintError, fit_to_raster
@@ -132,8 +139,21 @@ def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float) -> tupl
         return np.zeros((0, 2)), ()
     observed = np.stack([task.observe(MonitoringScene(r.polygon, np.zeros((0, 2)))) for r in rasters])
     utility = utility_maps(model, observed, precision)
-    proposals = [r.to_metres(find_peaks(u, peak_config)) for r, u in zip(rasters, utility, strict=True)]
-    return np.concatenate(proposals), tuple(rasters)
+    proposals = np.concatenate([
+        r.to_metres(find_peaks(u, peak_config, min_separation_px=min_separation_m / r.metres_per_px))
+        for r, u in zip(rasters, utility, strict=True)])
+    return _separated(proposals, np.zeros((0, 2)), min_separation_m), tuple(rasters)
+
+
+def _separated(points_m: np.ndarray, fixed_m: np.ndarray, min_separation_m: float) -> np.ndarray:
+    """The points in order, each dropped when closer than ``min_separation_m`` to a fixed or kept one."""
+    kept = [np.asarray(p) for p in fixed_m]
+    out = []
+    for p in points_m:
+        if all(np.hypot(*(p - q)) >= min_separation_m for q in kept):
+            kept.append(p)
+            out.append(p)
+    return np.array(out, dtype=np.float64).reshape(-1, 2)
 
 
 def load_network(task: Any, checkpoint: str | None) -> tuple[Any, Any, Any]:
@@ -153,22 +173,27 @@ def load_network(task: Any, checkpoint: str | None) -> tuple[Any, Any, Any]:
     return ckpt.model, precision, ckpt.peak_config
 
 
-def place_building(task: Any, footprint: Any, method: str, network: Any, sight: Any, max_pixel_m: float
-                   ) -> Any:
-    """One building's placement by ``method``, judged on its real outline."""
+def place_building(task: Any, footprint: Any, method: str, network: Any, sight: Any, max_pixel_m: float,
+                   fixed_m: np.ndarray | None = None) -> Any:
+    """One building's placement by ``method``, judged on its real outline.
+
+    Its guards keep ``sight.min_separation_m`` between them and to ``fixed_m`` (other buildings' guards).
+    """
     from uav_swarm.cli.place_output import PlacedBuilding
     from uav_swarm.missions.monitoring.outline_guards import judge, reference_guards, repair_on_outline
 
     outline = footprint.outline()
+    fixed = np.zeros((0, 2)) if fixed_m is None else fixed_m
     start = time.perf_counter()
     if method == "expert":
-        placement, rasters = reference_guards(outline, task.region, sight), ()
+        placement, rasters = reference_guards(outline, task.region, sight, fixed), ()
     else:
-        proposals, rasters = propose(task, footprint, network, max_pixel_m)
+        proposals, rasters = propose(task, footprint, network, max_pixel_m, sight.min_separation_m)
         if method == "refined":
-            placement = repair_on_outline(outline, task.region, proposals, sight)
+            placement = repair_on_outline(outline, task.region, proposals, sight, fixed)
         else:
-            placement = judge(outline, task.region, proposals, sight)
+            guards_m = _separated(proposals, fixed, sight.min_separation_m)
+            placement = judge(outline, task.region, guards_m, sight)
     return PlacedBuilding(footprint, rasters, placement, time.perf_counter() - start)
 
 
@@ -218,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     try:
         given = {"witness_spacing_m": args.witness_spacing_m, "min_clearance_m": args.min_clearance_m,
-                 "standoff_m": args.standoff_m}
+                 "standoff_m": args.standoff_m, "min_separation_m": args.min_separation_m}
         sight = SightConfig(**{key: value for key, value in given.items() if value is not None})
         bridge = load_toml(BridgeConfig, args.bridge_config) if args.bridge_config else None
         site = read_site(args.building)
@@ -226,8 +251,11 @@ def run(args: argparse.Namespace) -> int:
         if warning:
             print(f"uav-swarm place: warning: {args.building}: {warning}", file=sys.stderr)
         network = None if args.method == "expert" else load_network(task, args.checkpoint)
-        buildings = [place_building(task, footprint, args.method, network, sight, args.max_pixel_m)
-                     for footprint in site]
+        buildings: list[Any] = []
+        for footprint in site:
+            placed = np.concatenate([np.zeros((0, 2)), *(b.placement.guards_m for b in buildings)])
+            buildings.append(place_building(task, footprint, args.method, network, sight, args.max_pixel_m,
+                                            placed))
         guards_m = np.concatenate([b.placement.guards_m for b in buildings])
         missions = _missions(args, bridge, site[0], guards_m) if bridge is not None else {}
     except (FootprintError, OutlineError, InfeasibleCoverError, CheckpointError, ConfigError) as exc:
@@ -261,7 +289,7 @@ def run(args: argparse.Namespace) -> int:
     summary = {
         "task": task.name, "method": args.method, "judged_on": "the input outline in metres", "sight": {
             "witness_spacing_m": sight.witness_spacing_m, "min_clearance_m": sight.min_clearance_m,
-            "standoff_m": sight.standoff_m},
+            "standoff_m": sight.standoff_m, "min_separation_m": sight.min_separation_m},
         "frame": frame_record(site[0]), "n_guards": len(guards_m),
         "fully_covered": all(r["fully_covered"] for r in records),
         "buildings": records, "time_ms": (time.perf_counter() - start) * 1e3, "files": files}

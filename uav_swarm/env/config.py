@@ -20,6 +20,7 @@ from typed_config import Config, ConfigError, param
 from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.crowd import CrowdConfig
 from uav_swarm.world.scenario import ScenarioConfig
+from uav_swarm.world.separation import check_fleet_fits
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["EnvConfig", "MAX_UAVS", "merge_overrides"]
@@ -62,6 +63,8 @@ class EnvConfig(Config):
             raise ConfigError(
                 f"EnvConfig.radio.altitude_m = {self.radio.altitude_m}: the environment takes the altitude "
                 "from uav.alt_m; set use_3d_distance = true instead")
+        area = self.scenario
+        check_fleet_fits(self.n_uavs, self.uav.min_separation_m, area.width_m, area.height_m)
 
     @property
     def effective_radio(self) -> RadioConfig:

@@ -7,4 +7,5 @@
 - :mod:`~uav_swarm.planning.motion`: planning in motion (follow, keep, re-solve when it pays).
 - :mod:`~uav_swarm.planning.horizon`: the motion horizon's options and instants in one radio-model pass.
 - :mod:`~uav_swarm.planning.assignment`: UAVs to targets (Hungarian matching with hysteresis).
+- :mod:`~uav_swarm.planning.spacing`: the targets kept the minimum separation apart (the last projection).
 """

@@ -14,8 +14,10 @@ module decides which UAV flies to which candidate:
    assigned straight paths cross where exchanging their targets would shorten the sum
    (the transition between two plans then has fewer conflicts to resolve).
 3. **Fallback.** With fewer candidates than UAVs, the spare UAVs *hold their
-   current position*. Targets are always pairwise distinct: a spare UAV sitting on
-   another UAV's target is given the nearest free position on a ring around it.
+   current position*. Targets are always at least ``min_gap_m`` apart (the planners pass the
+   UAVs' minimum separation): a previous target is kept only when it stays that far from the other
+   candidates, and a spare UAV too close to another target is given the nearest free position
+   (:func:`uav_swarm.planning.spacing.separate_targets`).
 
 Examples:
     >>> import numpy as np
@@ -32,9 +34,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.planning.transitions import squared_assignment
 
-__all__ = ["Assignment", "assign_targets", "separate_spares"]
+__all__ = ["Assignment", "assign_targets"]
 
 
 @dataclass(frozen=True)
@@ -57,27 +60,13 @@ def _pairwise(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.norm(a[:, None, :] - b[None, :, :], axis=-1)
 
 
-def separate_spares(targets: np.ndarray, spare: np.ndarray, min_gap_m: float) -> None:
-    """Move spare targets that coincide with another target onto a free nearby point (in place)."""
-    for i in np.flatnonzero(spare):
-        others = np.delete(targets, i, axis=0)
-        if others.size == 0 or np.min(np.linalg.norm(others - targets[i], axis=1)) >= min_gap_m:
-            continue
-        for radius in min_gap_m * np.arange(1, 11):
-            angles = np.linspace(0.0, 2.0 * np.pi, 12, endpoint=False)
-            ring = targets[i] + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
-            free = np.min(_pairwise(ring, others), axis=1) >= min_gap_m
-            if free.any():
-                targets[i] = ring[np.argmax(free)]
-                break
-
-
 def assign_targets(
     uav_positions_m: np.ndarray,
     candidates_m: np.ndarray,
     previous_targets_m: np.ndarray | None = None,
     hysteresis_m: float = 0.0,
     min_gap_m: float = 1.0,
+    upper_m: np.ndarray | None = None,
 ) -> Assignment:
     """Assign each UAV one target among the candidates.
 
@@ -86,7 +75,9 @@ def assign_targets(
         candidates_m: ``(k, 2)`` candidate positions, best first; only the first ``n`` are used.
         previous_targets_m: ``(n, 2)`` targets of the previous plan, or None on the first plan.
         hysteresis_m: A UAV keeps its previous target while a candidate stays within this distance.
-        min_gap_m: Smallest distance between two targets (spares holding position are nudged).
+        min_gap_m: Smallest distance between two targets: a previous target closer than this to another
+            candidate is not kept; spares holding position are moved off the others.
+        upper_m: ``(2,)`` the area's upper corner; a moved spare stays inside (None: no area).
 
     Returns:
         The :class:`Assignment`.
@@ -115,7 +106,9 @@ def assign_targets(
         dist = _pairwise(previous, cands)
         rows, cols = linear_sum_assignment(dist)
         for uav, cand in zip(rows, cols, strict=True):
-            if dist[uav, cand] <= hysteresis_m:
+            others = np.delete(cands, cand, axis=0)
+            crowded = len(others) and np.min(np.linalg.norm(others - previous[uav], axis=1)) < min_gap_m
+            if dist[uav, cand] <= hysteresis_m and not crowded:
                 targets[uav] = previous[uav]
                 index[uav] = cand
                 kept[uav] = True
@@ -128,5 +121,5 @@ def assign_targets(
         rows, cols = squared_assignment(uavs[uav_ids], cands[cand_ids])
         targets[uav_ids[rows]] = cands[cand_ids[cols]]
         index[uav_ids[rows]] = cand_ids[cols]
-    separate_spares(targets, index < 0, min_gap_m)
+    targets = separate_targets(targets, min_gap_m, np.argsort(index < 0, kind="stable"), upper_m)
     return Assignment(targets_m=targets, candidate_index=index, kept=kept)

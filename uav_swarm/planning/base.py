@@ -3,6 +3,10 @@
 :class:`AssigningPlanner` is the base of every planner of :mod:`uav_swarm.planning.planner`:
 subclasses propose candidate positions, the base assigns them to the UAVs (planning in motion or the
 snapshot assignment; the planner module's docstring tells both).
+
+Separation: the planners keep every target at least the minimum separation from every other, the larger
+of the task's ``min_separation_m`` and the UAVs' ``[uav] min_separation_m`` (:func:`separated_task`):
+the proposals are separated by construction and the assignment keeps them so.
 """
 
 from __future__ import annotations
@@ -23,9 +27,11 @@ from uav_swarm.missions.wifi.task import WifiConfig, coverage_rules
 from uav_swarm.planning.assignment import assign_targets
 from uav_swarm.planning.horizon import warm_up
 from uav_swarm.planning.motion import MotionConfig, MotionPlanning
+from uav_swarm.world.separation import check_fleet_fits
 from uav_swarm.world.uav import UAVConfig
 
-__all__ = ["PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "check_n_uavs"]
+__all__ = ["PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "check_n_uavs", "separated_task",
+           "task_with_uav_separation"]
 
 
 @dataclass(frozen=True)
@@ -34,7 +40,8 @@ class PlannerConfig(Config):
 
     hysteresis_m: float = param(5.0, ge=0.0, le=1000.0,
                                 doc="a UAV keeps its target while a new candidate is this close (m)")
-    min_gap_m: float = param(1.0, ge=0.0, le=100.0, doc="smallest distance between two UAVs' targets (m)")
+    min_gap_m: float = param(1.0, ge=0.0, le=100.0, doc="smallest distance between two UAVs' targets (m); "
+                             "the minimum separation ([uav] min_separation_m) when that is larger")
     torch_threads: int = param(1, ge=0, le=256,
                                doc="learned: CPU threads of torch (the process's) and of the inference "
                                "engine (0: leave their own setting)")
@@ -64,7 +71,8 @@ class PlanResult:
     """One replan.
 
     Attributes:
-        targets_m: ``(n, 2)`` float64 target of each UAV, metres, pairwise distinct.
+        targets_m: ``(n, 2)`` float64 target of each UAV, metres, at least the planner's ``min_gap_m`` apart
+            (the minimum separation).
         peaks_m: ``(k, 2)`` float64 candidate positions the planner proposed, best first, ``k <= n``.
         utility: ``(h, w)`` float32 utility map (row 0 = South) of the learned planner, None otherwise.
         candidate_index: ``(n,)`` index into ``peaks_m`` of each UAV's target, -1 where it holds (fallback).
@@ -122,6 +130,41 @@ def check_n_uavs(n_uavs: int) -> int:
     return int(n_uavs)
 
 
+def separated_task(task_config: WifiConfig | None, uav_config: UAVConfig | None) -> WifiConfig:
+    """The task config whose placements keep the UAVs' minimum separation too (the larger of the two).
+
+    Examples:
+        >>> separated_task(WifiConfig(min_separation_m=2.0), UAVConfig(min_separation_m=8.0)).min_separation_m
+        8.0
+    """
+    task_config = task_config or WifiConfig()
+    if uav_config is None or uav_config.min_separation_m <= task_config.min_separation_m:
+        return task_config
+    return task_config.replace(min_separation_m=uav_config.min_separation_m)
+
+
+def task_with_uav_separation(task_config: WifiConfig, uav_config: UAVConfig, n_uavs: int) -> WifiConfig:
+    """The task config of a run whose ``[uav] min_separation_m`` is the one minimum (simulate, fly).
+
+    A task left at the default minimum takes the UAVs'; a task minimum the user set to another value is
+    refused, as is a minimum ``n_uavs`` UAVs cannot keep in the area.
+
+    Raises:
+        ConfigError: The two minima differ, or the fleet cannot keep the minimum (the field named).
+    """
+    wanted = uav_config.min_separation_m
+    scenario = task_config.scenario
+    check_fleet_fits(n_uavs, wanted, scenario.width_m, scenario.height_m)
+    if task_config.min_separation_m != wanted:
+        if task_config.min_separation_m != WifiConfig().min_separation_m:
+            raise ConfigError(
+                f"task.min_separation_m = {task_config.min_separation_m:g} differs from "
+                f"uav.min_separation_m = {wanted:g}: set the minimum once, in [uav] min_separation_m "
+                "(allowed: task.min_separation_m absent or equal to it)")
+        task_config = task_config.replace(min_separation_m=wanted)
+    return task_config
+
+
 class AssigningPlanner(ABC):
     """Base of the planners: subclasses propose candidates, this class assigns them (module docstring).
 
@@ -130,7 +173,7 @@ class AssigningPlanner(ABC):
         config: Mode (motion or snapshot), hysteresis and target gap.
         task_config: The Wi-Fi task whose rules and radio planning in motion judges with; default
             ``WifiConfig()``.
-        uav_config: The UAVs' speed and acceleration limits; default ``UAVConfig()``.
+        uav_config: The UAVs' speed and acceleration limits and minimum separation; default ``UAVConfig()``.
 
     Raises:
         ConfigError: ``n_uavs`` out of range.
@@ -143,12 +186,15 @@ class AssigningPlanner(ABC):
         self.n_uavs = check_n_uavs(n_uavs)
         self.config = config or PlannerConfig()
         self._previous: np.ndarray | None = None
-        task_config = task_config or WifiConfig()
+        task_config = separated_task(task_config, uav_config)
         scenario = task_config.scenario
+        self.min_gap_m = max(self.config.min_gap_m, task_config.min_separation_m)
+        """Smallest distance between two targets: ``min_gap_m``, or the minimum separation when larger."""
+        self._area_m = np.array([scenario.width_m, scenario.height_m])
         self.motion = MotionPlanning(
             self.n_uavs, coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs)),
             task_config.radio, task_config.strategy, (scenario.width_m, scenario.height_m), uav_config,
-            self.config.motion, self.config.min_gap_m)
+            self.config.motion, self.min_gap_m)
         if self.config.mode == "motion":
             warm_up()  # the horizon's compiled loop, loaded now rather than at the first replan
 
@@ -217,7 +263,7 @@ class AssigningPlanner(ABC):
         else:
             cfg = self.config
             assignment = assign_targets(uavs, candidates, self._previous, hysteresis_m=cfg.hysteresis_m,
-                                        min_gap_m=cfg.min_gap_m)
+                                        min_gap_m=self.min_gap_m, upper_m=self._area_m)
             targets, index, kept, option = (assignment.targets_m, assignment.candidate_index, assignment.kept,
                                             "snapshot")
         self._previous = targets.copy()

@@ -42,8 +42,8 @@ from scipy.spatial import cKDTree
 from typed_config import Config, param
 from uav_swarm.missions.wifi.capacitated import admitted_users
 from uav_swarm.missions.wifi.rules import CoverageRules, assign_users
-from uav_swarm.planning.assignment import separate_spares
 from uav_swarm.planning.horizon import horizon_qos, travelled_m
+from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.uav import UAVConfig
 
@@ -79,6 +79,8 @@ class MotionPlan:
         candidate_index: ``(n,)`` index of the proposal each UAV flies to, -1 where it follows or holds.
         option: ``"hybrid"`` or ``"fresh"``: the option chosen.
         horizon_qos: The chosen option's QoS averaged over the horizon (the model of the module docstring).
+        separation_shift_m: ``(n, 2)`` how far the last projection moved each target to keep the minimum
+            separation (zeros where it kept the target it was given).
     """
 
     targets_m: np.ndarray
@@ -86,6 +88,7 @@ class MotionPlan:
     candidate_index: np.ndarray
     option: str
     horizon_qos: float
+    separation_shift_m: np.ndarray
 
 
 def time_to_reach(distance_m: np.ndarray, max_speed_m_s: float, max_accel_m_s2: float) -> np.ndarray:
@@ -107,7 +110,7 @@ class MotionPlanning:
         area_m: ``(width, height)`` of the area; targets stay inside.
         uav: The UAVs' speed and acceleration limits.
         config: Horizon, lead and switching margin.
-        min_gap_m: Smallest distance between a holding UAV's target and another target.
+        min_gap_m: Smallest distance between two targets (the UAVs' minimum separation).
     """
 
     def __init__(self, n_uavs: int, rules: CoverageRules, radio: RadioConfig, strategy: int,
@@ -308,25 +311,29 @@ class MotionPlanning:
         if len(uncovered):
             index = np.where(index >= 0, uncovered[np.maximum(index, 0)], -1)
         option = "hybrid"
-        targets = self._finish(targets, index, kept, predicted)
+        targets, shift = self._finish(targets, index, kept, predicted)
         if np.any(kept):
             none = np.zeros(self.n_uavs, dtype=bool)
             fresh, fresh_index = self._option(uavs, peds, vels, followed, none, proposals)
-            fresh = self._finish(fresh, fresh_index, none, predicted)
+            fresh, fresh_shift = self._finish(fresh, fresh_index, none, predicted)
             qos, fresh_qos = self._judge(peds, vels, uavs, [targets, fresh])  # both options, one pass
             if fresh_qos > qos + self.config.switch_margin:
                 targets, index, kept, option, qos = fresh, fresh_index, none, "fresh", fresh_qos
+                shift = fresh_shift
         else:
             qos = self.horizon_qos(peds, vels, uavs, targets)
         self._remember(peds, vels, targets)
-        return MotionPlan(targets, kept.copy(), index, option, qos)
+        return MotionPlan(targets, kept.copy(), index, option, qos, shift)
 
     def _finish(self, targets: np.ndarray, index: np.ndarray, kept: np.ndarray, predicted: np.ndarray
-                ) -> np.ndarray:
-        """Targets inside the area; spares (neither following nor flying to a proposal) kept apart.
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Targets inside the area, at least ``min_gap_m`` apart; spares parked or holding.
 
-        Under a user cap (strategy 2) a spare parks where no user is within reach, so it never
-        takes users from a planned UAV nor serves more than the cap; without a cap it holds.
+        Under a user cap (strategy 2) a spare (neither following nor flying to a proposal) parks where no
+        user is within reach, so it never takes users from a planned UAV nor serves more than the cap;
+        without a cap it holds. Then the targets are separated in priority order (kept followers, the
+        proposals, the spares): followers that drifted together, or proposals aimed closer than the
+        minimum, are moved apart as little as the search finds. Returns the targets and that shift.
         """
         out = np.clip(targets, 0.0, self.area_m)
         spare = (index < 0) & ~kept
@@ -335,8 +342,9 @@ class MotionPlanning:
             for j in np.flatnonzero(spare):
                 start = out[j] if self._previous is None else self._previous[j]  # a free spot stays
                 out[j] = self._parking(tree, start, np.delete(out, j, axis=0))
-        separate_spares(out, spare, self.min_gap_m)
-        return out
+        priority = np.lexsort((np.arange(self.n_uavs), spare, ~kept))
+        separated = separate_targets(out, self.min_gap_m, priority, self.area_m)
+        return separated, separated - out
 
     def _parking(self, tree: cKDTree, start: np.ndarray, others: np.ndarray) -> np.ndarray:
         """The nearest point to ``start`` (rings of 5 m) with no user within reach, inside the area."""

@@ -6,7 +6,7 @@ Two planners share one interface (:class:`Planner`) and one assignment step:
   (:func:`uav_swarm.missions.wifi.task.crowd_raster`, exactly the network's training input) ->
   the utility network of a checkpoint -> the local maxima of the utility map
   (:func:`learning.peaks.find_peaks` with the checkpoint's peak settings; at most ``n`` UAVs,
-  the ``n`` highest kept) -> metres.
+  the ``n`` highest kept, at least the minimum separation apart) -> metres.
   With ``PlannerConfig.refine`` the peaks are then refined on the live crowd
   (:func:`uav_swarm.missions.wifi.refine.refine_placement`: drop, split, add, merge, centre under
   the strategy's rules, for at most ``n`` UAVs); the planner is then named
@@ -70,7 +70,14 @@ from uav_swarm.missions.wifi.refine import refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.relocation import warm_up as relocation_warm_up
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, coverage_rules, crowd_raster
-from uav_swarm.planning.base import AssigningPlanner, Planner, PlannerConfig, PlanResult, check_n_uavs
+from uav_swarm.planning.base import (
+    AssigningPlanner,
+    Planner,
+    PlannerConfig,
+    PlanResult,
+    check_n_uavs,
+    separated_task,
+)
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["PLANNER_KINDS", "PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "LearnedPlanner",
@@ -99,7 +106,7 @@ class ExpertPlanner(AssigningPlanner):
 
     def __init__(self, n_uavs: int, task_config: WifiConfig | None = None,
                  config: PlannerConfig | None = None, uav_config: UAVConfig | None = None) -> None:
-        task_config = task_config or WifiConfig()
+        task_config = separated_task(task_config, uav_config)
         super().__init__(n_uavs, config, task_config, uav_config)
         expert = task_config.expert.replace(max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
         self.task = WifiTask(task_config.replace(expert=expert))
@@ -158,7 +165,7 @@ class LearnedPlanner(AssigningPlanner):
     def __init__(self, n_uavs: int, task_config: WifiConfig | None = None,
                  checkpoint: str | Path | None = None, config: PlannerConfig | None = None,
                  uav_config: UAVConfig | None = None) -> None:
-        task_config = task_config or WifiConfig()
+        task_config = separated_task(task_config, uav_config)
         super().__init__(n_uavs, config, task_config, uav_config)
         import torch
 
@@ -209,6 +216,8 @@ class LearnedPlanner(AssigningPlanner):
         self._check = WifiRuleCheck(self.task, self.config.rule_checking) if self.config.rule_check else None
         self._rules = coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
         self.peak_config = ckpt.peak_config
+        self.min_separation_px = task_config.min_separation_m * side / task_config.scenario.width_m
+        """The peaks' minimum separation in raster pixels (the task's, at least the UAVs')."""
         if self._check is not None:
             self.peak_config = self.peak_config.replace(threshold_abs=self._check.threshold_abs)
         self.precision = resolve_precision(self.config.precision, next(ckpt.model.parameters()).device)
@@ -239,7 +248,8 @@ class LearnedPlanner(AssigningPlanner):
         maps = self.utility_maps(rasters)  # (B, h, w)
         out = []
         for peds, raster, utility in zip(pedestrians_m, rasters, maps, strict=True):
-            peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs)
+            peaks_px = find_peaks(utility, self.peak_config, max_peaks=self.n_uavs,
+                                  min_separation_px=self.min_separation_px)
             if self._check is not None:
                 peaks_px = self._check(raster, peaks_px)
             peaks_m = self.task.to_metres(peaks_px)

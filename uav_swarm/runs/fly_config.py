@@ -26,6 +26,7 @@ from bridge.telemetry.config import TelemetryConfig
 from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.task import WifiConfig
+from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
 from uav_swarm.runs.flight_guard import GuardConfig
 from uav_swarm.runs.launch_plan import LaunchConfig, check_launch_grid
@@ -67,7 +68,11 @@ class FlyConfig(Config):
                                           "(PARAM_SET, read back) instead of refusing it")
 
     def check(self) -> None:
-        """A bridge config; strategy 2 under admission control unless told; a 2-D radio; a separated grid."""
+        """A bridge config; strategy 2 under admission control unless told; a 2-D radio; one separation.
+
+        The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area; a
+        launch grid keeps it too.
+        """
         if not self.bridge_config:
             raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
@@ -80,6 +85,8 @@ class FlyConfig(Config):
         if self.task.radio.altitude_m != 0.0:
             raise ConfigError(f"FlyConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the flight's "
                               "QoS uses 2-D radio distances at uav.alt_m; set altitude_m = 0")
+        fleet = self.n_uavs or MAX_UAVS  # 0: all the bridge's vehicles, at most MAX_UAVS
+        object.__setattr__(self, "task", task_with_uav_separation(self.task, self.uav, fleet))
 
 
 def load_fly_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None) -> FlyConfig:

@@ -40,6 +40,7 @@ from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
+from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import Frame, SequenceRun
 from uav_swarm.runs.separation_watch import SeparationWatch
@@ -53,6 +54,7 @@ if TYPE_CHECKING:
     from bridge.telemetry.schema import Plan, Qos, UavState
     from uav_swarm.runs.live_view import LiveView
     from uav_swarm.runs.steering import OperatorTargets
+    from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["SimulationResult", "run_sequence", "sequence_crowds", "simulate"]
 
@@ -250,14 +252,20 @@ def _checkpoint_name(path: Path) -> str:
     return checkpoint_label(path)
 
 
-def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, alt_m: float) -> dict[int, list[tuple]]:
-    """Each UAV's plan, its final target at the simulated altitude ``alt_m``, by vehicle system id.
+def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, uav: UAVConfig, area_m: np.ndarray
+                 ) -> dict[int, list[tuple]]:
+    """Each UAV's plan, its final target at its simulated altitude (``uav.altitudes_m``), by system id.
 
-    Ids are the configured vehicles' (else 1..n). The take-off then climbs no higher than
-    ``alt_m`` (:func:`bridge.missions.items.takeoff_altitude`): the mission never descends.
+    Ids are the configured vehicles' (else 1..n). The take-off then climbs no higher than the
+    altitude (:func:`bridge.missions.items.takeoff_altitude`): the mission never descends. The targets
+    are the planner's, at least ``uav.min_separation_m`` apart (horizontally); a plan file never holds
+    closer ones (:func:`uav_swarm.planning.spacing.separate_targets`, a no-op on the planner's targets).
     """
+    targets_m = separate_targets(targets_m, uav.min_separation_m, upper_m=area_m)
     ids = [v.system_id for v in bridge.vehicles[:len(targets_m)]] or list(range(1, len(targets_m) + 1))
-    return {sid: [(float(x), float(y), alt_m)] for sid, (x, y) in zip(ids, targets_m, strict=True)}
+    altitudes = uav.altitudes_m(len(targets_m))
+    return {sid: [(float(x), float(y), float(z))]
+            for sid, (x, y), z in zip(ids, targets_m, altitudes, strict=True)}
 
 
 def _write_plan_files(bridge: BridgeConfig, plans: dict[int, list[tuple]], folder: Path) -> list[Path]:
@@ -378,7 +386,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     flown = runs[config.planner]
     if config.gif and flown.frames:
         files.append(write_scene_gif(flown, config, out_dir / "scene.gif"))
-    plans = _final_plans(bridge, flown.final_targets_m, float(config.uav.alt_m))
+    area_m = np.array([config.task.scenario.width_m, config.task.scenario.height_m])
+    plans = _final_plans(bridge, flown.final_targets_m, config.uav, area_m)
     files += _write_plan_files(bridge, plans, out_dir / "missions")
     summary["files"] = [str(p.relative_to(out_dir)) for p in files] + ["summary.json"]
     if record is not None:

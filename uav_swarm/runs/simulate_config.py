@@ -28,6 +28,7 @@ from bridge.telemetry.config import TelemetryConfig
 from typed_config import Config, ConfigError, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS, EnvConfig
 from uav_swarm.missions.wifi.task import WifiConfig
+from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
 from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
@@ -66,7 +67,10 @@ class SimulateConfig(Config):
     ros2: Ros2Config = param(Ros2Config(), doc="ROS 2 topics and operator targets ([ros2]); loopback only")
 
     def check(self) -> None:
-        """Strategy 2 takes admission control unless the radio says otherwise; the radio is 2-D."""
+        """Strategy 2 takes admission control unless told; the radio is 2-D; one minimum separation.
+
+        The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area.
+        """
         if self.task.strategy == 2 and self.task.radio.station_limit is None:
             # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);
             # station_limit = "off" keeps the paper's model.
@@ -75,6 +79,7 @@ class SimulateConfig(Config):
         if self.task.radio.altitude_m != 0.0:
             raise ConfigError(f"SimulateConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the "
                               "simulation flies at uav.alt_m with 2-D radio distances; set altitude_m = 0")
+        object.__setattr__(self, "task", task_with_uav_separation(self.task, self.uav, self.n_uavs))
 
     @property
     def dt_s(self) -> float:

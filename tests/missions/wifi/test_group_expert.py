@@ -52,7 +52,7 @@ def test_placements_obey_the_strategy_2_rules_on_real_crowds(i):
     assert is_valid_placement(state, S2.rules)
     assert 1 <= len(placement) <= 10
     gaps = np.linalg.norm(placement[:, None] - placement[None], axis=-1)[np.triu_indices(len(placement), 1)]
-    assert gaps.size == 0 or gaps.min() >= GroupExpertConfig().min_separation_m - 1e-9
+    assert gaps.size == 0 or gaps.min() >= S2.rules.min_separation_m - 1e-9
 
 
 def test_a_large_group_is_split_between_uavs_each_under_the_cap():

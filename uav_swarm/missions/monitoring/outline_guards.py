@@ -22,6 +22,12 @@ exceeds the whole instance's); only the visibility of the chosen guards is ever 
 witness. Covers are exact (:func:`uav_swarm.missions.monitoring.setcover.small_cover`: the greedy cover
 when a packing proves it minimal, else HiGHS).
 
+Guards fly: every cover keeps them ``min_separation_m`` apart (a cover with two candidates closer than
+that is re-solved with exclusion rows, :func:`uav_swarm.missions.monitoring.setcover.separated_cover`),
+candidates closer than that to a guard already placed (``fixed_m``: an earlier stage's, or another
+building's) are not used, and a building whose witnesses no such guards see is refused, naming the
+minimum.
+
 Examples:
     >>> from uav_swarm.missions.monitoring.outline import Outline
     >>> ell = Outline.from_rings(np.array([[0, 0], [30, 0], [30, 10], [10, 10], [10, 30], [0, 30.0]]))
@@ -75,6 +81,8 @@ class SightConfig(Config):
     complete_radius_m: float = param(
         20.0, gt=0.0, le=1000.0, doc="witnesses the moved proposals miss are covered from this near, m")
     reference_spacing_m: float = param(1.0, gt=0.0, le=50.0, doc="the exact reference's candidate lattice, m")
+    min_separation_m: float = param(
+        5.0, ge=0.0, le=1000.0, doc="guards (UAVs) keep at least this distance between them, m (0: none)")
 
     def check(self) -> None:
         """A guard must be able to see past the wall it stands by."""
@@ -138,8 +146,15 @@ def _spread(index: np.ndarray, limit: int) -> np.ndarray:
     return index[np.unique(np.linspace(0, len(index) - 1, limit).round().astype(np.int64))]
 
 
+def _far(points_m: np.ndarray, fixed_m: np.ndarray, min_separation_m: float) -> np.ndarray:
+    """``(P,)`` True where a point stands at least ``min_separation_m`` from every fixed guard."""
+    if min_separation_m <= 0.0 or len(fixed_m) == 0 or len(points_m) == 0:
+        return np.ones(len(points_m), dtype=bool)
+    return _nearest(points_m, fixed_m)[0] >= min_separation_m
+
+
 def _lazy_cover(outline: Outline, region: Region, pool: np.ndarray, targets: Witnesses, clearance: float,
-                cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                cost: np.ndarray, min_separation_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Fewest pool points seeing every witness the pool can see (see the module docstring).
 
     Returns:
@@ -152,7 +167,8 @@ def _lazy_cover(outline: Outline, region: Region, pool: np.ndarray, targets: Wit
     rows: dict[int, np.ndarray] = {}  # pool point -> what it sees of every witness, computed once
     while True:
         reachable = np.any(sees, axis=0)
-        picks = small_cover(sees[:, reachable], cost) if np.any(reachable) else np.zeros(0, dtype=np.int64)
+        picks = (small_cover(sees[:, reachable], cost, pool, min_separation_m) if np.any(reachable)
+                 else np.zeros(0, dtype=np.int64))
         new = [int(p) for p in picks if int(p) not in rows]
         if new:
             rows.update(zip(new, visibility(outline, pool[new], targets, clearance, region), strict=True))
@@ -209,19 +225,25 @@ def _aimed(outline: Outline, region: Region, targets: Witnesses, config: SightCo
 
 
 def _cover_blind(outline: Outline, region: Region, lattice: np.ndarray, targets: Witnesses,
-                 config: SightConfig, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                 config: SightConfig, cost: np.ndarray, fixed_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fewest positions seeing ``targets``: lattice points, plus aimed ones for what the lattice misses.
+
+    Positions closer than the minimum separation to ``fixed_m`` (guards already placed) are not used.
 
     Raises:
         InfeasibleCoverError: Witnesses no lattice or aimed point sees.
     """
-    picks, seen_by = _lazy_cover(outline, region, lattice, targets, config.min_clearance_m, cost)
+    minimum = config.min_separation_m
+    far = _far(lattice, fixed_m, minimum)
+    lattice, cost = lattice[far], cost[far]
+    picks, seen_by = _lazy_cover(outline, region, lattice, targets, config.min_clearance_m, cost, minimum)
     chosen = lattice[picks]
     blind = ~np.any(seen_by, axis=0)
     if np.any(blind):
         aimed = _aimed(outline, region, targets.subset(np.flatnonzero(blind)), config)
+        aimed = aimed[_far(aimed, np.concatenate([fixed_m, chosen]), minimum)]
         more, _ = _lazy_cover(outline, region, aimed, targets.subset(np.flatnonzero(blind)),
-                              config.min_clearance_m, np.zeros(len(aimed)))
+                              config.min_clearance_m, np.zeros(len(aimed)), minimum)
         chosen = np.concatenate([chosen, aimed[more]])
         seen_by = visibility(outline, chosen, targets, config.min_clearance_m, region)
         blind = ~np.any(seen_by, axis=0)
@@ -230,15 +252,16 @@ def _cover_blind(outline: Outline, region: Region, lattice: np.ndarray, targets:
     return chosen, seen_by
 
 
-def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray, config: SightConfig
-                      ) -> Placement:
+def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray, config: SightConfig,
+                      fixed_m: np.ndarray | None = None) -> Placement:
     """Guards seeing every witness of the real outline, found near the proposals (module docstring).
 
     Args:
         outline: The building.
         region: ``"interior"`` (Art Gallery) or ``"exterior"`` (Fortress).
         proposals_m: ``(k, 2)`` proposed positions, metres (any finite values; may be empty).
-        config: Witnesses, margin, standoff and lattices.
+        config: Witnesses, margin, standoff, lattices and the guards' minimum separation.
+        fixed_m: ``(f, 2)`` guards placed already (other buildings'): the new ones keep the minimum to them.
 
     Raises:
         ValueError: ``proposals_m`` is not a finite ``(k, 2)`` array.
@@ -249,7 +272,8 @@ def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray,
     if proposals.ndim != 2 or proposals.shape[1] != 2 or not np.all(np.isfinite(proposals)):
         raise ValueError(f"proposals_m must be a finite (k, 2) array, got shape {proposals.shape}")
     targets = _witnesses(outline, region, config)
-    clearance = config.min_clearance_m
+    clearance, minimum = config.min_clearance_m, config.min_separation_m
+    fixed = np.zeros((0, 2)) if fixed_m is None else np.asarray(fixed_m, np.float64).reshape(-1, 2)
     lattice = candidates(outline, region, config.lattice_m, config.standoff_m, config.reach_m)
     if len(lattice) == 0:
         raise _infeasible(outline, targets, np.ones(len(targets), dtype=bool), config, region)
@@ -261,8 +285,9 @@ def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray,
         pool = np.concatenate([coarse, lattice[np.unique(snapped)]])
         distance, _ = _nearest(pool, proposals)
         within = distance <= max(config.move_radius_m, distance.min())
+        within &= _far(pool, fixed, minimum)
         pool, distance = pool[within], distance[within]
-        picks, seen_by = _lazy_cover(outline, region, pool, targets, clearance, np.rint(distance))
+        picks, seen_by = _lazy_cover(outline, region, pool, targets, clearance, np.rint(distance), minimum)
         chosen = pool[picks]
     unseen = np.flatnonzero(~np.any(seen_by, axis=0))
     n_added = 0
@@ -270,7 +295,8 @@ def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray,
         missing = targets.subset(unseen)
         near = _nearest(lattice, missing.points_m)[0] <= config.complete_radius_m
         cost = np.rint(_nearest(lattice[near], proposals)[0]) if len(proposals) else np.zeros(int(near.sum()))
-        added, _ = _cover_blind(outline, region, lattice[near], missing, config, cost)
+        added, _ = _cover_blind(outline, region, lattice[near], missing, config, cost,
+                                np.concatenate([fixed, chosen]))
         n_added = len(added)
         chosen = np.concatenate([chosen, added])
         seen_by = np.concatenate([seen_by, visibility(outline, added, targets, clearance, region)])
@@ -279,25 +305,29 @@ def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray,
     if n_added:  # re-solve around the guards: the added ones were chosen for what the others left
         coarse = candidates(outline, region, config.move_spacing_m, config.standoff_m, config.reach_m)
         pool = np.concatenate([chosen, coarse[_nearest(coarse, chosen)[0] <= config.move_radius_m]])
+        pool = pool[_far(pool, fixed, minimum)]  # the guards found stay: they keep the minimum to fixed
         cost = np.rint(_nearest(pool, proposals)[0]) if len(proposals) else np.zeros(len(pool))
         cost[:len(chosen)] = 0.0  # ties keep the guards found
-        picks, again = _lazy_cover(outline, region, pool, targets, clearance, cost)
+        picks, again = _lazy_cover(outline, region, pool, targets, clearance, cost, minimum)
         if len(picks) < len(chosen) and np.all(np.any(again, axis=0)):
             n_pruned += len(chosen) - len(picks)
             chosen, seen_by = pool[picks], again
     return Placement(chosen, targets, seen_by, len(proposals), n_added, n_pruned)
 
 
-def reference_guards(outline: Outline, region: Region, config: SightConfig) -> Placement:
+def reference_guards(outline: Outline, region: Region, config: SightConfig,
+                     fixed_m: np.ndarray | None = None) -> Placement:
     """The exact reference: fewest points of the ``reference_spacing_m`` lattice seeing every witness.
 
     Witnesses no lattice point sees are covered, after, by the fewest positions aimed at them (rays from
-    each witness), so the reference is exact on the lattice and complete on the outline.
+    each witness), so the reference is exact on the lattice and complete on the outline. The guards keep
+    ``config.min_separation_m`` between them and to ``fixed_m`` (guards placed already).
 
     Raises:
         InfeasibleCoverError: Witnesses no lattice point sees (named in metres).
     """
     targets = _witnesses(outline, region, config)
     lattice = candidates(outline, region, config.reference_spacing_m, config.standoff_m, config.reach_m)
-    chosen, seen_by = _cover_blind(outline, region, lattice, targets, config, np.zeros(len(lattice)))
+    fixed = np.zeros((0, 2)) if fixed_m is None else np.asarray(fixed_m, np.float64).reshape(-1, 2)
+    chosen, seen_by = _cover_blind(outline, region, lattice, targets, config, np.zeros(len(lattice)), fixed)
     return Placement(chosen, targets, seen_by)

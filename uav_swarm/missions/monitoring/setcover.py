@@ -34,8 +34,9 @@ import logging
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 from scipy.sparse import csr_array
+from scipy.spatial import cKDTree
 
-__all__ = ["min_set_cover", "small_cover", "prune_cover", "InfeasibleCoverError"]
+__all__ = ["min_set_cover", "small_cover", "separated_cover", "prune_cover", "InfeasibleCoverError"]
 
 logger = logging.getLogger(__name__)
 
@@ -200,13 +201,63 @@ def _disjoint_witnesses(sees: np.ndarray) -> int:
     return count
 
 
-def small_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
+def _clashes(points_m: np.ndarray, min_separation_m: float) -> np.ndarray:
+    """``(P, 2)`` pairs of points closer than ``min_separation_m``."""
+    if min_separation_m <= 0.0 or len(points_m) < 2:
+        return np.zeros((0, 2), np.int64)
+    return cKDTree(points_m).query_pairs(min_separation_m * (1.0 - 1e-12), output_type="ndarray")
+
+
+def separated_cover(sees: np.ndarray, cost: np.ndarray, points_m: np.ndarray, min_separation_m: float
+                    ) -> np.ndarray:
+    """Fewest candidates (rows) seeing every witness, no two closer than ``min_separation_m`` (HiGHS).
+
+    One exclusion row ``x_a + x_b <= 1`` per pair of candidates closer than the minimum; among the
+    smallest covers, the one of least total cost (non-negative costs).
+
+    Raises:
+        InfeasibleCoverError: No cover keeps the minimum.
+
+    Examples:
+        >>> sees = np.array([[1, 1, 0], [0, 1, 1], [1, 0, 1]], dtype=bool)  # any two candidates see all
+        >>> points = np.array([[0.0, 0.0], [3.0, 0.0], [9.0, 0.0]])
+        >>> separated_cover(sees, np.zeros(3), points, 5.0).tolist()
+        [0, 2]
+    """
+    n = len(sees)
+    clashes = _clashes(np.asarray(points_m, np.float64), min_separation_m)
+    constraints = [LinearConstraint(csr_array(sees.T.astype(np.float64)), lb=1.0, ub=np.inf)]
+    if len(clashes):
+        rows = np.repeat(np.arange(len(clashes)), 2)
+        pairs = csr_array((np.ones(len(rows)), (rows, clashes.ravel())), shape=(len(clashes), n))
+        constraints.append(LinearConstraint(pairs, lb=-np.inf, ub=1.0))
+    cost = np.asarray(cost, np.float64)
+    result = milp(cost.sum() + 1.0 + cost, integrality=np.ones(n), bounds=Bounds(0.0, 1.0),
+                  constraints=constraints, options={"mip_rel_gap": 0.0})
+    if result.x is None:
+        raise InfeasibleCoverError(f"no guards {min_separation_m:g} m apart see every witness (the minimum "
+                                   "separation between UAVs): lower it, or add candidate positions")
+    return np.flatnonzero(result.x > 0.5)
+
+
+def small_cover(sees: np.ndarray, cost: np.ndarray, points_m: np.ndarray | None = None,
+                min_separation_m: float = 0.0) -> np.ndarray:
     """Fewest candidates (rows) seeing every witness (column), preferring cheap candidates.
 
     The greedy cover (cheapest first among equal gains) is kept when it is provably as small as any,
     i.e. when as many witnesses as it has guards pairwise share no candidate; otherwise the exact set
-    cover decides (HiGHS; among the smallest covers, the one of least total cost).
+    cover decides (HiGHS; among the smallest covers, the one of least total cost). With candidate
+    positions ``points_m`` and a minimum separation, a cover with two candidates closer than that is
+    replaced by :func:`separated_cover`'s.
     """
+    picks = _small_cover(sees, cost)
+    if points_m is None or min_separation_m <= 0.0 or len(_clashes(points_m[picks], min_separation_m)) == 0:
+        return picks
+    return separated_cover(sees, cost, points_m, min_separation_m)
+
+
+def _small_cover(sees: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """:func:`small_cover` without a minimum separation."""
     order = np.lexsort((np.arange(len(cost)), cost))  # of candidates seeing the same, keep the cheapest
     _, first = np.unique(np.packbits(sees[order], axis=1), axis=0, return_index=True)
     distinct = np.sort(order[first])

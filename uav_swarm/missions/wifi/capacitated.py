@@ -24,6 +24,11 @@ greedy's start and from every seed it is given (the expert entry point,
    that admits at least as many users: a canonical position that changes continuously with the crowd.
 4. **Rule check.** While a UAV admits fewer than ``min_users`` users, the least loaded one is dropped.
 
+No two UAVs stand closer than ``rules.min_separation_m``: a candidate that close to a UAV already placed
+is not feasible for the greedy, a centring move that close to another UAV is not taken, and a seed's
+UAV that close to one before it is dropped before the seed is completed. (Two co-located UAVs would
+admit twice the station limit over one dense group; the minimum makes them share it from apart.)
+
 The ranking uses only distances and counts, which the 8 symmetries of the square keep, so the
 placement of a turned crowd is the turned placement up to exact ties (measured in ``benchmarks/``).
 An exact reference on a candidate grid is :func:`uav_swarm.missions.wifi.exact.capacitated_optimum`.
@@ -37,7 +42,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from typed_config import Config, param
-from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid
+from uav_swarm.missions.wifi.rules import CoverageRules, candidate_grid, far_from, keep_separated
 from uav_swarm.world.admission import admit_stations
 
 __all__ = ["CapacitatedExpertConfig", "admitted_users", "place_uavs_capacitated", "complete_capacitated"]
@@ -102,7 +107,9 @@ class _Search:
         reach = np.minimum(np.bincount(self.cand[fresh], minlength=m), self.rules.cap)
         depth = np.bincount(self.cand[fresh], weights=self.depth[fresh], minlength=m)
         order = np.lexsort((np.arange(m), -depth, -reach))
-        order = order[reach[order] >= self.rules.min_users][: self.config.shortlist]
+        order = order[reach[order] >= self.rules.min_users]
+        order = order[far_from(self.candidates_m[order], uavs_m, self.rules.min_separation_m)]
+        order = order[: self.config.shortlist]
         base = int(np.count_nonzero(~free))
         best, best_key = None, (base + self.rules.min_users - 1, -np.inf)
         for j in order:
@@ -145,7 +152,8 @@ class _Search:
                 if len(mine) == 0:
                     continue
                 target = 0.5 * (mine.min(axis=0) + mine.max(axis=0))
-                if np.allclose(target, uavs_m[k], atol=1e-6):
+                if np.allclose(target, uavs_m[k], atol=1e-6) or not far_from(
+                        target, np.delete(uavs_m, k, axis=0), self.rules.min_separation_m)[0]:
                     continue
                 trial = uavs_m.copy()
                 trial[k] = target
@@ -154,6 +162,11 @@ class _Search:
             if not moved:
                 break
         return uavs_m
+
+    def separate(self, uavs_m: np.ndarray) -> np.ndarray:
+        """A start's UAVs, each dropped when closer than the minimum separation to one before it."""
+        uavs_m = np.asarray(uavs_m, np.float64).reshape(-1, 2)
+        return uavs_m[keep_separated(uavs_m, self.rules.min_separation_m)]
 
     def justify(self, uavs_m: np.ndarray) -> np.ndarray:
         """Drop the least loaded UAV while one admits fewer than ``min_users`` users."""
@@ -185,7 +198,8 @@ def place_uavs_capacitated(users_m: np.ndarray, rules: CoverageRules, width_m: f
 
     Returns:
         ``(k, 2)`` float64 UAV positions, ``0 <= k <= rules.max_uavs``, sorted by ``(y, x)``; every UAV
-        admits between ``rules.min_users`` and ``rules.max_users`` users.
+        admits between ``rules.min_users`` and ``rules.max_users`` users; every pair stands at least
+        ``rules.min_separation_m`` apart.
 
     Raises:
         ValueError: ``users_m`` is not a finite ``(N, 2)`` array, or ``rules`` have no station limit.
@@ -203,7 +217,7 @@ def place_uavs_capacitated(users_m: np.ndarray, rules: CoverageRules, width_m: f
     search = _Search(users_m, rules, np.asarray(candidates_m, np.float64), config)
     best, best_key = np.zeros((0, 2)), (-1, 0, 0)
     for rank, start in enumerate([search.greedy(np.zeros((0, 2))), *(seeds or [])]):
-        uavs_m = np.asarray(start, np.float64).reshape(-1, 2)[: rules.max_uavs]
+        uavs_m = search.separate(start)[: rules.max_uavs]
         uavs_m = search.justify(search.centre(search.ruin_and_recreate(search.greedy(uavs_m))))
         key = (search.total(uavs_m), -len(uavs_m), -rank)
         if key > best_key:
@@ -232,5 +246,5 @@ def complete_capacitated(users_m: np.ndarray, uavs_m: np.ndarray, rules: Coverag
         return np.zeros((0, 2))
     candidates_m, _ = candidate_grid(width_m, height_m, config.grid_step_m)
     search = _Search(users_m, rules, candidates_m, config)
-    uavs_m = search.justify(search.centre(search.greedy(search.justify(uavs_m))))
+    uavs_m = search.justify(search.centre(search.greedy(search.justify(search.separate(uavs_m)))))
     return uavs_m[np.lexsort((uavs_m[:, 0], uavs_m[:, 1]))] if len(uavs_m) else np.zeros((0, 2))

@@ -27,6 +27,9 @@ relaxation: keep it for small scenes.
 
 Candidates covering fewer than ``min_users`` users can never be opened and are
 left out of both models.
+
+Both models (and :func:`capacitated_optimum`) keep the UAVs ``rules.min_separation_m`` apart with one
+exclusion row per pair of candidates closer than that: ``y_a + y_b <= 1``.
 """
 
 from __future__ import annotations
@@ -86,6 +89,19 @@ def _useful_pairs(users_m: np.ndarray, candidates_m: np.ndarray, rules: Coverage
     return u[keep], index[c[keep]], d2[keep], candidates_m[useful]
 
 
+def _separation_rows(candidates_m: np.ndarray, min_separation_m: float, y0: int, width: int
+                     ) -> list[LinearConstraint]:
+    """``y_a + y_b <= 1`` for every pair of candidates closer than ``min_separation_m`` (none if 0)."""
+    if min_separation_m <= 0.0 or len(candidates_m) < 2:
+        return []
+    near = cKDTree(candidates_m).query_pairs(min_separation_m * (1.0 - 1e-12), output_type="ndarray")
+    if len(near) == 0:
+        return []
+    rows = np.repeat(np.arange(len(near)), 2)
+    matrix = sparse.csr_array((np.ones(len(rows)), (rows, y0 + near.ravel())), shape=(len(near), width))
+    return [LinearConstraint(matrix, -np.inf, 1.0)]
+
+
 def exact_placement(
     users_m: np.ndarray,
     rules: CoverageRules,
@@ -117,6 +133,7 @@ def exact_placement(
         cost, integrality, constraints, y0, upper = _exclusive_model(u, c, n_users, m, rules)
     else:
         cost, integrality, constraints, y0, upper = _served_model(u, c, d2, n_users, m, rules)
+    constraints = constraints + _separation_rows(cands, rules.min_separation_m, y0, len(cost))
     result = milp(cost, constraints=constraints, integrality=integrality, bounds=Bounds(0.0, upper),
                   options={"time_limit": time_limit_s})
     if result.x is None:
@@ -257,6 +274,7 @@ def capacitated_optimum(users_m: np.ndarray, rules: CoverageRules, candidates_m:
         LinearConstraint(load - rules.max_users * open_y, -np.inf, 0.0),
         LinearConstraint(load - rules.min_users * open_y, 0.0, np.inf),
         LinearConstraint(budget, 0.0, rules.max_uavs),
+        *_separation_rows(cands, rules.min_separation_m, p, p + m),
     ]
     integrality = np.concatenate([np.zeros(p), np.ones(m)])
     result = milp(cost, constraints=constraints, integrality=integrality, bounds=Bounds(0.0, 1.0),

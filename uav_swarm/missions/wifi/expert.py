@@ -32,6 +32,8 @@ candidates nearby; keep the result when it covers more users, or as many with
 fewer UAVs), and a continuous refinement that moves each UAV to the centroid of
 the users it serves whenever that keeps the placement valid and loses no user
 (a canonical, "centred" position, which makes the demonstrations consistent).
+Every step keeps the UAVs ``rules.min_separation_m`` apart: a candidate closer than that to a UAV
+already placed is not feasible, nor is a centring move that comes that close to another UAV.
 Everything is deterministic.
 """
 
@@ -51,7 +53,9 @@ from uav_swarm.missions.wifi.rules import (
     CoverageRules,
     assign_users,
     candidate_grid,
+    far_from,
     is_valid_placement,
+    keep_separated,
 )
 
 __all__ = ["WifiExpertConfig", "CandidatePairs", "PlacementSearch", "separated_candidates", "place_uavs"]
@@ -226,6 +230,7 @@ class PlacementSearch:
         while len(uavs_m) < self.rules.max_uavs:
             valid = is_valid_placement(state, self.rules)
             ranked, _ = _best_addition(pairs, state, self.rules, min_gain=1 if valid else 0)
+            ranked = ranked[far_from(pairs.candidates_m[ranked], uavs_m, self.rules.min_separation_m)]
             if len(ranked) == 0:
                 break
             if branching > 1:
@@ -240,11 +245,13 @@ class PlacementSearch:
     def adopt(self, uavs_m: np.ndarray) -> None:
         """Start from a given placement, first made valid.
 
-        While it breaks the rules: beyond the UAV budget or with an unjustified UAV, the least
+        A UAV closer than the minimum separation to one before it is dropped first. Then, while it breaks
+        the rules: beyond the UAV budget or with an unjustified UAV, the least
         justified UAV is dropped; with only overloaded UAVs (strategy 2), UAVs are added to take
         users over (:meth:`_fill`), and when no addition can, the most loaded UAV is dropped.
         """
         uavs_m = np.asarray(uavs_m, dtype=np.float64).reshape(-1, 2)
+        uavs_m = uavs_m[keep_separated(uavs_m, self.rules.min_separation_m)]
         while True:
             state = assign_users(self.users_m, uavs_m, self.rules.radius_m)
             if is_valid_placement(state, self.rules):
@@ -295,12 +302,13 @@ class PlacementSearch:
                 return
 
     def refine(self, passes: int) -> None:
-        """Move each UAV to the centroid of its users when that loses nobody and stays valid."""
+        """Move each UAV to the centroid of its users when that loses nobody, stays valid and separated."""
         for _ in range(passes):
             moved = False
             for k in range(len(self.uavs_m)):
                 target = self.users_m[self.state.association == k].mean(axis=0)
-                if np.allclose(target, self.uavs_m[k], atol=1e-6):
+                if np.allclose(target, self.uavs_m[k], atol=1e-6) or not far_from(
+                        target, np.delete(self.uavs_m, k, axis=0), self.rules.min_separation_m)[0]:
                     continue
                 trial = self.uavs_m.copy()
                 trial[k] = target
@@ -347,7 +355,8 @@ def place_uavs(
 
     Returns:
         ``(k, 2)`` float64 UAV positions in metres, ``0 <= k <= rules.max_uavs``,
-        sorted by ``(y, x)``; every UAV serves ``[min_users, max_users]`` users.
+        sorted by ``(y, x)``; every UAV serves ``[min_users, max_users]`` users; every pair stands at
+        least ``rules.min_separation_m`` apart.
 
     Raises:
         ValueError: ``users_m`` is not a finite ``(N, 2)`` array.

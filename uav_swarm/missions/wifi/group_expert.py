@@ -23,6 +23,8 @@ expert builds the placement from the crowd's walking groups instead:
    within ``radius + range_margin_m`` of two chosen units (so association is what each unit
    planned), solved exactly as a small integer program (HiGHS). A smooth second term (how deep
    inside range the served users are) breaks ties, so that equal counts do not flip the choice.
+   The UAVs keep ``rules.min_separation_m`` apart: within a split by construction, between units by
+   exclusion rows of the program (two units with UAVs closer than the minimum are never both chosen).
 
 Every step is a continuous function of the users' positions except where a count changes, and the
 units carry margins, so 5 cm of jitter rarely changes the placement, and a placement held fixed
@@ -56,8 +58,6 @@ class GroupExpertConfig(Config):
         1.0, ge=0.0, le=20.0, doc="a UAV's load counts every user within radius + this, metres")
     pair_gap_m: float = param(
         60.0, ge=0.0, le=500.0, doc="two groups form a unit when their centroids are at most this apart")
-    min_separation_m: float = param(
-        5.0, ge=0.0, le=60.0, doc="UAVs of one split keep at least this distance between them, metres")
     cut_step_m: float = param(0.25, gt=0.0, le=5.0, doc="resolution of the cut UAV's slide, metres")
     horizon_s: float = param(
         1.0, ge=0.0, le=30.0, doc="loads and service are checked on the crowd predicted this far ahead, s")
@@ -236,9 +236,9 @@ class _UnitBuilder:
         edges = bounds.astype(np.int64)
         cuts = np.array([(t[e - 1] + t[e]) / 2.0 for e in edges[1:-1]])
         centroids = np.array([t[a:b].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
-        positions = _mirrored_positions(cuts, np.diff(centroids), self.config.min_separation_m,
+        positions = _mirrored_positions(cuts, np.diff(centroids), self.rules.min_separation_m,
                                         self.rules.radius_m)
-        if np.any(np.diff(positions) < self.config.min_separation_m):
+        if np.any(np.diff(positions) < self.rules.min_separation_m):
             return None
         return self.unit("split", centre[None, :] + positions[:, None] * axis[None, :])
 
@@ -305,6 +305,18 @@ def service_units(users_m: np.ndarray, rules: CoverageRules, config: GroupExpert
     return [u for u in units if u is not None]
 
 
+def _clashes(units: list[ServiceUnit], min_separation_m: float) -> np.ndarray:
+    """``(P, 2)`` pairs of units with two UAVs closer than ``min_separation_m`` (never both chosen)."""
+    if min_separation_m <= 0.0 or len(units) < 2:
+        return np.zeros((0, 2), np.int64)
+    owner = np.repeat(np.arange(len(units)), [len(u.uavs_m) for u in units])
+    near = cKDTree(np.vstack([u.uavs_m for u in units])).query_pairs(
+        min_separation_m * (1.0 - 1e-12), output_type="ndarray")
+    pairs = np.sort(owner[near], axis=1) if len(near) else np.zeros((0, 2), np.int64)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    return np.unique(pairs, axis=0) if len(pairs) else np.zeros((0, 2), np.int64)
+
+
 def _select(units: list[ServiceUnit], n_users: int, rules: CoverageRules, tie_weight: float) -> list[int]:
     """The units serving the most users within the UAV budget, no user touched twice (HiGHS)."""
     m = len(units)
@@ -317,6 +329,11 @@ def _select(units: list[ServiceUnit], n_users: int, rules: CoverageRules, tie_we
     constraints = [LinearConstraint(k[None, :], 0, rules.max_uavs)]
     if np.any(used):
         constraints.append(LinearConstraint(touch[used], 0, 1))
+    clash = _clashes(units, rules.min_separation_m)
+    if len(clash):
+        rows = np.repeat(np.arange(len(clash)), 2)
+        pairs = coo_matrix((np.ones(len(rows)), (rows, clash.ravel())), shape=(len(clash), m))
+        constraints.append(LinearConstraint(pairs.tocsr(), 0, 1))
     result = milp(-value, constraints=constraints, integrality=np.ones(m), bounds=Bounds(0, 1),
                   options={"time_limit": 5.0})
     if result.x is None:
@@ -337,7 +354,8 @@ def place_uavs_by_groups(users_m: np.ndarray, rules: CoverageRules, config: Grou
 
     Returns:
         ``(k, 2)`` float64 UAV positions in metres, ``0 <= k <= rules.max_uavs``, sorted by ``(y, x)``;
-        every UAV serves between ``min_users`` and ``max_users`` users.
+        every UAV serves between ``min_users`` and ``max_users`` users; every pair stands at least
+        ``rules.min_separation_m`` apart.
 
     Raises:
         ValueError: ``users_m`` is not a finite ``(N, 2)`` array, or ``rules`` are strategy 1's.

@@ -32,7 +32,9 @@ expert's step, which is what makes the refinement cheap), plus, within ``fine_ra
 proposal, a grid of ``fine_step_m`` (strategy 2 splits groups between UAVs and needs the finer
 positions: ``configs/tasks/wifi-s2.toml``); the centring makes the final positions continuous.
 Greedy fills try ``branching`` separated first candidates, as the expert does.
-Everything is deterministic, and the result always obeys the strategy's rules.
+Every step keeps the UAVs ``rules.min_separation_m`` apart (a proposal closer than that to a better
+one is dropped on adoption; additions, relocations and centring moves that come that close are not
+feasible). Everything is deterministic, and the result always obeys the strategy's rules.
 
 Examples:
     >>> from uav_swarm.missions.wifi.rules import CoverageRules
@@ -131,7 +133,7 @@ def refine_placement(
 
     Returns:
         ``(k', 2)`` float64 UAV positions in metres, ``0 <= k' <= rules.max_uavs``, sorted by
-        ``(y, x)``, obeying ``rules``.
+        ``(y, x)``, obeying ``rules`` (every pair at least ``rules.min_separation_m`` apart).
 
     Raises:
         ValueError: ``users_m`` or ``proposals_m`` is not a finite ``(n, 2)`` array.

@@ -17,7 +17,8 @@ applies the best relocation while it lowers ``(violation, -served)`` lexicograph
 valid placement it raises the served users and keeps the rules; on a broken one (learned proposals,
 overloaded or unjustified UAVs) it repairs first. Moves that "jump" a UAV across the area are
 scored as cheaply as small shifts, which is what makes room for a missing UAV or packs UAVs to
-their 40 users.
+their 40 users. A relocation that puts the UAV closer than ``rules.min_separation_m`` to another UAV is
+not feasible.
 
 Examples:
     >>> from uav_swarm.missions.wifi.expert import CandidatePairs, PlacementSearch
@@ -42,7 +43,9 @@ from uav_swarm.missions.wifi.rules import (
     Assignment,
     CoverageRules,
     assign_users,
+    far_from,
     is_valid_placement,
+    keep_separated,
     squared_distances,
 )
 
@@ -155,6 +158,14 @@ def _key(violation: np.ndarray | int, served: np.ndarray | int, n_users: int) ->
     return violation * (n_users + 1) - served
 
 
+def _crowded(uavs_m: np.ndarray, candidates_m: np.ndarray, min_separation_m: float) -> np.ndarray | None:
+    """``(K, M)`` True where UAV ``j`` moved to candidate ``c`` is closer than the minimum to another UAV."""
+    if min_separation_m <= 0.0 or len(uavs_m) < 2:
+        return None
+    close = squared_distances(uavs_m, candidates_m) < min_separation_m ** 2  # (K, M)
+    return close.sum(axis=0)[None, :] - close > 0
+
+
 def relocate(search: PlacementSearch, max_moves: int) -> int:
     """Apply the best relocation while it lowers ``(violation, -served)``; at most ``max_moves``.
 
@@ -168,6 +179,9 @@ def relocate(search: PlacementSearch, max_moves: int) -> int:
         current = _key(int(placement_violation(search.state.counts, rules).sum()), search.state.n_served, n)
         violation, served = relocation_scores(search.pairs, search.users_m, search.uavs_m, rules)
         key = _key(violation, served, n)
+        crowded = _crowded(search.uavs_m, search.pairs.candidates_m, rules.min_separation_m)
+        if crowded is not None:
+            key = np.where(crowded, np.iinfo(np.int64).max, key)
         j, c = np.unravel_index(int(np.argmin(key)), key.shape)
         if key[j, c] >= current:
             return moves
@@ -179,12 +193,14 @@ def relocate(search: PlacementSearch, max_moves: int) -> int:
 def adopt_by_relocation(search: PlacementSearch, proposals_m: np.ndarray, max_moves: int) -> Assignment:
     """Start ``search`` from the proposals, made valid by relocations.
 
-    Beyond the UAV budget the least loaded UAV is dropped; then relocations repair the placement,
+    A proposal closer than the minimum separation to one before it is dropped, and beyond the UAV
+    budget the least loaded UAV; then relocations repair the placement,
     and while it still breaks the rules the UAV with the largest violation is dropped and the
     repair resumes. Returns the final (valid) assignment, also set on ``search``.
     """
     rules = search.rules
     uavs_m = np.asarray(proposals_m, np.float64).reshape(-1, 2)
+    uavs_m = uavs_m[keep_separated(uavs_m, rules.min_separation_m)]
     while True:
         state = assign_users(search.users_m, uavs_m, rules.radius_m)
         if len(uavs_m) > rules.max_uavs:
@@ -214,6 +230,7 @@ def insert_by_relocation(search: PlacementSearch, max_moves: int, tries: int) ->
     newly = np.bincount(pairs.cand[uncovered], minlength=len(pairs.candidates_m))
     ranked = np.lexsort((np.arange(len(newly)), -newly))
     ranked = ranked[newly[ranked] > 0]
+    ranked = ranked[far_from(pairs.candidates_m[ranked], search.uavs_m, rules.min_separation_m)]
     start_uavs, start_state = search.uavs_m, search.state
     for c in separated_candidates(pairs.candidates_m, ranked, tries, rules.radius_m):
         uavs_m = np.vstack([start_uavs, pairs.candidates_m[c]])

@@ -3,7 +3,10 @@
 Shared by the greedy expert (:mod:`uav_swarm.missions.wifi.expert`, which describes the problem) and
 the exact MILP (:mod:`uav_swarm.missions.wifi.exact`): a user is covered within ``radius_m`` of a UAV
 and associates with the nearest one (ties to the lower index); every UAV must be justified by
-``min_users`` users and may serve at most ``max_users``.
+``min_users`` users and may serve at most ``max_users``; no two UAVs stand closer than
+``min_separation_m`` (horizontal distance: a placement's positions are targets, whichever UAV flies to
+them, so the horizontal minimum also holds in 3-D with altitude layers). Every optimiser treats a candidate
+closer than the minimum to a UAV already placed as infeasible (:func:`far_from`).
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["CoverageRules", "Assignment", "squared_distances", "assign_users", "is_valid_placement",
-           "candidate_grid"]
+           "candidate_grid", "far_from", "is_separated", "keep_separated"]
 
 
 @dataclass(frozen=True)
@@ -31,6 +34,7 @@ class CoverageRules:
             serves (its association).
         admission_control: The radio's UAVs admit at most ``max_users`` stations and refuse the
             next (:mod:`uav_swarm.world.comms`); False: the paper's model, every user in range joins.
+        min_separation_m: No two UAVs of a placement stand closer than this, metres (0: no minimum).
     """
 
     radius_m: float
@@ -39,6 +43,7 @@ class CoverageRules:
     max_uavs: int
     exclusive: bool = False
     admission_control: bool = False
+    min_separation_m: float = 0.0
 
     def __post_init__(self) -> None:
         if not (self.radius_m > 0.0 and math.isfinite(self.radius_m)):
@@ -50,6 +55,8 @@ class CoverageRules:
                 f"CoverageRules.max_users = {self.max_users} must be >= min_users = {self.min_users}")
         if self.max_uavs < 0:
             raise ValueError(f"CoverageRules.max_uavs = {self.max_uavs} must be >= 0")
+        if not (self.min_separation_m >= 0.0 and math.isfinite(self.min_separation_m)):
+            raise ValueError(f"CoverageRules.min_separation_m = {self.min_separation_m!r}: allowed >= 0")
 
     @property
     def cap(self) -> int:
@@ -129,3 +136,42 @@ def candidate_grid(width_m: float, height_m: float, step_m: float) -> tuple[np.n
     ys = (np.arange(ny) + 0.5) * (height_m / ny)
     gx, gy = np.meshgrid(xs, ys)
     return np.stack([gx.ravel(), gy.ravel()], axis=1), nx
+
+
+def far_from(points_m: np.ndarray, uavs_m: np.ndarray, min_separation_m: float) -> np.ndarray:
+    """``(M,)`` True where a point stands at least ``min_separation_m`` from every UAV (horizontal).
+
+    Examples:
+        >>> far_from(np.array([[0.0, 0.0], [3.0, 3.0]]), np.array([[3.0, 4.0]]), 5.0).tolist()
+        [True, False]
+    """
+    points = np.asarray(points_m, dtype=np.float64).reshape(-1, 2)
+    uavs = np.asarray(uavs_m, dtype=np.float64).reshape(-1, 2)
+    if min_separation_m <= 0.0 or len(uavs) == 0 or len(points) == 0:
+        return np.ones(len(points), dtype=bool)
+    return squared_distances(points, uavs).min(axis=1) >= min_separation_m ** 2
+
+
+def is_separated(uavs_m: np.ndarray, min_separation_m: float) -> bool:
+    """Whether every pair of UAVs stands at least ``min_separation_m`` apart (horizontal)."""
+    uavs = np.asarray(uavs_m, dtype=np.float64).reshape(-1, 2)
+    if min_separation_m <= 0.0 or len(uavs) < 2:
+        return True
+    d2 = squared_distances(uavs, uavs)
+    np.fill_diagonal(d2, np.inf)
+    return bool(d2.min() >= min_separation_m ** 2)
+
+
+def keep_separated(uavs_m: np.ndarray, min_separation_m: float) -> np.ndarray:
+    """Indices of the UAVs kept in order: a UAV closer than the minimum to one kept before is dropped.
+
+    Examples:
+        >>> keep_separated(np.array([[0.0, 0.0], [2.0, 0.0], [9.0, 0.0]]), 5.0).tolist()
+        [0, 2]
+    """
+    uavs = np.asarray(uavs_m, dtype=np.float64).reshape(-1, 2)
+    kept: list[int] = []
+    for i in range(len(uavs)):
+        if far_from(uavs[i], uavs[kept], min_separation_m)[0]:
+            kept.append(i)
+    return np.array(kept, dtype=np.int64)

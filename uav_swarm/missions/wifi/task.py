@@ -42,6 +42,7 @@ Examples:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,6 +58,7 @@ from uav_swarm.world.comms import RadioConfig, evaluate_coverage
 from uav_swarm.world.crowd import CrowdConfig, CrowdSim
 from uav_swarm.world.raster import density_map, metres_to_pixels, pixels_to_metres
 from uav_swarm.world.scenario import ScenarioConfig, random_scenario
+from uav_swarm.world.separation import check_fleet_fits
 
 __all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster"]
 
@@ -77,9 +79,30 @@ class WifiConfig(Config):
     crowd: CrowdConfig = param(CrowdConfig(), doc="social-force crowd (table [task.crowd])")
     radio: RadioConfig = param(RadioConfig(), doc="Wi-Fi model (table [task.radio])")
     expert: WifiExpertConfig = param(WifiExpertConfig(), doc="the expert optimiser (table [task.expert])")
+    min_separation_m: float = param(
+        5.0, ge=0.0, le=1000.0, doc="no two UAV positions of a placement (expert, learned, refined) closer "
+        "than this, metres (0: none); simulate, fly and the env take it from [uav] min_separation_m")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> WifiConfig:
+        """:meth:`typed_config.Config.from_dict`, reading the configs saved before the task had one minimum.
+
+        Those (the shipped checkpoints' among them) kept the group expert's own ``[task.expert.groups]
+        min_separation_m``: it becomes the task's ``min_separation_m`` (refused when both differ).
+        """
+        groups = data.get("expert", {}).get("groups") if isinstance(data.get("expert"), Mapping) else None
+        if isinstance(groups, Mapping) and "min_separation_m" in groups:
+            legacy = groups["min_separation_m"]
+            if data.get("min_separation_m", legacy) != legacy:
+                raise ConfigError(
+                    f"{where or cls.__name__}: expert.groups.min_separation_m = {legacy!r} differs from "
+                    f"min_separation_m = {data['min_separation_m']!r}: keep min_separation_m only")
+            rest = {k: v for k, v in groups.items() if k != "min_separation_m"}
+            data = {**data, "expert": {**data["expert"], "groups": rest}, "min_separation_m": legacy}
+        return super().from_dict(data, where=where)
 
     def check(self) -> None:
-        """A square area (the raster is square), an ordered warm-up range, a radius above the altitude."""
+        """A square area, ordered warm-ups, a radius above the altitude, a separation the budget can keep."""
         if self.warmup_min_s > self.warmup_max_s:
             raise ConfigError(f"WifiConfig.warmup_min_s = {self.warmup_min_s} must be <= "
                               f"warmup_max_s = {self.warmup_max_s}")
@@ -89,6 +112,8 @@ class WifiConfig(Config):
         if self.radio.coverage_radius_m <= 0.0:
             raise ConfigError(f"WifiConfig.radio.altitude_m = {self.radio.altitude_m} leaves no coverage: "
                               "allowed altitude_m < the radio range")
+        check_fleet_fits(self.expert.max_uavs, self.min_separation_m, self.scenario.width_m,
+                         self.scenario.height_m, field="task.min_separation_m")
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +155,8 @@ def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageR
     return CoverageRules(radius_m=radio.coverage_radius_m, min_users=config.expert.min_group_size + 1,
                          max_users=max_users,
                          max_uavs=config.expert.max_uavs if max_uavs is None else max_uavs,
-                         exclusive=config.strategy == 1, admission_control=admission)
+                         exclusive=config.strategy == 1, admission_control=admission,
+                         min_separation_m=config.min_separation_m)
 
 
 def crowd_raster(users_m: np.ndarray, config: WifiConfig, velocities_m_s: np.ndarray | None = None

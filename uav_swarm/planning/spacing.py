@@ -1,0 +1,80 @@
+"""Targets kept apart: the last step of every assignment, a projection onto separated positions.
+
+The placements the planners propose are separated by construction (the optimisers treat a position
+closer than the minimum as infeasible). What the assignment adds to them is not: a spare UAV holding its
+position, a kept target that drifted with its users, a proposal aimed where its users walk. The
+projection :func:`separate_targets` takes the targets in priority order and moves each one closer than
+the minimum to a target placed before it to the nearest free point it finds (pushed straight away from
+each target it is too close to, else on rings of a quarter of the minimum around it; inside the area), so
+every pair of the result is at least the minimum apart.
+
+Examples:
+    >>> import numpy as np
+    >>> targets = separate_targets(np.array([[50.0, 50.0], [52.0, 50.0]]), 5.0)
+    >>> round(float(np.linalg.norm(targets[1] - targets[0])), 2)
+    5.0
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+__all__ = ["separate_targets"]
+
+logger = logging.getLogger(__name__)
+
+_RINGS = 40  # rings searched around a target: up to ten times the minimum away
+
+
+def separate_targets(targets_m: np.ndarray, min_gap_m: float, order: np.ndarray | None = None,
+                     upper_m: np.ndarray | None = None) -> np.ndarray:
+    """``(n, 2)`` targets at least ``min_gap_m`` apart, each moved as little as the search finds.
+
+    Args:
+        targets_m: ``(n, 2)`` wanted targets, metres.
+        min_gap_m: The minimum distance between two targets (0: the targets as they are).
+        order: Priority (indices, first placed first; a target placed earlier never moves for a later one);
+            default ``0 ... n-1``.
+        upper_m: ``(2,)`` the area's upper corner; moved targets stay in ``[0, upper_m]`` (None: no area).
+
+    Returns:
+        A new array; a target for which no free point lies within ten minima keeps its place (logged).
+    """
+    out = np.array(targets_m, dtype=np.float64).reshape(-1, 2)
+    if min_gap_m <= 0.0 or len(out) < 2:
+        return out
+    order = np.arange(len(out)) if order is None else np.asarray(order, dtype=np.int64)
+    step = min_gap_m / 4.0
+    placed: list[int] = []
+    for i in order.tolist():
+        if placed and np.min(np.linalg.norm(out[placed] - out[i], axis=1)) < min_gap_m:
+            out[i] = _nearest_free(out[i], out[placed], min_gap_m, step, upper_m)
+        placed.append(i)
+    return out
+
+
+def _nearest_free(wanted: np.ndarray, others: np.ndarray, min_gap_m: float, step: float,
+                  upper_m: np.ndarray | None) -> np.ndarray:
+    """The point nearest ``wanted`` at least ``min_gap_m`` from ``others``: pushes first, then rings."""
+    away = wanted - others
+    length = np.linalg.norm(away, axis=1)
+    direction = np.where(length[:, None] > 1e-9, away / np.maximum(length, 1e-9)[:, None], [1.0, 0.0])
+    pushes = others + direction * min_gap_m * (1.0 + 1e-9)  # each conflict resolved on its own
+    rings = [pushes]
+    for radius in step * np.arange(1, _RINGS + 1):
+        count = max(8, int(np.ceil(2.0 * np.pi * radius / step)))
+        angles = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
+        rings.append(wanted + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1))
+        points = np.concatenate(rings)
+        rings = []
+        if upper_m is not None:
+            points = np.clip(points, 0.0, upper_m)
+        free = np.linalg.norm(points[:, None, :] - others[None], axis=-1).min(axis=1) >= min_gap_m
+        if np.any(free):
+            shift = np.where(free, np.linalg.norm(points - wanted, axis=1), np.inf)
+            return points[int(np.argmin(shift))]
+    logger.warning("no free point within %.1f m of target (%.1f, %.1f): it stays closer than %.1f m",
+                   _RINGS * step, wanted[0], wanted[1], min_gap_m)
+    return wanted
