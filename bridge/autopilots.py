@@ -24,6 +24,13 @@ pre-arm messages           ``PreArm: ...``                         ``Preflight F
 clearing a flown mission   refused (``MAV_MISSION_ERROR``)         accepted: the bridge must refuse it
 end of a flight            RTL (6) or LAND (9), by command          AUTO.RTL (4, 5) or AUTO.LAND (4, 6),
                                                                    by command
+parameters (PARAM_VALUE)   integers cast to the float              integers' bytes in the float (bytewise)
+link-loss failsafe         ``FS_GCS_ENABLE`` (0 off, 1 RTL, 7       ``NAV_DLL_ACT`` (0 off, 1 hold, 2 Return,
+                           brake or land),                         3 land),
+                           ``FS_GCS_TIMEOUT`` (s); it watches      ``COM_DL_LOSS_T`` (s); any ground
+                           only ``SYSID_MYGCS``'s heartbeat        station's heartbeat keeps the link
+return altitude            ``RTL_ALT``, centimetres above home     ``RTL_RETURN_ALT``, metres above home
+geofence                   ``FENCE_ENABLE`` (0 off)                ``GF_ACTION`` (0 none)
 =========================  =====================================  =========================================
 
 "Flying its mission" is the same rule for both: armed, in the mission mode, at any item (the
@@ -67,6 +74,15 @@ class Conventions:
         fix_stands_in: The first position fix may stand in for a home not reported.
         prearm_prefixes: How its STATUSTEXT begins when it refuses to arm.
         clear_hint: What to do when it refuses to clear the mission it flies ("" if it never does).
+        param_bytewise: Integer parameters travel as their bytes in PARAM_VALUE's float (else cast).
+        failsafe_param: The link-loss (ground station) failsafe's action; 0 is off.
+        failsafe_rtl: Its value for "return to launch".
+        failsafe_returns: Its values that leave guided flight for a return or a landing (not a hold).
+        failsafe_timeout_param: Seconds without the ground station's heartbeat before the action.
+        gcs_id_param: The one ground station system id whose heartbeat it watches ("" if any GCS's).
+        rtl_alt_param: The return altitude above home.
+        rtl_alt_per_m: Units of ``rtl_alt_param`` per metre (100: centimetres).
+        fence_param: The geofence's switch (0 is off).
     """
 
     name: str
@@ -81,6 +97,15 @@ class Conventions:
     fix_stands_in: bool
     prearm_prefixes: tuple[str, ...]
     clear_hint: str = ""
+    param_bytewise: bool = False
+    failsafe_param: str = "FS_GCS_ENABLE"
+    failsafe_rtl: float = 1.0
+    failsafe_returns: frozenset[int] = frozenset({1, 2, 3, 4, 5, 6})  # 7: brake (a hold) or land
+    failsafe_timeout_param: str = "FS_GCS_TIMEOUT"
+    gcs_id_param: str = "SYSID_MYGCS"
+    rtl_alt_param: str = "RTL_ALT"
+    rtl_alt_per_m: float = 100.0
+    fence_param: str = "FENCE_ENABLE"
 
     def first_item(self) -> int:
         """The seq of the mission's first real item (1 after ArduPilot's home, else 0)."""
@@ -116,6 +141,15 @@ PX4 = Conventions(
     reposition_amsl=True,
     fix_stands_in=True,
     prearm_prefixes=("Preflight Fail:", "Arming denied", "Preflight"),
+    param_bytewise=True,
+    failsafe_param="NAV_DLL_ACT",
+    failsafe_rtl=2.0,
+    failsafe_returns=frozenset({2, 3}),  # 1: hold (AUTO.LOITER, its guided flight)
+    failsafe_timeout_param="COM_DL_LOSS_T",
+    gcs_id_param="",
+    rtl_alt_param="RTL_RETURN_ALT",
+    rtl_alt_per_m=1.0,
+    fence_param="GF_ACTION",
 )
 """PX4: main and sub modes, item 0 a real item, take-off and reposition altitudes above sea level."""
 
@@ -132,7 +166,7 @@ GENERIC = Conventions(
     fix_stands_in=True,
     prearm_prefixes=("PreArm:",),
 )
-"""Any other autopilot: MAVLink's common conventions, ArduPilot's mode numbers."""
+"""Any other autopilot: MAVLink's common conventions, ArduPilot's mode numbers and parameters."""
 
 _BY_AUTOPILOT = {ARDUPILOT.autopilot: ARDUPILOT, PX4.autopilot: PX4}
 

@@ -18,6 +18,7 @@ or ``MAV_CMD_NAV_LAND`` (both autopilots accept either). Every wait is bounded.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import threading
@@ -171,7 +172,8 @@ def _takeoff(link: MavlinkLink, system_id: int, conventions: Conventions, state:
 
 def launch(link: MavlinkLink, tracker: VehicleStateTracker, system_id: int, autopilot: int, alt_m: float,
            config: FlightConfig, protocol: ProtocolConfig, cancel: threading.Event | None = None,
-           home_alt_m: float | None = None) -> None:
+           home_alt_m: float | None = None,
+           takeoff_gate: Callable[[], contextlib.AbstractContextManager[None]] | None = None) -> None:
     """Bring one vehicle to guided flight at ``alt_m`` above its home.
 
     Asks for the position stream, waits for the first position fix, switches to the guided mode,
@@ -181,6 +183,8 @@ def launch(link: MavlinkLink, tracker: VehicleStateTracker, system_id: int, auto
     (its HEARTBEAT's) chooses the conventions (:func:`~bridge.autopilots.conventions_for`);
     ``home_alt_m`` is its home's altitude above mean sea level, from its HOME_POSITION, for an
     autopilot whose take-off altitude is above sea level (``None``: taken from its position report).
+    Arming, take-off and climb run inside ``takeoff_gate()`` (a context manager: the caller's turn
+    to climb, e.g. one vehicle at a time), so a vehicle is never armed and left waiting on the ground.
 
     Raises:
         FlightError: No position fix, arming refused or no climb within the configured time, or cancelled.
@@ -207,12 +211,13 @@ def launch(link: MavlinkLink, tracker: VehicleStateTracker, system_id: int, auto
                  state.relative_alt_m)
         return
     set_mode(link, system_id, guided, protocol)
-    _arm(link, system_id, conventions, config, protocol, cancel)
-    state = tracker.state(system_id) or state
-    _pause(system_id, 0.0, cancel)
-    _takeoff(link, system_id, conventions, state, alt_m, protocol, home_alt_m)
-    reached = _wait_for(tracker, system_id, lambda s: is_airborne(s, alt_m, config.takeoff_tolerance_m),
-                        config.takeoff_timeout_s, cancel)
+    with (takeoff_gate or contextlib.nullcontext)():
+        _arm(link, system_id, conventions, config, protocol, cancel)
+        state = tracker.state(system_id) or state
+        _pause(system_id, 0.0, cancel)
+        _takeoff(link, system_id, conventions, state, alt_m, protocol, home_alt_m)
+        reached = _wait_for(tracker, system_id, lambda s: is_airborne(s, alt_m, config.takeoff_tolerance_m),
+                            config.takeoff_timeout_s, cancel)
     if reached is None:
         last = tracker.state(system_id)
         height = "unknown" if last is None or last.relative_alt_m is None else f"{last.relative_alt_m:.1f} m"

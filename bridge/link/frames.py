@@ -44,6 +44,7 @@ PROTOCOL_MESSAGES = frozenset(
         "MISSION_ITEM_INT",
         "MISSION_CURRENT",
         "COMMAND_ACK",
+        "PARAM_VALUE",
     }
 )
 """Message types delivered to an operation's handler."""

@@ -8,8 +8,16 @@ It answers as ArduPilot Copter does the commands ``uav-swarm fly`` sends: ``MAV_
 airborne; z above home in ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT``, above sea level in
 ``MAV_FRAME_GLOBAL_INT``, as ArduPilot reads the frame). Like ArduPilot on a new link it sends only
 HEARTBEAT until GLOBAL_POSITION_INT is asked for (``stream_until_asked``). It flies toward its
-target at ``speed_m_s`` horizontally and ``climb_m_s`` vertically, through its mission in AUTO, home
-and down in RTL, down in LAND, and disarms on the ground.
+target at ``speed_m_s`` horizontally and ``climb_m_s`` vertically, through its mission in AUTO, down
+in LAND, and disarms on the ground.
+
+RTL is ArduCopter's: climb to ``RTL_ALT`` (centimetres above home; its current altitude when higher,
+or when ``RTL_ALT`` is 0), fly home at that altitude, descend and land. Its ground station failsafe
+is ArduCopter's too: with ``FS_GCS_ENABLE`` set, once a heartbeat of its ground station
+(``SYSID_MYGCS``, a ``MAV_TYPE_GCS`` heartbeat) was heard, an armed vehicle that hears none for
+``FS_GCS_TIMEOUT`` seconds switches to RTL (LAND for 5); ``FS_GCS_ENABLE = 0`` (ArduPilot's default)
+leaves it where it is. Its parameters (:class:`SimVehicle`'s server) start at ArduPilot's defaults,
+``params`` overriding them. ``track`` keeps each position it flew: ``(time.monotonic(), x, y, z)``.
 """
 
 from __future__ import annotations
@@ -22,10 +30,24 @@ from sim_vehicle import SimVehicle, m
 from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
 from bridge.missions.items import DEG_E7
 
-__all__ = ["FlyingVehicle", "GUIDED", "AUTO", "RTL", "LAND"]
+__all__ = ["FlyingVehicle", "GUIDED", "AUTO", "RTL", "LAND", "FAILSAFE_ON", "launch_home"]
 
 STABILIZE, AUTO, GUIDED, RTL, LAND = 0, 3, 4, 6, 9
+_INT8, _INT16, _INT32, _REAL32 = (m.MAV_PARAM_TYPE_INT8, m.MAV_PARAM_TYPE_INT16, m.MAV_PARAM_TYPE_INT32,
+                                  m.MAV_PARAM_TYPE_REAL32)
+ARDUPILOT_PARAMS = {"FS_GCS_ENABLE": (0.0, _INT8), "FS_GCS_TIMEOUT": (5.0, _REAL32),
+                    "SYSID_MYGCS": (255.0, _INT16), "RTL_ALT": (1500.0, _INT32), "FENCE_ENABLE": (0.0, _INT8)}
+"""ArduCopter 4.6's defaults of the parameters ``fly`` reads (value, ``MAV_PARAM_TYPE``)."""
+FAILSAFE_ON = {"FS_GCS_ENABLE": 1.0}
+"""ArduCopter's ground station failsafe set to RTL (``params`` of a vehicle an operator prepared)."""
 _POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
+
+
+def launch_home(index: int, spacing_m: float = 10.0, origin: Home | None = None) -> Home:
+    """Where vehicle ``index`` of a test fleet stands: ``spacing_m`` apart going East, as a real launch."""
+    origin = origin or Home()
+    lat_deg, lon_deg, _ = enu_to_geodetic(origin, index * spacing_m, 0.0, 0.0)
+    return Home(lat_deg=lat_deg, lon_deg=lon_deg, alt_m=origin.alt_m)
 
 
 class FlyingVehicle(SimVehicle):
@@ -43,12 +65,14 @@ class FlyingVehicle(SimVehicle):
         personality: :class:`SimVehicle`'s mission server personality (``"ardupilot"``: as AP_Mission).
         autopilot: The ``MAV_AUTOPILOT_*`` of its HEARTBEAT.
         custom_mode: Its mode at start (on the ground, disarmed).
+        params: Parameter values that differ from its autopilot's defaults.
     """
 
     def __init__(self, url: str, system_id: int, *, home: Home | None = None, speed_m_s: float = 12.0,
                  climb_m_s: float = 8.0, prearm_s: float = 0.0, position_period_s: float = 0.2,
                  stream_until_asked: bool = True, personality: str = "generic",
-                 autopilot: int = m.MAV_AUTOPILOT_ARDUPILOTMEGA, custom_mode: int = STABILIZE) -> None:
+                 autopilot: int = m.MAV_AUTOPILOT_ARDUPILOTMEGA, custom_mode: int = STABILIZE,
+                 params: dict[str, float] | None = None) -> None:
         self.url = url
         self.geo_home = home = home or Home()
         self.speed_m_s, self.climb_m_s = speed_m_s, climb_m_s
@@ -60,11 +84,63 @@ class FlyingVehicle(SimVehicle):
         self.commands: list[int] = []
         self.modes: list[int] = []
         self.reposition_frames: list[int] = []
+        self.track: list[tuple[float, float, float, float]] = []
+        self.failsafes: list[float] = []
+        self._gcs_heard_s: float | None = None
+        self._return_alt_m: float | None = None
         self._ready_at_s = time.monotonic() + prearm_s
         self._last_step_s = time.monotonic()
+        defaults = self._default_params()
+        unknown = set(params or {}) - set(defaults)
+        if unknown:
+            raise ValueError(f"params: {sorted(unknown)} are not among {sorted(defaults)}")
+        table = {name: (float((params or {}).get(name, value)), kind)
+                 for name, (value, kind) in defaults.items()}
         super().__init__(url, system_id, autopilot=autopilot, armed=False, custom_mode=custom_mode,
                          lat_deg=home.lat_deg, lon_deg=home.lon_deg, alt_m=home.alt_m,
-                         telemetry_period_s=position_period_s, personality=personality)
+                         telemetry_period_s=position_period_s, personality=personality, params=table)
+
+    def _default_params(self) -> dict[str, tuple[float, int]]:
+        return dict(ARDUPILOT_PARAMS)
+
+    # -- ground station failsafe ---------------------------------------------------------------
+    def _on_heartbeat(self, msg) -> None:
+        if msg.type == m.MAV_TYPE_GCS and self._watches(msg.get_srcSystem()):
+            self._gcs_heard_s = time.monotonic()
+
+    def _watches(self, gcs_system_id: int) -> bool:
+        """ArduPilot: only its ground station's heartbeat (``SYSID_MYGCS``) keeps the link."""
+        return gcs_system_id == int(self.param("SYSID_MYGCS"))
+
+    def _failsafe_action(self) -> int | None:
+        """The mode its failsafe switches to now, or None (off, not armed, never heard, or not yet)."""
+        action = int(self.param("FS_GCS_ENABLE"))
+        silent_s = None if self._gcs_heard_s is None else time.monotonic() - self._gcs_heard_s
+        if (action == 0 or not self.armed or self.custom_mode in (RTL, LAND) or silent_s is None
+                or silent_s < self.param("FS_GCS_TIMEOUT") or self.enu[2] <= 0.0):
+            return None
+        return LAND if action == 5 else RTL
+
+    def _check_failsafe(self) -> None:
+        mode = self._failsafe_action()
+        if mode is not None:
+            self.failsafes.append(time.monotonic())
+            self.custom_mode = mode
+            self.modes.append(mode)
+            self._conn.mav.statustext_send(severity=m.MAV_SEVERITY_WARNING, text=b"GCS Failsafe")
+
+    def _rtl_alt_m(self) -> float:
+        return self.param("RTL_ALT") / 100.0
+
+    def _rtl_goal(self) -> tuple[float, float, float]:
+        """RTL: climb to the return altitude where it is, fly home at it, then descend."""
+        if self._return_alt_m is None:
+            self._return_alt_m = max(self._rtl_alt_m(), self.enu[2])
+        if math.hypot(*self.enu[:2]) <= 0.5:
+            return (0.0, 0.0, 0.0)
+        if self.enu[2] < self._return_alt_m - 0.05:
+            return (self.enu[0], self.enu[1], self._return_alt_m)
+        return (0.0, 0.0, self._return_alt_m)
 
     # -- kinematics ----------------------------------------------------------------------------
     def _mission_target(self) -> tuple[float, float, float] | None:
@@ -85,13 +161,16 @@ class FlyingVehicle(SimVehicle):
     def _step(self) -> None:
         now_s = time.monotonic()
         dt_s, self._last_step_s = now_s - self._last_step_s, now_s
+        self._check_failsafe()
+        if self.custom_mode != RTL:
+            self._return_alt_m = None
         goal: tuple[float, float, float] | None = None
         if self.armed and self.custom_mode == GUIDED:
             goal = self.target
         elif self.armed and self.custom_mode == AUTO:
             goal = self._mission_target()
         elif self.armed and self.custom_mode == RTL:
-            goal = (0.0, 0.0, self.enu[2]) if math.hypot(*self.enu[:2]) > 0.5 else (0.0, 0.0, 0.0)
+            goal = self._rtl_goal()
         elif self.armed and self.custom_mode == LAND:
             goal = (self.enu[0], self.enu[1], 0.0)
         if goal is None:
@@ -109,6 +188,7 @@ class FlyingVehicle(SimVehicle):
 
     def _telemetry(self) -> None:
         self._step()
+        self.track.append((time.monotonic(), *self.enu))
         lat_deg, lon_deg, alt_m = enu_to_geodetic(self.geo_home, *self.enu)
         mav = self._conn.mav
         base_mode = m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (m.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)

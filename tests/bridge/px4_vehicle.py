@@ -22,8 +22,13 @@ v1.16.0) and from what real PX4 SITL did, independently of the bridge's own tabl
   personality.
 - **Streams** GLOBAL_POSITION_INT, MISSION_CURRENT and HOME_POSITION without being asked (its
   offboard and GCS links do), and answers ``MAV_CMD_REQUEST_MESSAGE`` for HOME_POSITION.
-- **The end**: AUTO.RTL flies home and lands, AUTO.LAND lands where it is; on the ground "Landing
-  detected" and disarmed.
+- **The end**: AUTO.RTL climbs to ``RTL_RETURN_ALT`` (metres above home; its altitude when higher),
+  flies home at it and lands; AUTO.LAND lands where it is; on the ground "Landing detected" and
+  disarmed.
+- **Data link loss** (Commander's GCS link check): once a ground station's heartbeat
+  (``MAV_TYPE_GCS``, any system id) was heard, an armed vehicle that hears none for
+  ``COM_DL_LOSS_T`` seconds takes ``NAV_DLL_ACT``: 0 nothing (PX4's default), 1 hold (AUTO.LOITER),
+  2 AUTO.RTL, 3 AUTO.LAND. Parameters travel bytewise (PX4's ``PARAM_ENCODE_BYTEWISE``).
 """
 
 from __future__ import annotations
@@ -37,13 +42,20 @@ from sim_vehicle import m
 from bridge.geo import Home, geodetic_to_enu
 from bridge.missions.items import DEG_E7
 
-__all__ = ["Px4Vehicle", "POSCTL", "TAKEOFF", "LOITER", "MISSION", "RTL", "LAND", "px4_mode"]
+__all__ = ["Px4Vehicle", "POSCTL", "TAKEOFF", "LOITER", "MISSION", "RTL", "LAND", "px4_mode", "FAILSAFE_ON"]
 
 POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND = (3, 0), (4, 2), (4, 3), (4, 4), (4, 5), (4, 6)
 _MODES = (POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND)
 _TAKEOFF_ALT_M = 2.5  # MIS_TAKEOFF_ALT's default, for a take-off without an altitude
 _HOME_PERIOD_S = 1.0
 _POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
+_INT32, _REAL32 = m.MAV_PARAM_TYPE_INT32, m.MAV_PARAM_TYPE_REAL32
+PX4_PARAMS = {"NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32),
+              "RTL_RETURN_ALT": (60.0, _REAL32), "GF_ACTION": (2.0, _INT32)}
+"""PX4 v1.16's defaults of the parameters ``fly`` reads (value, ``MAV_PARAM_TYPE``)."""
+_DLL_MODES = {1: LOITER, 2: RTL, 3: LAND}
+FAILSAFE_ON = {"NAV_DLL_ACT": 2.0}
+"""PX4's data link loss action set to Return (``params`` of a vehicle an operator prepared)."""
 
 
 def px4_mode(custom_mode: int) -> tuple[int, int]:
@@ -73,6 +85,25 @@ class Px4Vehicle(FlyingVehicle):
         options.setdefault("stream_until_asked", False)
         super().__init__(url, system_id, home=home, autopilot=m.MAV_AUTOPILOT_PX4,
                          custom_mode=_custom_mode(POSCTL), personality="px4", **options)
+
+    def _default_params(self) -> dict[str, tuple[float, int]]:
+        return dict(PX4_PARAMS)
+
+    def _watches(self, gcs_system_id: int) -> bool:
+        return True  # any ground station's heartbeat keeps PX4's data link
+
+    def _check_failsafe(self) -> None:
+        action = int(self.param("NAV_DLL_ACT"))
+        silent_s = None if self._gcs_heard_s is None else time.monotonic() - self._gcs_heard_s
+        if (action not in _DLL_MODES or not self.armed or self.mode in (RTL, LAND) or silent_s is None
+                or silent_s < self.param("COM_DL_LOSS_T") or self.enu[2] <= 0.0 or self.failsafes):
+            return
+        self.failsafes.append(time.monotonic())
+        self._say("Connection to ground station lost", m.MAV_SEVERITY_CRITICAL)
+        self.set_mode(_DLL_MODES[action])
+
+    def _rtl_alt_m(self) -> float:
+        return self.param("RTL_RETURN_ALT")
 
     # -- modes ---------------------------------------------------------------------------------
     def set_mode(self, mode: tuple[int, int]) -> None:
@@ -114,7 +145,7 @@ class Px4Vehicle(FlyingVehicle):
         if self.mode == MISSION:
             return self._mission_target()
         if self.mode == RTL:
-            return (0.0, 0.0, self.enu[2]) if math.hypot(*self.enu[:2]) > 0.5 else (0.0, 0.0, 0.0)
+            return self._rtl_goal()
         if self.mode == LAND:
             return (self.enu[0], self.enu[1], 0.0)
         return None
@@ -122,6 +153,9 @@ class Px4Vehicle(FlyingVehicle):
     def _step(self) -> None:
         now_s = time.monotonic()
         dt_s, self._last_step_s = now_s - self._last_step_s, now_s
+        self._check_failsafe()
+        if self.mode != RTL:
+            self._return_alt_m = None
         goal = self._goal()
         if goal is None:
             self.velocity = [0.0, 0.0, 0.0]

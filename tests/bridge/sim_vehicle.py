@@ -32,10 +32,16 @@ asks again for a missing item every 0.25 s for 5 s (PX4's retry and protocol tim
 other personality starts the upload again on every MISSION_COUNT (as ArduPilot does for the
 same ground station) and gives up after 5 requests again (``request_retries``).
 ``transfers_started`` counts the uploads the vehicle started.
+
+Parameters (``params``: name to value and ``MAV_PARAM_TYPE``) are served as the autopilots serve
+them: PARAM_REQUEST_READ by name or index and PARAM_SET are answered with PARAM_VALUE (a set's
+answer carries the new value), PARAM_REQUEST_LIST with every one; a name it does not have gets no
+answer. Integers travel cast to the float, or (``"px4"``) as their bytes in it, as PX4 sends them.
 """
 
 from __future__ import annotations
 
+import struct
 import threading
 import time
 
@@ -84,6 +90,7 @@ class SimVehicle:
         armed: bool = True,
         request_retries: int | None = None,
         custom_mode: int = LOITER,
+        params: dict[str, tuple[float, int]] | None = None,
     ) -> None:
         if personality not in PERSONALITIES:
             raise ValueError(f"personality = {personality!r}: choose one of {PERSONALITIES}")
@@ -112,6 +119,8 @@ class SimVehicle:
         self.uploads = 0
         self.reposition_target: tuple[int, int, float] | None = None
         self.custom_mode = custom_mode
+        self.params: dict[str, tuple[float, int]] = dict(params or {})
+        self.param_sets: list[tuple[str, float]] = []
         self._first_count_s: float | None = None
         self._rx: dict | None = None
         self._last_done_seq: int | None = None
@@ -386,6 +395,51 @@ class SimVehicle:
             )
             return
         self._command_ack(msg, m.MAV_RESULT_UNSUPPORTED)
+
+    # -- parameters ----------------------------------------------------------------------------
+    def param(self, name: str) -> float:
+        """The value of one of its parameters."""
+        return self.params[name][0]
+
+    def _param_wire(self, value: float, param_type: int) -> float:
+        if self.personality != "px4" or param_type == m.MAV_PARAM_TYPE_REAL32:
+            return float(value)
+        return struct.unpack("<f", struct.pack("<i", int(value)))[0]  # PX4: the int32's bytes
+
+    def _param_number(self, wire: float, param_type: int) -> float:
+        if self.personality != "px4" or param_type == m.MAV_PARAM_TYPE_REAL32:
+            return float(wire)
+        return float(struct.unpack("<i", struct.pack("<f", wire))[0])
+
+    def _send_param(self, name: str) -> None:
+        names = list(self.params)
+        value, param_type = self.params[name]
+        wire = self._param_wire(value, param_type)
+        self._conn.mav.param_value_send(param_id=name.encode(), param_value=wire, param_type=param_type,
+                                        param_count=len(names), param_index=names.index(name))
+
+    def _on_param_request_read(self, msg) -> None:
+        names = list(self.params)
+        name = str(msg.param_id).rstrip("\x00") if msg.param_index < 0 else (
+            names[msg.param_index] if msg.param_index < len(names) else "")
+        if name in self.params:
+            self._send_param(name)
+
+    def _on_param_request_list(self, msg) -> None:
+        for name in self.params:
+            self._send_param(name)
+
+    def _on_param_set(self, msg) -> None:
+        name = str(msg.param_id).rstrip("\x00")
+        if name not in self.params:
+            return
+        param_type = self.params[name][1]
+        value = self._param_number(msg.param_value, param_type)
+        if param_type != m.MAV_PARAM_TYPE_REAL32:
+            value = float(round(value))
+        self.params[name] = (value, param_type)
+        self.param_sets.append((name, value))
+        self._send_param(name)
 
     def _command_ack(self, msg, result: int) -> None:
         self._conn.mav.command_ack_send(command=msg.command, result=result, **self._targets(msg))

@@ -22,13 +22,57 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 from sim_vehicle import m, mavutil
 
-__all__ = ["Instances", "Observer", "px4_paths", "ardupilot_paths", "PX4_GCS_URL", "CMAC_HOME"]
+from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
+
+__all__ = ["Instances", "Observer", "px4_paths", "ardupilot_paths", "PX4_GCS_URL", "CMAC_HOME", "home_apart",
+           "reported_closest"]
 
 PX4_GCS_URL = "udpin:127.0.0.1:14550"
 CMAC_HOME = (-35.3633, 149.165, 584.0)
 """Where the ArduCopter instances start (``--home``)."""
+
+
+def home_apart(base: tuple[float, float, float], index: int,
+               spacing_m: float = 10.0) -> tuple[float, float, float]:
+    """Instance ``index``'s home: ``spacing_m`` East of the previous one's from ``base`` (lat, lon, alt)."""
+    lat_deg, lon_deg, _ = enu_to_geodetic(Home(lat_deg=base[0], lon_deg=base[1], alt_m=base[2]),
+                                          index * spacing_m, 0.0, 0.0)
+    return (round(lat_deg, 7), round(lon_deg, 7), base[2])
+
+
+def reported_closest(observers: dict, origin: tuple[float, float, float],
+                     step_s: float = 0.05) -> tuple[float, tuple[int, int], float]:
+    """The closest two vehicles came on their own reported positions (what the observers recorded).
+
+    Each vehicle's GLOBAL_POSITION_INT (latitude, longitude, height above its home; the homes at one
+    altitude) in the East-North-Up frame of ``origin``, interpolated on a common clock: the distance
+    (3-D, metres), the pair of system ids, the clock (monotonic s).
+    """
+    home = Home(lat_deg=origin[0], lon_deg=origin[1], alt_m=origin[2])
+    tracks = {}
+    for sid, observer in observers.items():
+        rows = observer.positions.get(sid, [])
+        if len(rows) < 2:
+            continue
+        tracks[sid] = np.array([(t, *geodetic_to_enu(home, lat, lon, origin[2])[:2], z)
+                                for t, z, lat, lon in rows])
+    best = (float("inf"), (-1, -1), float("nan"))
+    if len(tracks) < 2:
+        return best
+    clock = np.arange(max(t[0, 0] for t in tracks.values()), min(t[-1, 0] for t in tracks.values()), step_s)
+    points = {sid: np.column_stack([np.interp(clock, t[:, 0], t[:, c]) for c in (1, 2, 3)])
+              for sid, t in tracks.items()}
+    ids = sorted(points)
+    for a, first in enumerate(ids):
+        for second in ids[a + 1:]:
+            gaps = np.linalg.norm(points[first] - points[second], axis=1)
+            k = int(np.argmin(gaps))
+            if gaps[k] < best[0]:
+                best = (float(gaps[k]), (first, second), float(clock[k]))
+    return best
 
 
 def px4_paths(root: Path) -> tuple[Path, Path]:
@@ -67,8 +111,10 @@ class Instances:
         self.processes.append(process)
         return process
 
-    def start_px4(self, root: Path, instance: int) -> subprocess.Popen:
-        """PX4 SIH quadrotor instance ``instance`` (fresh parameters: its ``rootfs/<i>`` is removed first)."""
+    def start_px4(self, root: Path, instance: int,
+                  home: tuple[float, float, float] | None = None) -> subprocess.Popen:
+        """PX4 SIH quadrotor instance ``instance`` (fresh parameters: its ``rootfs/<i>`` is removed first),
+        at ``home`` (lat, lon, alt; ``None``: PX4's default)."""
         binary, shim = px4_paths(root)
         build = binary.parent.parent
         rootfs = build / "rootfs" / str(instance)
@@ -76,6 +122,8 @@ class Instances:
             subprocess.run(["rm", "-rf", str(rootfs)], check=True)
         env = {"PX4_SIM_MODEL": "sihsim_quadx", "PX4_SIMULATOR": "sihsim", "PX4_SYS_AUTOSTART": "10040",
                "LD_PRELOAD": str(shim)}
+        if home is not None:
+            env |= {"PX4_HOME_LAT": str(home[0]), "PX4_HOME_LON": str(home[1]), "PX4_HOME_ALT": str(home[2])}
         return self._start(f"px4-{instance}", [str(binary), "-i", str(instance), "-d"], build, env)
 
     def start_arducopter(self, root: Path, instance: int,

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 from booting_copter import PREARM_TEXT, BootingCopter
-from flying_vehicle import AUTO, RTL
+from flying_vehicle import AUTO, FAILSAFE_ON, RTL, launch_home
 from lossy_relay import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import endpoint_pair
@@ -53,7 +53,8 @@ def _fleet(n: int, seed: int, options: dict[int, dict] | None = None) -> tuple[l
         port = free_tcp_port() if transport == "tcp" else free_udp_port()
         vehicle_url, gcs_url = endpoint_pair(transport, port)
         options_i = (options or {}).get(i + 1, {})
-        vehicles.append(BootingCopter(vehicle_url, i + 1, **(_boot_times(rng) | options_i)))
+        prepared = {"home": launch_home(i), "params": FAILSAFE_ON}  # apart, as a real launch; failsafe set
+        vehicles.append(BootingCopter(vehicle_url, i + 1, **(_boot_times(rng) | prepared | options_i)))
         urls.append(gcs_url)
     return vehicles, urls
 
@@ -75,7 +76,8 @@ def _close(vehicles) -> None:
 def _restart(vehicles: list[BootingCopter], system_id: int, **options) -> BootingCopter:
     old = vehicles[system_id - 1]
     old.close()
-    vehicles[system_id - 1] = BootingCopter(old.url, system_id, fix_after_s=3.0, home_after_s=5.5, **options)
+    vehicles[system_id - 1] = BootingCopter(old.url, system_id, fix_after_s=3.0, home_after_s=5.5,
+                                            home=old.geo_home, params=FAILSAFE_ON, **options)
     return vehicles[system_id - 1]
 
 

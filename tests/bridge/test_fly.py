@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from flying_vehicle import AUTO, GUIDED, LAND, RTL, FlyingVehicle
+from flying_vehicle import AUTO, FAILSAFE_ON, GUIDED, LAND, RTL, FlyingVehicle, launch_home
 from lossy_relay import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import endpoint_pair
@@ -42,7 +42,8 @@ def _vehicles(n: int, transports: tuple[str, ...] = ("udpin",),
         transport = transports[i % len(transports)]
         port = free_tcp_port() if transport == "tcp" else free_udp_port()
         vehicle_url, gcs_url = endpoint_pair(transport, port)
-        vehicles.append(FlyingVehicle(vehicle_url, i + 1, **(options or {}).get(i + 1, {})))
+        prepared = {"home": launch_home(i), "params": FAILSAFE_ON}  # apart, as a real launch; failsafe set
+        vehicles.append(FlyingVehicle(vehicle_url, i + 1, **(prepared | (options or {}).get(i + 1, {}))))
         urls.append(gcs_url)
     return vehicles, urls
 
@@ -67,7 +68,7 @@ def _close(vehicles) -> None:
 
 def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
     """60 s of crowd time: every vehicle launched, one killed mid-flight and restarted, all sent RTL."""
-    options = {1: {"prearm_s": 4.0}} | {i: {"speed_m_s": 25.0} for i in range(2, 11)}
+    options = {1: {"prearm_s": 15.0}} | {i: {"speed_m_s": 25.0} for i in range(2, 11)}  # past the checks
     vehicles, urls = _vehicles(10, ("udpin", "udpout", "tcp"), options)
     endpoint = _free_endpoint()
     config = load_fly_config(None, {
@@ -83,7 +84,7 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
         with SwarmSubscriber(watch, callback=received.append, presence=True):
             runner = threading.Thread(target=lambda: outcome.update(result=fly(config, tmp_path / "out")))
             runner.start()
-            deadline = time.monotonic() + 30.0
+            deadline = time.monotonic() + 60.0  # one take-off at a time
             while time.monotonic() < deadline and not any(
                     isinstance(m, Plan) and m.seq >= 3 for m in received):
                 time.sleep(0.05)
@@ -91,7 +92,8 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
                 vehicles[sid - 1].close()  # killed in flight
             time.sleep(2 * LINK_TIMEOUT_S)  # silent twice the link timeout: lost however slow the machine
             for sid in (killed, killed_tcp):
-                vehicles[sid - 1] = FlyingVehicle(vehicles[sid - 1].url, sid, speed_m_s=25.0)
+                vehicles[sid - 1] = FlyingVehicle(vehicles[sid - 1].url, sid, speed_m_s=25.0,
+                                                  home=launch_home(sid - 1), params=FAILSAFE_ON)
             runner.join(timeout=300.0)  # bounded by the run itself (duration, ready and launch timeouts)
             assert not runner.is_alive()
             time.sleep(0.5)
@@ -162,12 +164,12 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
         "publish_telemetry": False, "flight": {"ready_timeout_s": 2.0, "end_action": "land"}})
     stop = threading.Event()
     try:
-        timer = threading.Timer(7.0, stop.set)  # as Ctrl-C or SIGTERM would
+        timer = threading.Timer(11.0, stop.set)  # as Ctrl-C or SIGTERM would
         timer.start()
-        threading.Timer(5.0, lambda: setattr(vehicles[1], "armed", False)).start()
+        threading.Timer(9.0, lambda: setattr(vehicles[1], "armed", False)).start()
         started = time.monotonic()
         result = fly(config, tmp_path / "out", stop_event=stop)
-        assert time.monotonic() - started < 20.0
+        assert time.monotonic() - started < 25.0
         statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
         assert statuses == {1: "ended", 2: "landed", 3: "lost"}
         assert "vehicle 3: no heartbeat" in caplog.text and "vehicle 2 disarmed in flight" in caplog.text

@@ -14,8 +14,10 @@ from pathlib import Path
 
 import pytest
 from fly_measures import altitude_share, live_rows, settled_distance_m
-from flying_vehicle import AUTO, GUIDED, RTL, FlyingVehicle
+from flying_vehicle import AUTO, GUIDED, RTL, FlyingVehicle, launch_home
+from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
 from lossy_relay import free_udp_port
+from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
 from px4_vehicle import LAND, LOITER, MISSION, Px4Vehicle, px4_mode
 from px4_vehicle import RTL as PX4_RTL
 from pymavlink.dialects.v20 import common as mavlink
@@ -45,7 +47,9 @@ def _fleet(kinds: str, **options) -> tuple[list, list[str]]:
     for sid, kind in enumerate(kinds, start=1):
         vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
         cls = Px4Vehicle if kind == "p" else FlyingVehicle
-        vehicles.append(cls(vehicle_url, sid, speed_m_s=25.0, **options))
+        failsafe = PX4_FAILSAFE if kind == "p" else ARDUPILOT_FAILSAFE
+        prepared = {"home": launch_home(sid - 1), "params": failsafe}
+        vehicles.append(cls(vehicle_url, sid, speed_m_s=25.0, **(prepared | options)))
         urls.append(gcs_url)
     return vehicles, urls
 
@@ -138,7 +142,8 @@ def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_ret
         time.sleep(1.0)
         vehicles[killed - 1].close()
         time.sleep(2 * LINK_TIMEOUT_S)  # silent twice the link timeout: lost however slow the machine
-        vehicles[killed - 1] = Px4Vehicle(vehicles[killed - 1].url, killed, speed_m_s=25.0)
+        vehicles[killed - 1] = Px4Vehicle(vehicles[killed - 1].url, killed, speed_m_s=25.0,
+                                          home=launch_home(killed - 1), params=PX4_FAILSAFE)
         runner.join(timeout=300.0)  # bounded by the run itself
         assert not runner.is_alive()
         time.sleep(0.3)

@@ -13,8 +13,10 @@ from pathlib import Path
 
 import rclpy  # noqa: F401  (the ros2 extra: the test command installs it; missing, the tests fail)
 from fly_measures import live_rows
-from flying_vehicle import FlyingVehicle
+from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
+from flying_vehicle import FlyingVehicle, launch_home
 from lossy_relay import free_udp_port
+from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
 from px4_vehicle import Px4Vehicle
 from ros2_run import domain_id, ros_env, start_peer
 from sim_vehicle import endpoint_pair
@@ -39,12 +41,15 @@ def test_a_ros2_operator_flies_a_px4_and_an_ardupilot_vehicle_to_its_targets(tmp
     vehicles, urls = [], []
     for sid, kind in enumerate("papa", start=1):  # UAV 0 and 2: PX4; UAV 1 and 3: ArduPilot
         vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
-        vehicles.append((Px4Vehicle if kind == "p" else FlyingVehicle)(vehicle_url, sid, speed_m_s=25.0))
+        failsafe = PX4_FAILSAFE if kind == "p" else ARDUPILOT_FAILSAFE  # set, as an operator would
+        prepared = {"home": launch_home(sid - 1), "params": failsafe}  # 10 m apart, as a real launch
+        vehicles.append((Px4Vehicle if kind == "p" else FlyingVehicle)(vehicle_url, sid, speed_m_s=25.0,
+                                                                      **prepared))
         urls.append(gcs_url)
     domain = domain_id()
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 40.0,
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 80.0,  # guarded
         "speedup": 4.0, "publish_telemetry": False,
         "flight": {"link_timeout_s": 3.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         "ros2": {"enabled": True, "namespace": "/fleet", "wait_for_subscriber_s": 120.0}})

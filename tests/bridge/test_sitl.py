@@ -11,7 +11,12 @@ A test whose build is not given is skipped with that reason. Every instance list
 only (the shim) and is ended by its own PID. What each flight measured is logged (``measured:``):
 per vehicle, the share of the loop within 2 m of the cruise altitude above its own home, the
 distance to its target at the end and to its last settled target (before a target jump of the last
-10 s, :func:`fly_measures.settled_distance_m`), its mode after the end.
+10 s, :func:`fly_measures.settled_distance_m`), its mode after the end; and for the fleet the closest
+two vehicles came from take-off to landing on their own reported positions (an independent observer's
+GLOBAL_POSITION_INT, :func:`sitl.reported_closest`), judged against ``[uav] min_separation_m`` (5 m).
+The instances stand on distinct homes 10 m apart, as a real launch; their link-loss failsafe is off by
+default (ArduPilot ``FS_GCS_ENABLE = 0``, PX4 ``NAV_DLL_ACT = 0``), so ``fly`` runs with
+``set_failsafe``.
 """
 
 from __future__ import annotations
@@ -19,13 +24,25 @@ from __future__ import annotations
 import logging
 import os
 import re
+import subprocess
+import sys
 import time
 from pathlib import Path
 
 import pytest
 from fly_measures import final_distance_m, live_rows, settled_distance_m
+from peer_tracks import FixedTargets
 from pymavlink.dialects.v20 import common as mavlink
-from sitl import CMAC_HOME, PX4_GCS_URL, Instances, Observer, ardupilot_paths, px4_paths
+from sitl import (
+    CMAC_HOME,
+    PX4_GCS_URL,
+    Instances,
+    Observer,
+    ardupilot_paths,
+    home_apart,
+    px4_paths,
+    reported_closest,
+)
 
 from bridge.autopilots import PX4
 from bridge.config import ProtocolConfig
@@ -47,7 +64,9 @@ needs_ardupilot = pytest.mark.skipif(AP_ROOT is None or not ardupilot_paths(AP_R
                                      reason="ARDUPILOT_SITL_DIR does not name an ArduPilot SITL build root")
 
 ALT_M = 10.0
+MIN_M = 5.0  # [uav] min_separation_m's default
 PX4_HOME = (47.3977418, 8.5455938, 488.0)  # configs/bridge/px4_sitl_10.toml
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _px4_url(instance: int) -> str:
@@ -68,17 +87,29 @@ def _bridge_toml(path: Path, home: tuple[float, float, float], urls: dict[int, s
     return path
 
 
-def _fly_and_measure(tmp_path: Path, toml: Path, observers: dict[int, Observer], config_alt_m: float,
-                     mode: str = "guided") -> dict[int, dict[str, object]]:
-    """Fly 60 s; per vehicle: altitude share within 2 m (above its own home), final distance, mode after."""
-    config = load_fly_config(None, {
-        "bridge_config": str(toml), "duration_s": 60.0, "speedup": 1.0, "publish_telemetry": False,
-        "mode": mode,
+def _fly_config(toml: Path, mode: str = "guided", duration_s: float = 60.0):
+    return load_fly_config(None, {
+        "bridge_config": str(toml), "duration_s": duration_s, "speedup": 1.0, "publish_telemetry": False,
+        "mode": mode, "set_failsafe": True,
         "flight": {"ready_timeout_s": 120.0, "arm_timeout_s": 90.0, "takeoff_timeout_s": 90.0,
                    "link_timeout_s": 5.0}})
-    result = fly(config, tmp_path / "out")
+
+
+def _landed(observers: dict[int, Observer], timeout_s: float = 180.0) -> bool:
+    return all(o.wait(lambda o, sid=sid: o.armed.get(sid) is False, timeout_s)
+               for sid, o in observers.items())
+
+
+def _fly_and_measure(tmp_path: Path, toml: Path, observers: dict[int, Observer], config_alt_m: float,
+                     mode: str = "guided", origin: tuple[float, float, float] = PX4_HOME,
+                     planner=None) -> dict[int, dict[str, object]]:  # noqa: ANN001 - a test planner
+    """Fly 60 s; per vehicle: altitude share within 2 m (above its own home), final distance, mode after,
+    and the fleet's closest approach on its reported positions from take-off to landing."""
+    result = fly(_fly_config(toml, mode), tmp_path / "out", planner=planner)
     ended = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
     time.sleep(5.0)  # the end action under way
+    landed = _landed(observers)
+    closest = reported_closest(observers, origin)
     rows = live_rows(tmp_path / "out")
     measured = {}
     for sid, observer in observers.items():
@@ -88,7 +119,9 @@ def _fly_and_measure(tmp_path: Path, toml: Path, observers: dict[int, Observer],
         measured[sid] = {"status": ended.get(sid), "altitude_share": round(share, 3), "rows": len(heights),
                          "final_distance_m": round(final_distance_m(rows.get(sid, [])), 2),
                          "settled_distance_m": round(settled_distance_m(rows.get(sid, [])), 2),
-                         "mode_after": observer.modes.get(sid),
+                         "mode_after": observer.modes.get(sid), "landed": landed,
+                         "fleet_closest_m": round(closest[0], 2), "closest_pair": closest[1],
+                         "guard_holds": result.summary["separation"]["holds"],
                          "modes_seen": sorted(observer.modes_seen.get(sid, ())), "landing_texts": [
                              t for t in observer.texts.get(sid, []) if "Landing" in t or "Disarmed" in t]}
     log.info("measured: %s; mean QoS S1 %s", measured, result.summary.get("mean_qos_s1"))
@@ -98,6 +131,7 @@ def _fly_and_measure(tmp_path: Path, toml: Path, observers: dict[int, Observer],
 def _assert_flown(measured: dict[int, dict[str, object]], rtl_modes: dict[int, str]) -> None:
     for sid, values in measured.items():
         assert values["status"] == "ended", (sid, values)
+        assert values["landed"] and values["fleet_closest_m"] >= MIN_M, (sid, values)
         assert values["altitude_share"] >= 0.95, (sid, values)
         assert values["settled_distance_m"] <= 5.0, (sid, values)
         assert values["mode_after"] == rtl_modes[sid], (sid, values)
@@ -118,7 +152,7 @@ def _wait_homes(observers: dict[int, Observer], timeout_s: float) -> None:
 def test_px4_mission_upload_and_the_clear_guard_at_its_take_off_item(tmp_path, capsys):
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(3):
-            sitl.start_px4(PX4_ROOT, i)
+            sitl.start_px4(PX4_ROOT, i, home=home_apart(PX4_HOME, i))
         observer = Observer(PX4_GCS_URL, ask=(1, 2, 3))
         try:
             _wait_homes({sid: observer for sid in (1, 2, 3)}, 60.0)
@@ -152,7 +186,7 @@ def test_px4_mission_upload_and_the_clear_guard_at_its_take_off_item(tmp_path, c
 def test_three_px4_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(3):
-            sitl.start_px4(PX4_ROOT, i)
+            sitl.start_px4(PX4_ROOT, i, home=home_apart(PX4_HOME, i))
         observer = Observer(PX4_GCS_URL, ask=(1, 2, 3))
         try:
             observers = {sid: observer for sid in (1, 2, 3)}
@@ -174,7 +208,7 @@ def test_two_px4_fly_60_s_in_mission_mode(tmp_path):
     """
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(2):
-            sitl.start_px4(PX4_ROOT, i)
+            sitl.start_px4(PX4_ROOT, i, home=home_apart(PX4_HOME, i))
         observer = Observer(PX4_GCS_URL, ask=(1, 2))
         try:
             observers = {sid: observer for sid in (1, 2)}
@@ -192,14 +226,14 @@ def test_two_px4_fly_60_s_in_mission_mode(tmp_path):
 def test_five_arducopters_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(5):
-            sitl.start_arducopter(AP_ROOT, i)
+            sitl.start_arducopter(AP_ROOT, i, home=home_apart(CMAC_HOME, i))
         time.sleep(2.0)  # the TCP ports open
         observers = {i + 1: Observer(_ardupilot_url(i, serial=0), ask=(i + 1,)) for i in range(5)}
         try:
             _wait_homes(observers, 180.0)
             urls = {i + 1: _ardupilot_url(i) for i in range(5)}
             toml = _bridge_toml(tmp_path / "bridge.toml", CMAC_HOME, urls)
-            measured = _fly_and_measure(tmp_path, toml, observers, CMAC_HOME[2])
+            measured = _fly_and_measure(tmp_path, toml, observers, CMAC_HOME[2], origin=CMAC_HOME)
         finally:
             for observer in observers.values():
                 observer.close()
@@ -246,9 +280,9 @@ def test_arducopter_clear_guard_at_its_take_off_item(tmp_path, capsys):
 def test_a_mixed_fleet_of_two_px4_and_two_arducopters_flies_one_fly(tmp_path):
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(2):
-            sitl.start_px4(PX4_ROOT, i)
-        for i in (2, 3):  # beside the PX4s: one home for the fleet's frame
-            sitl.start_arducopter(AP_ROOT, i, home=PX4_HOME)
+            sitl.start_px4(PX4_ROOT, i, home=home_apart(PX4_HOME, i))
+        for i in (2, 3):  # beside the PX4s, 10 m apart: one frame for the fleet
+            sitl.start_arducopter(AP_ROOT, i, home=home_apart(PX4_HOME, i))
         time.sleep(2.0)
         px4_observer = Observer(PX4_GCS_URL, ask=(1, 2))
         observers = {1: px4_observer, 2: px4_observer,
@@ -263,3 +297,77 @@ def test_a_mixed_fleet_of_two_px4_and_two_arducopters_flies_one_fly(tmp_path):
             for observer in {id(o): o for o in observers.values()}.values():
                 observer.close()
     _assert_flown(measured, dict.fromkeys(measured, "RTL"))
+
+
+def _start(sitl: Instances, kind: str, n: int, spacing_m: float = 10.0) -> tuple[dict, dict, tuple]:
+    """``n`` instances of one autopilot on homes ``spacing_m`` apart: observers, bridge URLs, the frame."""
+    if kind == "px4":
+        for i in range(n):
+            sitl.start_px4(PX4_ROOT, i, home=home_apart(PX4_HOME, i, spacing_m))
+        observer = Observer(PX4_GCS_URL, ask=tuple(range(1, n + 1)))
+        return {i + 1: observer for i in range(n)}, {i + 1: _px4_url(i) for i in range(n)}, PX4_HOME
+    for i in range(n):
+        sitl.start_arducopter(AP_ROOT, i, home=home_apart(CMAC_HOME, i, spacing_m))
+    time.sleep(2.0)  # the TCP ports open
+    observers = {i + 1: Observer(_ardupilot_url(i, serial=0), ask=(i + 1,)) for i in range(n)}
+    return observers, {i + 1: _ardupilot_url(i) for i in range(n)}, CMAC_HOME
+
+
+@pytest.mark.parametrize("kind", [pytest.param("ardupilot", marks=needs_ardupilot),
+                                  pytest.param("px4", marks=needs_px4)])
+def test_a_head_on_swap_on_real_autopilots_keeps_the_minimum_on_their_reported_positions(tmp_path, kind):
+    """Two vehicles 40 m apart sent to each other's place: the closest pair from take-off to landing, as the
+    vehicles themselves report it, stays >= the minimum; both reach the other's place."""
+    with Instances(tmp_path / "sitl") as sitl:
+        observers, urls, home = _start(sitl, kind, 2, spacing_m=40.0)
+        try:
+            _wait_homes(observers, 180.0)
+            toml = _bridge_toml(tmp_path / "bridge.toml", home, urls)
+            measured = _fly_and_measure(tmp_path, toml, observers, home[2], origin=home,
+                                        planner=FixedTargets([(40.0, 0.0), (0.0, 0.0)]))
+        finally:
+            for observer in {id(o): o for o in observers.values()}.values():
+                observer.close()
+    _assert_flown(measured, dict.fromkeys(measured, "RTL"))
+    assert all(values["guard_holds"] >= 1 for values in measured.values())
+
+
+@pytest.mark.parametrize("kind", [pytest.param("ardupilot", marks=needs_ardupilot),
+                                  pytest.param("px4", marks=needs_px4)])
+def test_kill_9_of_fly_sends_every_real_autopilot_home_by_its_own_failsafe(tmp_path, kind):
+    """Three vehicles in guided flight, ``fly`` killed: each leaves guided flight for RTL within its failsafe
+    timeout + 5 s (its own parameter, set by ``--set-failsafe``), and they land without two closer than
+    the minimum on their reported positions."""
+    with Instances(tmp_path / "sitl") as sitl:
+        observers, urls, home = _start(sitl, kind, 3)
+        try:
+            _wait_homes(observers, 180.0)
+            toml = _bridge_toml(tmp_path / "bridge.toml", home, urls)
+            env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+            process = subprocess.Popen(
+                [sys.executable, "-m", "uav_swarm", "fly", "--bridge-config", str(toml), "--out",
+                 str(tmp_path / "out"), "--duration-s", "600", "--no-telemetry", "--wait-ready-s", "120",
+                 "--set-failsafe"], env=env, cwd=str(REPO))
+            guided = "GUIDED" if kind == "ardupilot" else "LOITER"
+            def airborne(o: Observer, sid: int) -> bool:
+                return bool(o.modes.get(sid) == guided and o.positions.get(sid)
+                            and o.positions[sid][-1][1] > ALT_M - 1.0)
+
+            flying = all(o.wait(lambda o, sid=sid: airborne(o, sid), 300.0) for sid, o in observers.items())
+            time.sleep(10.0)  # flying the planner's targets
+            process.kill()
+            killed_s = time.monotonic()
+            process.wait(timeout=10.0)
+            timeout_s = 5.0 if kind == "ardupilot" else 10.0  # FS_GCS_TIMEOUT, COM_DL_LOSS_T defaults
+            left = {sid: o.wait(lambda o, sid=sid: o.modes.get(sid) == "RTL", timeout_s + 5.0)
+                    for sid, o in observers.items()}
+            left_s = time.monotonic() - killed_s
+            landed = _landed(observers)
+            closest = reported_closest(observers, home)
+            log.info("measured: kill -9 of fly; in RTL %s within %.1f s; landed %s; closest %.2f m %s",
+                     left, left_s, landed, closest[0], closest[1])
+        finally:
+            for observer in {id(o): o for o in observers.values()}.values():
+                observer.close()
+    assert flying and all(left.values()) and landed
+    assert closest[0] >= MIN_M, closest

@@ -1,10 +1,15 @@
 """``uav-swarm fly``: the planner flies real or SITL autopilots over the simulated crowd, live.
 
 Every vehicle of the bridge config is waited for (heartbeat, then its position fix and its home, each
-vehicle on its own, for at most --wait-ready-s, saying what it waits for), switched to its guided
-mode, armed and taken off to ``[uav] alt_m`` above its home; then the planner replans every
+vehicle on its own, for at most --wait-ready-s, saying what it waits for) and checked before any is
+armed: take-off positions at least ``[uav] min_separation_m`` apart (its own home, or the ``[launch]``
+grid), its link-loss failsafe on (ArduPilot FS_GCS_ENABLE, PX4 NAV_DLL_ACT; --set-failsafe sets it
+instead of refusing), its return altitude set to its own layer. One at a time, each is switched to its
+guided mode, armed and taken off to ``[uav] alt_m`` above its home; then the planner replans every
 ``--replan-every-s`` from the vehicles' measured positions and sends each one its target while it
-flies (``--mode guided``: MAV_CMD_DO_REPOSITION; ``--mode mission``: a new mission flown in AUTO).
+flies (``--mode guided``: MAV_CMD_DO_REPOSITION; ``--mode mission``: a new mission flown in AUTO),
+through the separation guard, which holds a vehicle whose predicted track comes closer than the
+minimum to another's (``[guard]``).
 At the end (``--duration-s`` of crowd time, Ctrl-C or SIGTERM) every vehicle is sent RTL
 (``--end land``: LAND). Vehicle states, plans and QoS go out over Zenoh (tcp/127.0.0.1:7447).
 Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json; ``--record flight.mcap``
@@ -17,7 +22,8 @@ Examples:
   uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
 
 Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (outputs
-written), 2 bad configuration, checkpoint or telemetry endpoint (before anything is sent to a vehicle).
+written), 2 bad configuration, checkpoint or telemetry endpoint (before anything is sent to a vehicle),
+or a pre-flight refusal (before any vehicle is armed; nothing written).
 """
 
 from __future__ import annotations
@@ -62,6 +68,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(parser, "--n-uavs", cfg + "n_uavs")
     config_flag(parser, "--seed", cfg + "seed")
     add("--no-telemetry", action="store_true", help="do not publish over Zenoh")
+    add("--set-failsafe", action="store_true",
+        help="set a vehicle's missing link-loss failsafe to return to launch (and ArduPilot's SYSID_MYGCS to "
+             "this bridge) instead of refusing the flight (default: off, refuse)")
     add("--ros2", action="store_true",
         help="publish the flight on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
              "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
@@ -86,6 +95,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         overrides["flight"] = flight
     if args.no_telemetry:
         overrides["publish_telemetry"] = False
+    if args.set_failsafe:
+        overrides["set_failsafe"] = True
     if args.ros2:
         overrides["ros2"] = {"enabled": True}
     return overrides
@@ -129,6 +140,13 @@ def run(args: argparse.Namespace) -> int:
     for vehicle in summary["vehicles"]:
         print(f"vehicle {vehicle['system_id']} (uav {vehicle['uav_id']}): {vehicle['status']}, "
               f"{vehicle['launches']} launch(es), {vehicle['command_failures']} command failure(s)")
+    separation = summary["separation"]
+    if separation["closest_m"] is not None:
+        first, second = separation["closest_pair"]
+        print(f"separation: closest pair {separation['closest_m']:.1f} m (uav {first} and {second} at "
+              f"{separation['closest_t_s']:.1f} s), {separation['conflicts']} conflict(s), "
+              f"{separation['time_below_min_s']:.1f} s below {separation['min_separation_m']:g} m, "
+              f"{separation['holds']} hold(s) by the guard")
     if "mean_qos_s1" in summary:
         print(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: mean QoS S1 "
               f"{summary['mean_qos_s1']:.3f}, S2 {summary['mean_qos_s2']:.3f}, "

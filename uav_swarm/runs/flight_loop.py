@@ -3,13 +3,15 @@
 :class:`Flight` runs the crowd world in real time (or ``speedup`` times faster) and, every
 ``replan_every_s`` of crowd time, plans from the vehicles' **measured** positions and sends each
 live vehicle its new target while it flies (``MAV_CMD_DO_REPOSITION``, or a new mission flown in
-AUTO). Vehicles are launched as soon as they are ready (a position fix and their home, each waited
-for on its own, :meth:`bridge.flight.fleet.Fleet.wait_ready`; then :mod:`bridge.flight.guided`); a
-vehicle silent for ``flight.link_timeout_s`` is lost and replanned around, and launched again when
-heard; a live vehicle seen disarmed is left out. At the end every launch still running is
-cancelled and every vehicle heard is sent RTL or LAND. States are published as each position
-arrives, plans and QoS as they are made. :func:`uav_swarm.runs.fly.fly` opens the fleet and
-telemetry and writes the outputs.
+AUTO), through the separation guard (:mod:`uav_swarm.runs.flight_safety`), which holds a vehicle
+whose predicted track comes too close to another's. Every vehicle heard is first made ready (a
+position fix and its home, each waited for on its own, :meth:`bridge.flight.fleet.Fleet.wait_ready`)
+and checked (take-off positions, link-loss failsafe, return altitude) before any is armed; then
+they take off one at a time (:mod:`bridge.flight.guided`); a vehicle silent for
+``flight.link_timeout_s`` is lost and replanned around, and launched again when heard; a live
+vehicle seen disarmed is left out. At the end every launch still running is cancelled and every
+vehicle heard is sent RTL or LAND. States are published as each position arrives, plans and QoS as
+they are made. :func:`uav_swarm.runs.fly.fly` opens the fleet and telemetry and writes the outputs.
 """
 
 from __future__ import annotations
@@ -25,7 +27,9 @@ import numpy as np
 
 from bridge.errors import BridgeError
 from bridge.flight.guided import end_flight, launch, set_mode
+from bridge.flight.preflight import PreflightError
 from uav_swarm.planning.planner import Planner, make_planner
+from uav_swarm.runs.flight_safety import FlightSafety
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import QosTrace
@@ -36,6 +40,7 @@ from uav_swarm.world.scenario import random_scenario
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
     from bridge.flight.fleet import Fleet
+    from bridge.flight.vehicle_home import ReportedHome
     from bridge.link.vehicle_state import VehicleState
     from uav_swarm.runs.steering import OperatorTargets
 
@@ -44,6 +49,7 @@ __all__ = ["Flight"]
 logger = logging.getLogger(__name__)
 
 _RESEND_M = 0.5  # a target moved less than this is not sent again
+_HOME_M = 2.0  # a vehicle returning this close to its home (horizontally) is sent RTL
 _TICK_S = 0.02  # longest sleep of the loop (wall clock)
 
 
@@ -62,6 +68,7 @@ class _Vehicle:
     job: Future | None = None
     command_failures: int = 0
     launches: int = 0
+    sent_state: str = ""
 
 
 class Flight:
@@ -105,7 +112,10 @@ class Flight:
         self.crowd = CrowdSim(self.scenario, config.task.crowd, rng)
         self._association = Association(config.task.radio)
         """The users' association over the flight (admission control keeps incumbents on their UAV)."""
-        self.alt_m = float(config.uav.alt_m)
+        self.safety = FlightSafety(config, bridge, fleet, self._stop,
+                                   lambda kind, sid, detail: self._event(kind, self._by_sid.get(sid), detail))
+        self._refused = False
+        self._next_guard_s = 0.0
         fleet.tracker.add_listener(self._on_state)
 
     # -- control -------------------------------------------------------------------------------
@@ -143,22 +153,30 @@ class Flight:
                 and time.time() - state.heartbeat_time_s <= seconds)
 
     # -- launch --------------------------------------------------------------------------------
-    def _start_launch(self, vehicle: _Vehicle) -> None:
+    def _start_launch(self, vehicle: _Vehicle, home: ReportedHome | None = None) -> None:
         vehicle.status = "launching"
         vehicle.launches += 1
         vehicle.in_auto = False
         vehicle.sent_m = None
-        vehicle.job = self._pool.submit(self._launch_one, vehicle)
+        vehicle.job = self._pool.submit(self._launch_one, vehicle, home)
 
-    def _launch_one(self, vehicle: _Vehicle) -> None:
-        autopilot = self.fleet.conventions(vehicle.system_id).autopilot  # from its HEARTBEAT
+    def _ready(self, vehicle: _Vehicle) -> ReportedHome:
+        """A fix and its home (checked against [home]) before anything that moves it."""
+        flight = self.config.flight
+        return self.fleet.wait_ready(vehicle.system_id, flight.ready_timeout_s, flight.stream_rate_hz,
+                                     cancel=self._stop)
+
+    def _launch_one(self, vehicle: _Vehicle, home: ReportedHome | None = None) -> None:
+        """Launch a checked vehicle (``home`` given), or check one taken back in flight first."""
+        sid = vehicle.system_id
+        autopilot = self.fleet.conventions(sid).autopilot  # from its HEARTBEAT
         try:
-            flight = self.config.flight  # a fix and its home first, checked before anything that moves it
-            home = self.fleet.wait_ready(vehicle.system_id, flight.ready_timeout_s, flight.stream_rate_hz,
-                                         cancel=self._stop)
-            launch(self.fleet.link(vehicle.system_id), self.fleet.tracker, vehicle.system_id, autopilot,
-                   self.alt_m, self.config.flight, self.bridge.protocol, cancel=self._stop,
-                   home_alt_m=home.home.alt_m)
+            if home is None:
+                home = self._ready(vehicle)
+                self.safety.check_relaunch(sid, home)
+            launch(self.fleet.link(sid), self.fleet.tracker, sid, autopilot, self.safety.cruise_alt_m[sid],
+                   self.config.flight, self.bridge.protocol, cancel=self._stop, home_alt_m=home.home.alt_m,
+                   takeoff_gate=self.safety.takeoff_gate(sid))
         except BridgeError as exc:
             if vehicle.status == "lost" or self._stop.is_set():  # taken back when heard / the flight ends
                 return
@@ -171,10 +189,43 @@ class Flight:
             self.outputs.announce(vehicle.uav_id)
             self._event("live", vehicle)
 
-    def _launch_all(self) -> None:
-        """Launch each vehicle as soon as it is heard; return when none is still waiting or launching."""
+    def _check_all(self) -> dict[int, ReportedHome]:
+        """Every vehicle heard within the ready timeout made ready and checked, before any is armed.
+
+        Raises:
+            PreflightError: Take-off positions too close, or a vehicle without a link-loss failsafe.
+        """
         flight = self.config.flight
         deadline_s = time.monotonic() + flight.ready_timeout_s
+        while not self._stop.is_set() and time.monotonic() < deadline_s and not all(
+                self._heard_within(v, flight.link_timeout_s) for v in self.vehicles):
+            time.sleep(_TICK_S)
+        heard = [v for v in self.vehicles if self._heard_within(v, flight.link_timeout_s)]
+        jobs = {v.system_id: self._pool.submit(self._ready, v) for v in heard}
+        homes: dict[int, ReportedHome] = {}
+        for vehicle in heard:
+            try:
+                homes[vehicle.system_id] = jobs[vehicle.system_id].result()
+            except BridgeError as exc:
+                if self._stop.is_set():
+                    continue
+                vehicle.status = "failed"
+                logger.warning("vehicle %d not launched: %s: %s", vehicle.system_id, type(exc).__name__, exc)
+                self._event("launch_failed", vehicle, f"{type(exc).__name__}: {exc}")
+        if homes and not self._stop.is_set():
+            try:
+                self.safety.check_launch(homes)
+            except PreflightError:
+                self._refused = True
+                raise
+        return homes
+
+    def _launch_all(self) -> None:
+        """Check every vehicle heard, then launch them; return when none is still waiting or launching."""
+        flight = self.config.flight
+        deadline_s = time.monotonic() + flight.ready_timeout_s
+        for sid, home in self._check_all().items():
+            self._start_launch(self._by_sid[sid], home)
         while not self._stop.is_set():
             for vehicle in self.vehicles:
                 if vehicle.status == "waiting" and self._heard_within(vehicle, flight.link_timeout_s):
@@ -189,6 +240,7 @@ class Flight:
                 waiting = []
             if not waiting and not any(v.status == "launching" for v in self.vehicles):
                 break
+            self._guard_if_due()  # the climbing vehicles are watched from their take-off on
             time.sleep(_TICK_S)
         if not self._stop.is_set() and not any(v.status == "live" for v in self.vehicles):
             failed = "; ".join(f"vehicle {v.system_id}: {v.status}" for v in self.vehicles)
@@ -244,7 +296,8 @@ class Flight:
             planner.reset()
         positions = np.array([(s.x_m, s.y_m) for _, s in live])
         result = planner.plan(self.crowd.positions_m, positions, self.crowd.velocities_m_s)
-        targets = [(float(x), float(y), self.alt_m) for x, y in result.targets_m]
+        targets = [(float(x), float(y), self.safety.cruise_alt_m[v.system_id])
+                   for (v, _), (x, y) in zip(live, result.targets_m, strict=True)]
         self.plans.append({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
         targets = self._steered(live, targets)
         if self.outputs.active:
@@ -265,7 +318,7 @@ class Flight:
             return targets
         self.steering.planned({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
         held = self.steering.held()
-        return [(*held[v.uav_id], self.alt_m) if v.uav_id in held else t
+        return [(*held[v.uav_id], self.safety.cruise_alt_m[v.system_id]) if v.uav_id in held else t
                 for (v, _), t in zip(live, targets, strict=True)]
 
     def _steer(self) -> None:
@@ -273,22 +326,51 @@ class Flight:
         live = self._live()
         planned = self.plans[-1] if self.plans else {}
         here = [planned.get(v.uav_id, (float(s.x_m or 0.0), float(s.y_m or 0.0))) for v, s in live]
-        targets = self._steered(live, [(x, y, self.alt_m) for x, y in here])
+        targets = self._steered(live, [(x, y, self.safety.cruise_alt_m[v.system_id])
+                                       for (v, _), (x, y) in zip(live, here, strict=True)])
         self._send(live, targets)
 
     def _send(self, live: list[tuple[_Vehicle, VehicleState]], targets: list[tuple[float, float, float]]
               ) -> None:
+        """Each live vehicle's new target, flown through the separation guard (:meth:`_guard_tick`)."""
         for (vehicle, _), target in zip(live, targets, strict=True):
-            moved = vehicle.sent_m is None or np.hypot(target[0] - vehicle.sent_m[0],
-                                                       target[1] - vehicle.sent_m[1]) > _RESEND_M
-            if moved and (vehicle.job is None or vehicle.job.done()):
-                vehicle.job = self._pool.submit(self._send_target, vehicle, target)
+            vehicle.target_m = target  # sent through the guard (_guard_tick)
 
-    def _send_target(self, vehicle: _Vehicle, target: tuple[float, float, float]) -> None:
+    # -- separation guard ----------------------------------------------------------------------
+    def _guard_if_due(self) -> None:
+        """A guard decision every ``1 / guard.rate_hz`` wall-clock seconds (the vehicles fly in real time)."""
+        if time.monotonic() >= self._next_guard_s:
+            self._next_guard_s = time.monotonic() + 1.0 / self.config.guard.rate_hz
+            self._guard_tick()
+
+    def _guard_tick(self) -> None:
+        """The guard's decisions on the measured positions; a changed point is sent to its vehicle."""
+        flying = []
+        for vehicle in self.vehicles:
+            state = self._state(vehicle)
+            if state is None or state.x_m is None:
+                continue
+            returning = vehicle.status in ("ending", "ended") and state.armed  # landing: an obstacle
+            if vehicle.status in ("live", "launching") or returning:
+                goal = vehicle.target_m[:2] if vehicle.status == "live" and vehicle.target_m else None
+                flying.append((vehicle.system_id, state, goal, vehicle.status == "live"))
+        for sid, decision in self.safety.decide(flying, self._clock_s, time.monotonic()):
+            vehicle = self._by_sid[sid]
+            if decision.point_m is None or vehicle.status != "live":
+                continue
+            point = (*decision.point_m, self.safety.cruise_alt_m[sid])
+            same = (vehicle.sent_m is not None and vehicle.sent_state == decision.state
+                    and np.hypot(point[0] - vehicle.sent_m[0], point[1] - vehicle.sent_m[1]) <= _RESEND_M)
+            if not same and (vehicle.job is None or vehicle.job.done()):
+                vehicle.job = self._pool.submit(self._send_target, vehicle, point, decision.state)
+
+    def _send_target(self, vehicle: _Vehicle, target: tuple[float, float, float],
+                     state: str = "free") -> None:
         sid = vehicle.system_id
         try:
-            if self.config.mode == "guided":
+            if self.config.mode == "guided" or state != "free":  # a hold is a guided reposition
                 self.fleet.reposition(sid, *target, speed_m_s=self.config.uav.max_speed_m_s)  # the planner's
+                vehicle.in_auto = False
             else:
                 self._fly_mission(vehicle, target)
         except BridgeError as exc:
@@ -297,7 +379,7 @@ class Flight:
                            type(exc).__name__, exc)
             self._event("command_failed", vehicle, f"{type(exc).__name__}: {exc}")
             return
-        vehicle.sent_m = vehicle.target_m = target
+        vehicle.sent_m, vehicle.sent_state = target, state
 
     def _fly_mission(self, vehicle: _Vehicle, target: tuple[float, float, float]) -> None:
         from pymavlink.dialects.v20.common import MAV_CMD_NAV_WAYPOINT as NAV_WAYPOINT
@@ -306,7 +388,8 @@ class Flight:
 
         sid = vehicle.system_id
         conventions = self.fleet.conventions(sid)
-        shape = self.bridge.mission.replace(takeoff_alt_m=self.alt_m, cruise_alt_m=self.alt_m,
+        alt_m = self.safety.cruise_alt_m[sid]
+        shape = self.bridge.mission.replace(takeoff_alt_m=alt_m, cruise_alt_m=alt_m,
                                             speed_m_s=self.config.uav.max_speed_m_s)  # the planner's speed
         mission = build_mission([target], self.bridge.home, shape, self.bridge.geofence,
                                 conventions.autopilot)
@@ -368,6 +451,7 @@ class Flight:
         self.outputs.static_scene(self.scenario.obstacles)
         steered = 0
         while step < n_steps and not self._stop.is_set():
+            self._guard_if_due()
             due = min(n_steps, int((time.monotonic() - start_s) * cfg.speedup / dt_s) + 1)
             while step < due:
                 self._check_links()
@@ -385,7 +469,7 @@ class Flight:
                 self._clock_s = step * dt_s
                 if step % steps_per_record == 0 or step == n_steps:
                     self._record(times, rows, track, step)
-            wake_s = start_s + step * dt_s / cfg.speedup
+            wake_s = min(start_s + step * dt_s / cfg.speedup, self._next_guard_s)
             self._stop.wait(min(_TICK_S, max(0.0, wake_s - time.monotonic())))
         name = self._planner(max(1, len(ids) or len(self.vehicles))).name
         values = np.array(rows, dtype=np.float64).reshape(-1, 3)
@@ -395,30 +479,60 @@ class Flight:
 
     # -- end -----------------------------------------------------------------------------------
     def _end_all(self) -> None:
-        """Send every vehicle heard (and not landed) the end action, concurrently; failures are named.
+        """Send every vehicle heard (and not landed) the end action; failures are named.
 
         Launches still running are cancelled first (they stop between two steps), so no vehicle
-        takes off after its end action.
+        takes off after its end action. With RTL the live vehicles first fly home through the guard
+        (:meth:`_return_home`); the others, and any still away after ``guard.return_timeout_s``, are
+        sent it at once (their return altitudes are layers apart).
         """
         action = self.config.flight.end_action
         self._stop.set()
         wait([v.job for v in self.vehicles if v.job is not None])
-
-        def end(vehicle: _Vehicle) -> None:
-            try:
-                sid = vehicle.system_id
-                end_flight(self.fleet.link(sid), sid, action, self.bridge.protocol)
-            except BridgeError as exc:
-                logger.warning("vehicle %d: %s not acknowledged: %s: %s", vehicle.system_id, action.upper(),
-                               type(exc).__name__, exc)
-                self._event("end_failed", vehicle, f"{type(exc).__name__}: {exc}")
-                return
-            vehicle.status = "ended"
-            self._event(action, vehicle)
-
-        heard = [v for v in self.vehicles if self._state(v) is not None and v.status != "landed"]
-        for job in [self._pool.submit(end, v) for v in heard]:
+        if self._refused:  # refused before any vehicle was armed: nothing to end
+            return
+        if action == "rtl":
+            self._return_home()
+        heard = [v for v in self.vehicles
+                 if self._state(v) is not None and v.status not in ("landed", "ended")]
+        for job in [self._pool.submit(self._end_one, v, action) for v in heard]:
             job.result()
+
+    def _end_one(self, vehicle: _Vehicle, action: str) -> None:
+        try:
+            sid = vehicle.system_id
+            end_flight(self.fleet.link(sid), sid, action, self.bridge.protocol)  # type: ignore[arg-type]
+        except BridgeError as exc:
+            logger.warning("vehicle %d: %s not acknowledged: %s: %s", vehicle.system_id, action.upper(),
+                           type(exc).__name__, exc)
+            self._event("end_failed", vehicle, f"{type(exc).__name__}: {exc}")
+            return
+        vehicle.status = "ended"
+        self._event(action, vehicle)
+
+    def _return_home(self) -> None:
+        """Staggered returns: every live vehicle flies home through the guard, and RTL once over it.
+
+        A vehicle sent RTL climbs to its return layer and lands where it is, an obstacle the guard keeps
+        the others away from; until none is left or ``guard.return_timeout_s`` has passed.
+        """
+        homes, deadline_s = self.safety.homes_m, time.monotonic() + self.config.guard.return_timeout_s
+        flying = [v for v in self.vehicles if v.status == "live" and v.system_id in homes]
+        for vehicle in flying:
+            vehicle.target_m = (*homes[vehicle.system_id], self.safety.cruise_alt_m[vehicle.system_id])
+        while time.monotonic() < deadline_s and any(v.status == "live" for v in flying):
+            self._guard_if_due()
+            for vehicle in (v for v in flying if v.status == "live"):
+                state, home = self._state(vehicle), homes[vehicle.system_id]
+                over = (state is not None and state.x_m is not None and state.y_m is not None
+                        and np.hypot(state.x_m - home[0], state.y_m - home[1]) <= _HOME_M)
+                if over and (vehicle.job is None or vehicle.job.done()):
+                    vehicle.status = "ending"
+                    vehicle.job = self._pool.submit(self._end_one, vehicle, "rtl")
+            time.sleep(_TICK_S)
+        wait([v.job for v in flying if v.job is not None])
+        for vehicle in (v for v in flying if v.status == "ending"):  # its RTL failed: sent again below
+            vehicle.status = "live"
 
     def _on_state(self, state: VehicleState) -> None:
         """Publish a vehicle's state as each position arrives (on the link's reader thread)."""
@@ -437,8 +551,8 @@ class Flight:
                 logger.debug("vehicle %d: state not published: %s", state.system_id, exc)
 
     def summary(self) -> dict[str, Any]:
-        """Per-vehicle outcome (status, launches, command failures) and the events, for ``summary.json``."""
-        return {
+        """Per-vehicle outcome (status, launches, command failures), the events and the separation record."""
+        return self.safety.summary() | {
             "vehicles": [{"system_id": v.system_id, "uav_id": v.uav_id, "status": v.status,
                           "launches": v.launches, "command_failures": v.command_failures}
                          for v in self.vehicles],

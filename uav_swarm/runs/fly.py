@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from bridge.errors import BridgeError
+from bridge.flight.preflight import PreflightError
 from uav_swarm.planning.planner import make_planner
 from uav_swarm.runs.flight_loop import Flight
 from uav_swarm.runs.fly_config import FlyConfig
@@ -47,6 +48,7 @@ from uav_swarm.runs.summary import summarise_flight
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
+    from uav_swarm.planning.base import Planner
     from uav_swarm.runs.live_view import LiveView
 
 __all__ = ["FlightResult", "fly", "load_flight_bridge"]
@@ -64,12 +66,15 @@ def load_flight_bridge(config: FlyConfig) -> BridgeConfig:
     """The bridge config, checked for the flight: vehicles listed, the area inside the fence at ``uav.alt_m``.
 
     Raises:
-        ConfigError: Unreadable or invalid bridge config, no vehicles, or fewer than ``n_uavs``.
+        ConfigError: Unreadable or invalid bridge config, no vehicles, or fewer than ``n_uavs``; a
+            minimum separation the fleet cannot keep in the area; return layers above the fence.
         GeofenceError: The area at the cruise altitude is not inside the geofence.
     """
     from bridge.config import BridgeConfig
     from bridge.geofence import check_geofence
     from typed_config import ConfigError, load_toml
+    from uav_swarm.runs.launch_plan import return_altitudes_m
+    from uav_swarm.world.separation import check_fleet_fits
 
     bridge = load_toml(BridgeConfig, config.bridge_config)
     if bridge.home_source != "config":
@@ -84,6 +89,14 @@ def load_flight_bridge(config: FlyConfig) -> BridgeConfig:
     corners = [(0.0, 0.0), (width_m, 0.0), (0.0, height_m), (width_m, height_m)]
     check_geofence([(x, y, alt_m) for x, y in corners], bridge.geofence,
                    labels=[f"the crowd area's corner ({x:g}, {y:g}) at uav.alt_m" for x, y in corners])
+    n = config.n_uavs or len(bridge.vehicles)
+    check_fleet_fits(n, config.uav.min_separation_m, width_m, height_m)
+    top_m = float(return_altitudes_m(n, config.uav, config.guard.margin_m).max())
+    if top_m > bridge.geofence.alt_max_m:
+        raise ConfigError(f"{config.bridge_config}: geofence.alt_max_m = {bridge.geofence.alt_max_m:g} m is "
+                          f"below the highest return layer, {top_m:g} m (uav.alt_m + layers of "
+                          f"max(uav.min_separation_m + guard.margin_m, uav.layer_step_m) for {n} vehicles): "
+                          "raise it, or lower uav.alt_m or the separation")
     return bridge
 
 
@@ -102,7 +115,8 @@ def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
 
 
 def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event | None = None,
-        record: str | Path | None = None, live: LiveView | None = None) -> FlightResult:
+        record: str | Path | None = None, live: LiveView | None = None,
+        planner: Planner | None = None) -> FlightResult:
     """Fly the vehicles of ``config.bridge_config`` under the planner and write the outputs.
 
     Args:
@@ -112,6 +126,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         record: Also record the flight into this MCAP file (plans; every ``record_every_s`` the
             scene, the vehicles' measured states and the QoS).
         live: Also stream the flight to Foxglove from a WebSocket server listening here.
+        planner: Fly this planner (any :class:`uav_swarm.planning.base.Planner` for the flight's number
+            of vehicles) instead of the config's.
 
     Raises:
         typed_config.ConfigError: Invalid bridge config, no vehicles, ``record`` not a .mcap file, or the
@@ -119,6 +135,9 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         bridge.errors.GeofenceError: The area at the cruise altitude is outside the geofence.
         learning.checkpoint.CheckpointError: The learned planner's checkpoint is missing or does not fit.
         bridge.telemetry.config.TelemetryConnectionError: The Zenoh session could not be opened.
+        bridge.flight.preflight.PreflightError: Take-off positions closer than the minimum, or a vehicle
+            without a link-loss failsafe (and no ``set_failsafe``): refused before any vehicle was armed,
+            nothing written.
         bridge.errors.BridgeError: No vehicle could be launched (outputs are written).
     """
     from bridge.flight.fleet import Fleet
@@ -134,8 +153,9 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
                       coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home)
     n = config.n_uavs or len(bridge.vehicles)
-    planner = make_planner(config.planner, n, config.task, checkpoint=config.checkpoint or None,
-                           config=config.planning, uav_config=config.uav)
+    if planner is None:
+        planner = make_planner(config.planner, n, config.task, checkpoint=config.checkpoint or None,
+                               config=config.planning, uav_config=config.uav)
     summary: dict[str, Any] = {"config": config.to_dict(), "mode": config.mode}
     trace: QosTrace | None = None
     track: list[dict[str, Any]] = []
@@ -159,6 +179,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
                 watcher.start()
             try:
                 trace, track = flight.run()
+            except PreflightError:
+                raise  # refused before any vehicle was armed: nothing written
             except BridgeError as exc:
                 error = exc
             summary |= flight.summary()

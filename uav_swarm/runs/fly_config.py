@@ -2,9 +2,12 @@
 
 A TOML file (``uav-swarm fly --config file.toml``) holds the top-level keys below and the tables
 ``[task]`` (the crowd world and Wi-Fi model, as for ``simulate``), ``[uav]`` (``alt_m`` is the cruise
-altitude above each vehicle's home), ``[planning]``, ``[telemetry]``, ``[ros2]`` and ``[flight]``
-(:class:`bridge.flight.guided.FlightConfig`: launch timeouts, link timeout, end action). Every key is
-optional except the bridge config, which names the vehicles.
+altitude above each vehicle's home; ``min_separation_m`` the distance the guard keeps between any two
+vehicles), ``[planning]``, ``[telemetry]``, ``[ros2]``, ``[flight]``
+(:class:`bridge.flight.guided.FlightConfig`: launch timeouts, link timeout, end action), ``[launch]``
+(:class:`uav_swarm.runs.launch_plan.LaunchConfig`: where the vehicles take off) and ``[guard]``
+(:class:`uav_swarm.runs.flight_guard.GuardConfig`: the separation guard). Every key is optional except
+the bridge config, which names the vehicles.
 
 Examples:
     >>> cfg = FlyConfig.from_dict({"bridge_config": "configs/bridge/ardupilot_sitl_10.toml", "speedup": 2})
@@ -25,6 +28,8 @@ from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
+from uav_swarm.runs.flight_guard import GuardConfig
+from uav_swarm.runs.launch_plan import LaunchConfig, check_launch_grid
 from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
@@ -57,11 +62,16 @@ class FlyConfig(Config):
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
     ros2: Ros2Config = param(Ros2Config(), doc="ROS 2 topics and operator targets ([ros2]); loopback only")
     flight: FlightConfig = param(FlightConfig(), doc="launch, link and end of the flight ([flight])")
+    launch: LaunchConfig = param(LaunchConfig(), doc="where the vehicles take off ([launch])")
+    guard: GuardConfig = param(GuardConfig(), doc="the separation guard on measured positions ([guard])")
+    set_failsafe: bool = param(False, doc="set a vehicle's missing link-loss failsafe to return to launch "
+                                          "(PARAM_SET, read back) instead of refusing it")
 
     def check(self) -> None:
         """A bridge config; strategy 2 under admission control unless told; a 2-D radio; one separation.
 
-        The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area.
+        The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area; a
+        launch grid keeps it too.
         """
         if not self.bridge_config:
             raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
@@ -71,6 +81,7 @@ class FlyConfig(Config):
             # station_limit = "off" keeps the paper's model.
             radio = self.task.radio.replace(station_limit="auto")
             object.__setattr__(self, "task", self.task.replace(radio=radio))
+        check_launch_grid(self.launch, self.uav, 2)
         if self.task.radio.altitude_m != 0.0:
             raise ConfigError(f"FlyConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the flight's "
                               "QoS uses 2-D radio distances at uav.alt_m; set altitude_m = 0")

@@ -1,0 +1,132 @@
+"""Checks before arming: the vehicle's own link-loss failsafe, its geofence, its return altitude.
+
+A vehicle flown from a ground station must leave guided flight by itself when that ground
+station goes silent (a crash, a cut link, ``kill -9``): otherwise it hovers where it was told
+until its battery ends. :func:`preflight` reads, with the parameter protocol
+(:mod:`bridge.flight.params`) and its autopilot's names (:mod:`bridge.autopilots`):
+
+- the link-loss failsafe's action and timeout (ArduPilot ``FS_GCS_ENABLE`` / ``FS_GCS_TIMEOUT``,
+  PX4 ``NAV_DLL_ACT`` / ``COM_DL_LOSS_T``); an action that does not return or land the vehicle
+  (off, or a hold) is refused, naming the vehicle and the parameter, unless ``set_failsafe``:
+  then it is set to return to launch and read back;
+- which ground station the failsafe watches: ArduPilot watches only the heartbeat of
+  ``SYSID_MYGCS``, so it must be this bridge's own system id (another ground station's heartbeat
+  would keep the vehicle in guided flight after the bridge died); PX4 watches any;
+- its geofence switch (``FENCE_ENABLE``, ``GF_ACTION``): reported, a warning when off;
+- its return altitude (``RTL_ALT`` in centimetres, ``RTL_RETURN_ALT`` in metres), set to
+  ``rtl_alt_m`` (the return plan's layer for this vehicle) and read back.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from bridge.autopilots import Conventions
+from bridge.config import ProtocolConfig
+from bridge.errors import RefusedError
+from bridge.flight.params import ParamValue, read_param, set_param
+from bridge.link.mavlink import MavlinkLink
+
+__all__ = ["PreflightError", "PreflightReport", "preflight", "DEFAULT_FAILSAFE_TIMEOUT_S"]
+
+log = logging.getLogger(__name__)
+
+DEFAULT_FAILSAFE_TIMEOUT_S = 5.0
+"""The link-loss timeout set when a vehicle has none (0) and the user asked to set the failsafe."""
+
+
+class PreflightError(RefusedError, ValueError):
+    """A vehicle is not safe to arm (its message names the vehicle, the parameter and the fix)."""
+
+    def __init__(self, system_id: int, message: str) -> None:
+        self.system_id = system_id
+        super().__init__(f"vehicle {system_id}: {message}")
+
+
+@dataclass(frozen=True)
+class PreflightReport:
+    """What :func:`preflight` found and set on one vehicle (JSON-ready with :meth:`to_dict`)."""
+
+    system_id: int
+    autopilot: str
+    failsafe: str
+    failsafe_action: int
+    failsafe_timeout_s: float
+    failsafe_set: bool
+    fence_enabled: bool
+    rtl_alt_m: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report as a dict."""
+        return asdict(self)
+
+
+def preflight(link: MavlinkLink, system_id: int, conventions: Conventions, *, gcs_system_id: int,
+              rtl_alt_m: float, set_failsafe: bool = False,
+              protocol: ProtocolConfig | None = None) -> PreflightReport:
+    """Read the vehicle's failsafe and fence, set its return altitude (module docstring).
+
+    Args:
+        link: The connection reaching the vehicle.
+        system_id: The vehicle.
+        conventions: Its autopilot's (parameter names and encoding).
+        gcs_system_id: This bridge's own system id (the heartbeat the failsafe must watch).
+        rtl_alt_m: Its return altitude above home, metres.
+        set_failsafe: Set a missing failsafe (return to launch) instead of refusing the vehicle.
+        protocol: Timeouts and retries.
+
+    Raises:
+        PreflightError: The failsafe is off (or a hold), has no timeout, or watches another ground
+            station, and ``set_failsafe`` is False.
+        ParamError: A parameter could not be read or set.
+    """
+    protocol = protocol or ProtocolConfig()
+    bytewise = conventions.param_bytewise
+
+    def read(name: str) -> ParamValue:
+        return read_param(link, system_id, name, bytewise=bytewise, protocol=protocol)
+
+    def ensure(current: ParamValue, wanted: float, why: str) -> ParamValue:
+        if not set_failsafe:
+            raise PreflightError(system_id, f"{current.name} = {current.value:g}: {why}; nothing was armed. "
+                                            f"Set {current.name} = {wanted:g} on the vehicle, or run fly "
+                                            "with --set-failsafe")
+        done = set_param(link, system_id, current.name, wanted, current.param_type, bytewise=bytewise,
+                         protocol=protocol)
+        log.warning("vehicle %d: %s was %g (%s): set to %g", system_id, current.name, current.value, why,
+                    wanted)
+        return done
+
+    action = read(conventions.failsafe_param)
+    changed = False
+    if int(action.value) not in conventions.failsafe_returns:
+        action = ensure(action, conventions.failsafe_rtl,
+                        f"its link-loss failsafe does not return or land it ({conventions.name})")
+        changed = True
+    timeout = read(conventions.failsafe_timeout_param)
+    if timeout.value <= 0:
+        timeout = ensure(timeout, DEFAULT_FAILSAFE_TIMEOUT_S, "its link-loss failsafe has no timeout")
+        changed = True
+    if conventions.gcs_id_param:
+        watched = read(conventions.gcs_id_param)
+        if int(watched.value) != gcs_system_id:
+            ensure(watched, float(gcs_system_id),
+                   f"its failsafe watches ground station {int(watched.value)}'s heartbeat, not this "
+                   f"bridge's (source_system = {gcs_system_id})")
+            changed = True
+    fence = read(conventions.fence_param)
+    if fence.value == 0:
+        log.warning("vehicle %d: its own geofence is off (%s = 0): only the bridge's fence checks its "
+                    "targets", system_id, conventions.fence_param)
+    rtl = read(conventions.rtl_alt_param)
+    wanted_rtl = round(rtl_alt_m * conventions.rtl_alt_per_m, 3)
+    if abs(rtl.value - wanted_rtl) > 1e-3:
+        rtl = set_param(link, system_id, rtl.name, wanted_rtl, rtl.param_type, bytewise=bytewise,
+                        protocol=protocol)
+    return PreflightReport(
+        system_id=system_id, autopilot=conventions.name,
+        failsafe=f"{action.name} = {action.value:g}, {timeout.name} = {timeout.value:g} s",
+        failsafe_action=int(action.value), failsafe_timeout_s=float(timeout.value), failsafe_set=changed,
+        fence_enabled=fence.value != 0, rtl_alt_m=rtl.value / conventions.rtl_alt_per_m)

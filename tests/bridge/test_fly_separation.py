@@ -1,0 +1,215 @@
+"""``fly`` keeps its vehicles apart, on ArduPilot-like and PX4-like peers over real MAVLink on loopback.
+
+Judged from the peers' own tracks (:mod:`peer_tracks`), not from what the bridge measured: a head-on
+swap, ``kill -9`` of a ``fly`` process in flight (each peer's own link-loss failsafe brings it home at
+its own return altitude), the failsafe checks before arming, and take-off positions refused.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from fly_measures import live_rows
+from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
+from flying_vehicle import GUIDED, FlyingVehicle, launch_home
+from lossy_relay import free_udp_port
+from peer_tracks import FixedTargets, closest_approach
+from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
+from px4_vehicle import LOITER, Px4Vehicle, px4_mode
+from px4_vehicle import RTL as PX4_RTL
+from pymavlink.dialects.v20 import common as mavlink
+from sim_vehicle import endpoint_pair
+
+from uav_swarm.cli import main
+from uav_swarm.runs.fly import fly
+from uav_swarm.runs.fly_config import load_fly_config
+
+FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
+MIN_M = 5.0  # [uav] min_separation_m's default
+REPO = Path(__file__).resolve().parents[2]
+KINDS = ("ardupilot", "px4")  # the kill -9 test, on each autopilot
+
+
+def _fleet(kind: str, homes: list, failsafe: bool = True, **options) -> tuple[list, list[str]]:
+    vehicles, urls = [], []
+    for sid, home in enumerate(homes, start=1):
+        vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
+        px4 = kind == "px4" or (kind == "mixed" and sid % 2 == 0)
+        cls = Px4Vehicle if px4 else FlyingVehicle
+        params = (PX4_FAILSAFE if px4 else ARDUPILOT_FAILSAFE) if failsafe else {}
+        vehicles.append(cls(vehicle_url, sid, home=home, params=params, **options))
+        urls.append(gcs_url)
+    return vehicles, urls
+
+
+def _bridge_toml(path: Path, urls: list[str]) -> Path:
+    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
+             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
+    for sid, url in enumerate(urls, start=1):
+        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _close(vehicles) -> None:
+    for vehicle in vehicles:
+        vehicle.close()
+
+
+def _wait(condition, timeout_s: float) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.05)
+    return condition()
+
+
+def _in_rtl(vehicle) -> bool:
+    return (px4_mode(vehicle.custom_mode) == PX4_RTL if isinstance(vehicle, Px4Vehicle)
+            else vehicle.custom_mode == 6)
+
+
+@pytest.mark.parametrize(("kind", "n", "spacing_m"),
+                         [("ardupilot", 2, 40.0), ("px4", 2, 40.0), ("mixed", 4, 20.0)],
+                         ids=["swap-ardupilot", "swap-px4", "four-reversed-2-px4-2-ardupilot"])
+def test_crossing_targets_keep_the_minimum_from_take_off_to_landing(tmp_path, kind, n, spacing_m):
+    """Vehicles on a line sent to the reversed line (two: a head-on swap): the guard holds, one steps aside,
+    every vehicle arrives."""
+    homes = [launch_home(i, spacing_m) for i in range(n)]
+    targets = [((n - 1 - i) * spacing_m, 0.0) for i in range(n)]
+    vehicles, urls = _fleet(kind, homes)
+    config = load_fly_config(None, {
+        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 50.0,
+        "speedup": 2.0, "publish_telemetry": False, "flight": {"ready_timeout_s": 10.0}})
+    try:
+        result = fly(config, tmp_path / "out", planner=FixedTargets(targets))
+        assert _wait(lambda: not any(v.armed for v in vehicles), 60.0)  # both home and landed
+        approach = closest_approach(vehicles)
+    finally:
+        _close(vehicles)
+    assert approach.distance_m >= MIN_M, approach  # from take-off to landing, on their own tracks
+    separation = result.summary["separation"]
+    assert separation["closest_m"] >= MIN_M and separation["conflicts"] == 0
+    assert separation["holds"] >= 1  # they could not both fly straight
+    assert any(e["event"] == "guard_hold" for e in result.summary["events"])
+    rows = live_rows(tmp_path / "out")
+    for sid, target in enumerate(targets, start=1):
+        reached_m = min(math.hypot(r["x_m"] - target[0], r["y_m"] - target[1]) for r in rows[sid])
+        assert reached_m <= 2.0, (sid, reached_m)  # the crossing was flown, not only held
+    for vehicle in vehicles:
+        assert _in_rtl(vehicle) and math.hypot(*vehicle.enu[:2]) < 1.0 and vehicle.enu[2] == 0.0
+    returns = sorted(v.param("RTL_RETURN_ALT") if isinstance(v, Px4Vehicle) else v.param("RTL_ALT") / 100
+                     for v in vehicles)
+    assert min(b - a for a, b in zip(returns, returns[1:], strict=False)) >= MIN_M  # returned in layers
+
+
+def _fly_process(toml: Path, out: Path) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    argv = [sys.executable, "-m", "uav_swarm", "fly", "--bridge-config", str(toml), "--out", str(out),
+            "--duration-s", "600", "--no-telemetry", "--wait-ready-s", "30"]
+    return subprocess.Popen(argv, env=env, cwd=str(REPO), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(tmp_path, kind):
+    """Three vehicles in guided flight; ``fly`` killed: each leaves guided flight for RTL within its
+    failsafe timeout + 5 s, and they return in layers without coming closer than the minimum."""
+    vehicles, urls = _fleet(kind, [launch_home(i, 10.0) for i in range(3)])
+    process = _fly_process(_bridge_toml(tmp_path / "bridge.toml", urls), tmp_path / "out")
+    try:
+        def flying() -> bool:
+            guided = [(LOITER if isinstance(v, Px4Vehicle) else GUIDED) for v in vehicles]
+            modes = [px4_mode(v.custom_mode) if isinstance(v, Px4Vehicle) else v.custom_mode
+                     for v in vehicles]
+            return all(v.armed and v.enu[2] > 9.0 and v.reposition_target is not None and mode == want
+                       for v, mode, want in zip(vehicles, modes, guided, strict=True))
+
+        flew = _wait(lambda: flying() or process.poll() is not None, 180.0) and process.poll() is None
+        said = process.communicate(timeout=10)[1][-2000:] if process.poll() is not None else "not flying"
+        assert flew, said
+        time.sleep(2.0)  # in flight, targets being flown
+        process.kill()  # SIGKILL: no RTL from fly, no goodbye
+        killed_s = time.monotonic()
+        process.wait(timeout=10)
+        timeout_param = "COM_DL_LOSS_T" if kind == "px4" else "FS_GCS_TIMEOUT"
+        timeouts_s = [v.param(timeout_param) for v in vehicles]
+        assert _wait(lambda: all(v.failsafes for v in vehicles), max(timeouts_s) + 10.0)
+        assert _wait(lambda: not any(v.armed for v in vehicles), 90.0)  # all home and landed
+        approach = closest_approach(vehicles)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait(timeout=10)
+        _close(vehicles)
+    for vehicle, timeout_s in zip(vehicles, timeouts_s, strict=True):
+        assert vehicle.failsafes[0] - killed_s <= timeout_s + 5.0
+        assert _in_rtl(vehicle) and math.hypot(*vehicle.enu[:2]) < 1.0
+    assert approach.distance_m >= MIN_M, approach
+    assert not (tmp_path / "out" / "summary.json").exists()  # killed: nothing ended it
+
+
+def test_a_vehicle_without_a_link_loss_failsafe_is_refused_before_arming_unless_asked(tmp_path, capsys):
+    vehicles, urls = _fleet("mixed", [launch_home(0), launch_home(1)], failsafe=False)
+    vehicles[1].params["NAV_DLL_ACT"] = (1.0, mavlink.MAV_PARAM_TYPE_INT32)  # a hold: it would stay there
+    toml = str(_bridge_toml(tmp_path / "bridge.toml", urls))
+    argv = ["fly", "--bridge-config", toml, "--out", str(tmp_path / "out"), "--duration-s", "4", "--speedup",
+            "2", "--no-telemetry"]
+    try:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "vehicle 1: FS_GCS_ENABLE = 0" in err and "--set-failsafe" in err
+        vehicles[0].params["FS_GCS_ENABLE"] = (1.0, mavlink.MAV_PARAM_TYPE_INT8)
+        vehicles[0].params["SYSID_MYGCS"] = (254.0, mavlink.MAV_PARAM_TYPE_INT16)  # another ground station
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "vehicle 1: SYSID_MYGCS = 254" in err and "source_system = 255" in err
+        vehicles[0].params["SYSID_MYGCS"] = (255.0, mavlink.MAV_PARAM_TYPE_INT16)
+        assert main(argv) == 2
+        assert "vehicle 2: NAV_DLL_ACT = 1" in capsys.readouterr().err
+        for vehicle in vehicles:
+            assert not vehicle.armed and mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicle.commands
+        assert not (tmp_path / "out").exists()
+        assert main([*argv, "--set-failsafe"]) == 0
+        out = capsys.readouterr().out
+        assert "separation: closest pair" in out
+    finally:
+        _close(vehicles)
+    assert vehicles[1].param("NAV_DLL_ACT") == 2.0 and ("NAV_DLL_ACT", 2.0) in vehicles[1].param_sets
+    assert vehicles[0].param("RTL_ALT") == 1600.0 and vehicles[1].param("RTL_RETURN_ALT") == 22.0
+    assert all(mavlink.MAV_CMD_COMPONENT_ARM_DISARM in v.commands for v in vehicles)
+
+
+def test_take_off_closer_than_the_minimum_and_a_negative_layer_step_are_refused_before_anything_flies(
+        tmp_path, capsys):
+    vehicles, urls = _fleet("mixed", [launch_home(0), launch_home(0, origin=None)])  # one place
+    toml = str(_bridge_toml(tmp_path / "bridge.toml", urls))
+    out = tmp_path / "out"
+    argv = ["fly", "--bridge-config", toml, "--out", str(out), "--duration-s", "4", "--no-telemetry"]
+    try:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "vehicle 1: it and vehicle 2 would take off 0.0 m apart" in err
+        assert "uav.min_separation_m = 5 m" in err
+        refused = (("[launch]\npositions = 'grid'\ngrid_spacing_m = 3.0\n", "launch.grid_spacing_m"),
+                   ("[uav]\nlayer_step_m = -2.0\n", "layer_step_m"),
+                   ("[uav]\nmin_separation_m = 900.0\n", "uav.min_separation_m"))
+        for setting, field in refused:
+            config = tmp_path / "fly.toml"
+            config.write_text(setting)
+            sent = [list(v.commands) for v in vehicles]
+            assert main([*argv, "--config", str(config)]) == 2
+            assert field in capsys.readouterr().err
+            assert [list(v.commands) for v in vehicles] == sent  # refused before anything was sent
+        for vehicle in vehicles:
+            assert not vehicle.armed and mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicle.commands
+        assert not out.exists()
+    finally:
+        _close(vehicles)

@@ -1,0 +1,194 @@
+"""The safety layer of a live flight: pre-flight checks, take-off turns, the guard and the separation record.
+
+:class:`FlightSafety` is what :class:`uav_swarm.runs.flight_loop.Flight` asks before and while it flies:
+
+- :meth:`FlightSafety.check_launch` (before any vehicle is armed): the take-off positions
+  (:mod:`uav_swarm.runs.launch_plan`) and, per vehicle, its link-loss failsafe, geofence and return
+  altitude (:func:`bridge.flight.preflight.preflight`); a refusal names the vehicle and the field;
+- :meth:`FlightSafety.check_relaunch`: the same for a vehicle taken back in flight (its home against
+  the others' take-off positions);
+- :meth:`FlightSafety.takeoff_gate`: its turn to arm and climb;
+- :meth:`FlightSafety.decide` (``[guard] rate_hz`` times a second): the guard's decision for every
+  airborne vehicle on its measured position (:mod:`uav_swarm.runs.flight_guard`), each new hold an
+  event, and the separation record (:class:`uav_swarm.world.separation.SeparationMonitor`, 3-D
+  distances of the measured positions of the armed vehicles).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from bridge.flight.preflight import PreflightError, PreflightReport, preflight
+from bridge.flight.vehicles import FleetError
+from bridge.geo import geodetic_to_enu
+from uav_swarm.runs.flight_guard import FlightGuard, GuardDecision
+from uav_swarm.runs.fly_config import FlyConfig
+from uav_swarm.runs.launch_plan import TakeoffGate, check_launch_positions, grid_slots_m, return_altitudes_m
+from uav_swarm.world.separation import SeparationMonitor
+
+if TYPE_CHECKING:
+    from contextlib import AbstractContextManager
+
+    from bridge.config import BridgeConfig
+    from bridge.flight.fleet import Fleet
+    from bridge.flight.vehicle_home import ReportedHome
+    from bridge.link.vehicle_state import VehicleState
+
+__all__ = ["FlightSafety"]
+
+logger = logging.getLogger(__name__)
+
+EventSink = Callable[[str, int, str], None]
+"""``event(kind, system_id, detail)``: records a flight event."""
+
+
+class FlightSafety:
+    """Pre-flight checks, take-off turns, the guard and the separation record of one flight.
+
+    Args:
+        config: The flight's settings (``uav``, ``launch``, ``guard``, ``set_failsafe``).
+        bridge: The bridge config (vehicles in order, our system id, home, protocol).
+        fleet: The open fleet.
+        cancel: Set when the flight ends.
+        event: Records an event (kind, system id, detail).
+    """
+
+    def __init__(self, config: FlyConfig, bridge: BridgeConfig, fleet: Fleet, cancel: threading.Event,
+                 event: EventSink) -> None:
+        self.config = config
+        self.bridge = bridge
+        self.fleet = fleet
+        self._event = event
+        n = config.n_uavs or len(bridge.vehicles)
+        ids = [v.system_id for v in bridge.vehicles[:n]]
+        self._uav_of = {sid: k for k, sid in enumerate(ids)}
+        self.cruise_alt_m = {sid: float(alt) for sid, alt in zip(ids, config.uav.altitudes_m(n), strict=True)}
+        returns = return_altitudes_m(n, config.uav, config.guard.margin_m)
+        self.return_alt_m = {sid: float(alt) for sid, alt in zip(ids, returns, strict=True)}
+        self._slots = dict(zip(ids, grid_slots_m(config.launch, n), strict=True))
+        self.homes_m: dict[int, tuple[float, float]] = {}
+        self.reports: dict[int, PreflightReport] = {}
+        area = (config.task.scenario.width_m, config.task.scenario.height_m)
+        self.guard = FlightGuard(config.guard, config.uav, area)
+        self.monitor = SeparationMonitor(config.uav.min_separation_m)
+        self._gate = TakeoffGate(cancel, self._column_clear)
+        self._airborne: dict[int, tuple[float, float]] = {}
+        self._lock = threading.Lock()
+        self._held: set[int] = set()
+        self._index: dict[int, int] = {}
+
+    # -- before arming --------------------------------------------------------------------------
+    def home_m(self, reported: ReportedHome) -> tuple[float, float]:
+        """A vehicle's home in the flight's East-North frame, metres."""
+        home = reported.home
+        x_m, y_m, _ = geodetic_to_enu(self.bridge.home, home.lat_deg, home.lon_deg, home.alt_m)
+        return float(x_m), float(y_m)
+
+    def check_launch(self, homes: Mapping[int, ReportedHome]) -> None:
+        """Refuse take-off positions closer than the minimum, then check every vehicle's parameters.
+
+        Raises:
+            PreflightError: Positions too close (or off their grid slots), or a vehicle without a
+                link-loss failsafe (without ``set_failsafe``); nothing was armed.
+            ParamError: A parameter could not be read or set.
+        """
+        positions = {sid: self.home_m(reported) for sid, reported in homes.items()}
+        check_launch_positions(positions, self.config.uav.min_separation_m, self.config.launch, self._slots)
+        self.homes_m.update(positions)
+        try:
+            self.fleet.each("pre-flight check", list(homes), self._check_parameters)
+        except FleetError as exc:
+            sid, error = min(exc.errors.items())
+            if isinstance(error, PreflightError):
+                raise error from None
+            raise PreflightError(sid, f"pre-flight check failed ({type(error).__name__}: {error}); nothing "
+                                      "was armed") from None
+
+    def check_relaunch(self, system_id: int, reported: ReportedHome) -> None:
+        """A vehicle taken back: its home against the others' take-off positions, then its parameters."""
+        position = self.home_m(reported)
+        others = {sid: home for sid, home in self.homes_m.items() if sid != system_id}
+        check_launch_positions({**others, system_id: position}, self.config.uav.min_separation_m,
+                               self.config.launch, self._slots)
+        self.homes_m[system_id] = position
+        self._check_parameters(system_id)
+
+    def _check_parameters(self, system_id: int) -> PreflightReport:
+        report = preflight(self.fleet.link(system_id), system_id, self.fleet.conventions(system_id),
+                           gcs_system_id=self.bridge.source_system, rtl_alt_m=self.return_alt_m[system_id],
+                           set_failsafe=self.config.set_failsafe, protocol=self.bridge.protocol)
+        self.reports[system_id] = report
+        if report.failsafe_set:
+            self._event("failsafe_set", system_id, report.failsafe)
+        return report
+
+    # -- take-off -------------------------------------------------------------------------------
+    def takeoff_gate(self, system_id: int) -> Callable[[], AbstractContextManager[None]]:
+        """The vehicle's turn to arm, take off and climb (one at a time, from a clear column)."""
+        return self._gate.for_vehicle(system_id, self._uav_of[system_id])
+
+    def _column_clear(self, system_id: int) -> bool:
+        home = self.homes_m.get(system_id)
+        if home is None:
+            return True
+        need_m = self.guard.need_m
+        with self._lock:
+            others = [p for sid, p in self._airborne.items() if sid != system_id]
+        return all(np.hypot(p[0] - home[0], p[1] - home[1]) >= need_m for p in others)
+
+    # -- in flight ------------------------------------------------------------------------------
+    def decide(self, flying: Sequence[tuple[int, VehicleState, tuple[float, float] | None, bool]],
+               clock_s: float, now_s: float) -> list[tuple[int, GuardDecision]]:
+        """The guard's decision for each vehicle in ``flying``, and one separation sample.
+
+        Args:
+            flying: ``(system_id, state, goal, steerable)`` of each vehicle with a position; ``goal``
+                its planned (x, y) or None, ``steerable`` False while it climbs.
+            clock_s: The flight's clock (crowd time), for the separation record.
+            now_s: A monotonic clock, seconds.
+        """
+        armed = [(sid, s) for sid, s, _, _ in flying if s.armed]
+        with self._lock:
+            self._airborne = {sid: (float(s.x_m or 0.0), float(s.y_m or 0.0)) for sid, s in armed}
+        if armed:
+            positions = np.array([(s.x_m, s.y_m, s.z_m) for _, s in armed], dtype=np.float64)
+            self.monitor.observe(clock_s, positions, [self._uav_of[sid] for sid, _ in armed])
+        if not flying:
+            return []
+        p = np.array([(s.x_m, s.y_m) for _, s, _, _ in flying], dtype=np.float64)
+        v = np.array([(s.vx_m_s or 0.0, s.vy_m_s or 0.0) for _, s, _, _ in flying], dtype=np.float64)
+        index = {sid: i for i, (sid, _, _, _) in enumerate(flying)}
+        if index != self._index:  # the guard remembers vehicles by row
+            for i in range(len(flying)):
+                self.guard.forget(i)
+            self._index = index
+        decisions = self.guard.decide(p, v, [goal for _, _, goal, _ in flying],
+                                      [steer for _, _, _, steer in flying], now_s)
+        out = []
+        for (sid, _, _, _), decision in zip(flying, decisions, strict=True):
+            held = decision.state == "held"
+            if held and sid not in self._held:
+                self.monitor.count_holds(1)
+                blocker = flying[decision.blocker][0] if decision.blocker >= 0 else None
+                detail = f"held for vehicle {blocker}" if blocker is not None else "held"
+                logger.info("vehicle %d: %s (separation guard)", sid, detail)
+                self._event("guard_hold", sid, detail)
+            if held:
+                self._held.add(sid)
+            else:
+                self._held.discard(sid)
+            out.append((sid, decision))
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """The separation record, the launch positions and the pre-flight reports, for ``summary.json``."""
+        return {"separation": self.monitor.summary(),
+                "launch": {str(sid): {"x_m": round(x, 2), "y_m": round(y, 2),
+                                      "return_alt_m": self.return_alt_m.get(sid)}
+                           for sid, (x, y) in sorted(self.homes_m.items())},
+                "preflight": [r.to_dict() for _, r in sorted(self.reports.items())]}
