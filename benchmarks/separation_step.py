@@ -7,7 +7,7 @@ Seeded replans of 10 UAVs in a 200 m square (minimum separation 5 m), three kind
 - ``permute``: every UAV is sent to another UAV's target, unassigned (the worst case: many crossings).
 
 For each, :func:`uav_swarm.planning.transitions.plan_transition` (the check of every pair's closest approach
-and the departure delays) is timed per replan, and :func:`uav_swarm.world.separation.guard_commands` per
+and the departure delays) is timed per replan, and :func:`uav_swarm.world.step_guard.guard_commands` per
 step of the flight that follows. The reference, timed in the same rounds, is one kinematic step of the 10
 UAVs (:func:`uav_swarm.world.uav.waypoint_velocity` + :func:`uav_swarm.world.uav.fly_step`). Goal: a replan's
 separation step (transition) within 0.5 ms for 10 UAVs.
@@ -30,7 +30,7 @@ import numpy as np  # noqa: E402
 
 from uav_swarm.planning.trajectory import warm_up  # noqa: E402
 from uav_swarm.planning.transitions import plan_transition  # noqa: E402
-from uav_swarm.world.separation import guard_commands  # noqa: E402
+from uav_swarm.world.step_guard import guard_commands  # noqa: E402
 from uav_swarm.world.uav import UAVConfig, fly_step, waypoint_velocity  # noqa: E402
 
 CONFIG = UAVConfig(min_separation_m=5.0)

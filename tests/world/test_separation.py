@@ -7,10 +7,9 @@ from uav_swarm.world.separation import (
     SeparationMonitor,
     check_fleet_fits,
     closest_pair,
-    guard_commands,
     max_spread_m,
-    stopping_distance_m,
 )
+from uav_swarm.world.step_guard import guard_commands, stopping_distance_m
 from uav_swarm.world.uav import UAVConfig, fly_step, waypoint_velocity
 
 DT_S = 0.1

@@ -39,11 +39,11 @@ from uav_swarm.world.scenario import Scenario, random_scenario
 from uav_swarm.world.separation import (
     closest_distances_m,
     draw_apart_m,
-    guard_commands,
     pair_distances_m,
     required_distances_m,
     separation_penalty,
 )
+from uav_swarm.world.step_guard import guard_commands
 from uav_swarm.world.uav import fly_step, waypoint_velocity
 
 __all__ = ["SwarmCore"]
@@ -214,7 +214,7 @@ class SwarmCore:
         """(B, K, 2) velocity commands from actions: scaled (velocity mode) or flown to (waypoint mode).
 
         In waypoint mode the controller's commands pass through the separation guard
-        (:func:`~uav_swarm.world.separation.guard_commands`), which records in :attr:`held` the UAVs it
+        (:func:`~uav_swarm.world.step_guard.guard_commands`), which records in :attr:`held` the UAVs it
         held back; velocity commands (the learning path) are not guarded.
         """
         cfg, layout = self.config, self.layout

@@ -51,7 +51,7 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
       fraction of ``uav.max_speed_m_s`` (per axis; the speed is then capped at the maximum).
     - ``action_mode="waypoint"``: ``[0, width_m] x [0, height_m]``, a target position in metres;
       a controller flies there at most at the caps and brakes to a stop on it. Its commands pass a
-      separation guard (:func:`~uav_swarm.world.separation.guard_commands`) that keeps every pair of
+      separation guard (:func:`~uav_swarm.world.step_guard.guard_commands`) that keeps every pair of
       UAVs at least ``uav.min_separation_m`` apart: a UAV whose command would close a gap below it is
       turned around its neighbour or brakes (``separation_held = 1``), lower indices first. UAVs start
       at random and may start closer than the minimum; such a pair may only widen its gap.

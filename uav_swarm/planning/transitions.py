@@ -24,7 +24,7 @@ between the two plans keep ``[uav] min_separation_m`` (3-D with altitude layers,
    path (1.25 or 2 times the distance needed, either side, inside the area), it flies there and on after
    the same choice of waits. A UAV still in conflict is scheduled first in a second pass. Pairs that
    neither pass clears are reported in :attr:`Transition.unresolved`; the step guard of
-   :func:`uav_swarm.world.separation.guard_commands` is the last safety net for them.
+   :func:`uav_swarm.world.step_guard.guard_commands` is the last safety net for them.
 
 The caller flies :meth:`Transition.targets_at` (the hold point until a UAV's departure, then its target).
 
@@ -45,7 +45,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from uav_swarm.planning.trajectory import Legs, arrival_s, first_clear, pair_closest_m, tracks_m
-from uav_swarm.world.separation import pair_distances_m, path_distances_m, required_distances_m
+from uav_swarm.world.separation import pair_distances_m, required_distances_m
+from uav_swarm.world.step_guard import path_distances_m
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["Transition", "plan_transition", "predict_positions_m", "squared_assignment"]

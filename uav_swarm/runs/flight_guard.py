@@ -10,12 +10,12 @@ position and velocity (its GLOBAL_POSITION_INT in the flight's East-North frame)
   instant it is somewhere on the stretch of the route between the two;
 - **held**: sent back to where it is now, it keeps its velocity for ``latency_s``, slows at
   ``uav.max_accel_m_s2`` to a stop (``v^2 / 2a`` further, the continuous form of
-  :func:`uav_swarm.world.separation.stopping_distance_m`) and comes back: it stays between the two.
+  :func:`uav_swarm.world.step_guard.stopping_distance_m`) and comes back: it stays between the two.
 
 Vehicles are decided one after the other (the ones the bridge cannot steer first: climbing, or in
 a mission of their own; then by UAV id). A vehicle gets its route only when its predicted track
 keeps ``min_separation_m + margin_m`` (horizontal distance, whatever the altitudes) in every step of
-``step_s`` (between the two stretches of the step, :func:`uav_swarm.world.separation.path_distances_m`)
+``step_s`` (between the two stretches of the step, :func:`uav_swarm.world.step_guard.path_distances_m`)
 from the tracks of the vehicles decided before it *and* from the held tracks of those not decided
 yet; otherwise it is **held**: sent back to the point where it was when held (``MAV_CMD_DO_REPOSITION``
 to its measured position, kept while it is held: a position hold inside the fence), until its route
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from typed_config import Config, param
-from uav_swarm.world.separation import path_distances_m
+from uav_swarm.world.step_guard import path_distances_m
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["GuardConfig", "GuardDecision", "FlightGuard", "route_track_m", "braking_track_m", "route_band_m",
@@ -166,7 +166,7 @@ def _gaps(band: np.ndarray, others: np.ndarray, enough_m: np.ndarray | float) ->
     """(M,) least distance over time between ``band`` (T, 2, 2) and each of ``others`` (M, T, 2, 2).
 
     At each time both vehicles lie somewhere on their stretch: the distance is the segments'
-    (:func:`uav_swarm.world.separation.path_distances_m`). Pairs that keep ``enough_m`` by a bound from
+    (:func:`uav_swarm.world.step_guard.path_distances_m`). Pairs that keep ``enough_m`` by a bound from
     the stretches' midpoints and half lengths get that bound (at least ``enough_m``) instead.
     """
     if others.shape[0] == 0:

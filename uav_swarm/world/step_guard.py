@@ -1,0 +1,218 @@
+"""The step guard: commands that keep every pair of UAVs at least the minimum separation apart (numpy).
+
+The guard (:func:`guard_commands`) keeps every pair apart under the kinematics of
+:func:`uav_swarm.world.uav.fly_step`. Its invariant: the *braking paths* of any two UAVs (the polyline a UAV
+would fly if it braked at ``max_accel_m_s2`` from now on: a ray of its stopping distance, clamped to the
+area) are at least the minimum apart. A UAV's command is accepted only if the path it implies (this step's
+segment, then braking from the new state) keeps the minimum to every other UAV's path: the new path of a
+UAV already decided this step, the current braking path of one not yet decided (which contains whatever
+that UAV does next if it brakes). A refused UAV tries its command turned by 45 and 90 degrees either way
+(it routes around), then brakes, whose path lies inside its current one. By induction no two UAVs
+ever come closer than the minimum, whatever the commands, provided they start apart at rest.
+
+Examples:
+    >>> import numpy as np
+    >>> from uav_swarm.world.separation import closest_distances_m
+    >>> from uav_swarm.world.uav import UAVConfig, fly_step, waypoint_velocity
+    >>> config, area = UAVConfig(min_separation_m=5.0), np.array([100.0, 100.0])
+    >>> p, v = np.array([[20.0, 50.0], [80.0, 50.0]]), np.zeros((2, 2))
+    >>> targets = p[::-1].copy()  # a head-on swap
+    >>> closest = np.inf
+    >>> for _ in range(400):
+    ...     command, held = guard_commands(p, v, waypoint_velocity(p, targets, 0.1, config), 0.1, config,
+    ...                                    upper_m=area)
+    ...     p, v = fly_step(p, v, command, 0.1, config, area)
+    ...     closest = min(closest, float(closest_distances_m(p)))
+    >>> closest >= 5.0, bool(np.allclose(p, targets, atol=0.1))
+    (True, True)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from uav_swarm.world.separation import pair_distances_m, required_distances_m
+from uav_swarm.world.uav import UAVConfig, fly_step
+
+__all__ = ["braking_paths", "guard_commands", "path_distances_m", "stopping_distance_m"]
+
+_TURNS_RAD = (0.0, math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2)  # the command, then around
+
+
+def stopping_distance_m(speed_m_s: np.ndarray, max_accel_m_s2: float, dt_s: float) -> np.ndarray:
+    """Distance flown while braking at ``max_accel_m_s2`` in steps of ``dt_s`` (the kinematics of fly_step).
+
+    After step ``j`` the speed is ``s - j a dt`` (while positive) and the UAV moves that times ``dt``.
+
+    Examples:
+        >>> float(stopping_distance_m(np.array(10.0), 5.0, 0.1))  # about v^2 / 2a = 10 m
+        9.5
+    """
+    step = max_accel_m_s2 * dt_s
+    steps = np.floor(np.asarray(speed_m_s, dtype=np.float64) / step)
+    return dt_s * (steps * speed_m_s - step * steps * (steps + 1.0) / 2.0)
+
+
+def braking_paths(positions_m: np.ndarray, velocities_m_s: np.ndarray, dt_s: float, config: UAVConfig,
+                  upper_m: np.ndarray | None = None) -> np.ndarray:
+    """(..., K, 3, 2) polyline each UAV flies if it brakes from now on: start, wall hit (or end), end.
+
+    The ray of the stopping distance, clamped to the area ``[0, upper_m]`` as fly_step clamps (a UAV that
+    meets a wall slides along it, never beyond the clamped end).
+    """
+    p = np.asarray(positions_m, dtype=np.float64)
+    v = np.asarray(velocities_m_s, dtype=np.float64)
+    speed = np.hypot(v[..., 0], v[..., 1])
+    reach = stopping_distance_m(speed, config.max_accel_m_s2, dt_s)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(speed[..., None] > 1e-12, v / speed[..., None], 0.0)
+    end = p + unit * reach[..., None]
+    if upper_m is None:
+        return np.stack([p, end, end], axis=-2)
+    upper = np.asarray(upper_m, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        to_wall = np.where(unit > 0, (upper - p) / unit, np.where(unit < 0, -p / unit, np.inf))
+    hit = np.minimum(to_wall.min(axis=-1), reach)
+    wall = p + unit * hit[..., None]
+    return np.stack([p, wall, np.clip(end, 0.0, upper)], axis=-2)
+
+
+def path_distances_m(paths_a: np.ndarray, paths_b: np.ndarray) -> np.ndarray:
+    """(..., A, B) least distance between polylines ``paths_a`` (..., A, P, 2) and ``paths_b`` (..., B, Q, 2).
+
+    Examples:
+        >>> a = np.array([[[0.0, 0.0], [10.0, 0.0]]])
+        >>> b = np.array([[[5.0, 3.0], [5.0, 9.0]], [[5.0, -1.0], [5.0, 1.0]]])
+        >>> path_distances_m(a, b).tolist()
+        [[3.0, 0.0]]
+    """
+    a0, a1 = paths_a[..., :, None, :-1, None, :], paths_a[..., :, None, 1:, None, :]
+    b0, b1 = paths_b[..., None, :, None, :-1, :], paths_b[..., None, :, None, 1:, :]
+    return _segment_distances(a0, a1, b0, b1).min(axis=(-2, -1))
+
+
+def _segment_distances(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """Least distance between segments [a0, a1] and [b0, b1] (broadcast, last axis x/y)."""
+    d = np.minimum(np.minimum(_point_segment(a0, b0, b1), _point_segment(a1, b0, b1)),
+                   np.minimum(_point_segment(b0, a0, a1), _point_segment(b1, a0, a1)))
+    crossing = ((_orientation(a0, a1, b0) * _orientation(a0, a1, b1) < 0)
+                & (_orientation(b0, b1, a0) * _orientation(b0, b1, a1) < 0))
+    return np.where(crossing, 0.0, d)
+
+
+def _point_segment(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    along = end - start
+    length2 = np.einsum("...c,...c->...", along, along)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(length2 > 0, np.einsum("...c,...c->...", point - start, along) / length2, 0.0)
+    nearest = start + np.clip(t, 0.0, 1.0)[..., None] * along
+    gap = point - nearest
+    return np.sqrt(np.einsum("...c,...c->...", gap, gap))
+
+
+def _orientation(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    ab, ac = b - a, c - a
+    return ab[..., 0] * ac[..., 1] - ab[..., 1] * ac[..., 0]
+
+
+def guard_commands(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_m_s: np.ndarray, dt_s: float,
+                   config: UAVConfig, altitudes_m: np.ndarray | None = None, *,
+                   upper_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Commands that keep every pair of UAVs at least ``config.min_separation_m`` apart (module docstring).
+
+    Args:
+        positions_m: (..., K, 2) positions in metres.
+        velocities_m_s: (..., K, 2) velocities in m/s.
+        command_m_s: (..., K, 2) the velocity commands wanted (from the waypoint controller or a policy).
+        dt_s: The step the commands will be flown for (s).
+        config: Flight limits and the minimum separation (0: every command passes).
+        altitudes_m: (K,) the UAVs' altitudes (layers), or None for one altitude.
+        upper_m: (2,) the area's upper corner, as given to fly_step (None: no border).
+
+    Returns:
+        The safe commands (..., K, 2) and ``held`` (..., K) bool: True where a UAV did not get its command
+        (it was turned around a neighbour or braked). UAV ``k`` has priority over UAV ``k + 1``.
+    """
+    p = np.asarray(positions_m, dtype=np.float64)
+    v = np.asarray(velocities_m_s, dtype=np.float64)
+    wanted = np.asarray(command_m_s, dtype=np.float64)
+    k = p.shape[-2]
+    held: np.ndarray = np.zeros(p.shape[:-1], dtype=bool)
+    if k < 2 or config.min_separation_m <= 0:
+        return wanted.copy(), held
+    batch = p.shape[:-2]
+    p, v, wanted = (a.reshape(-1, k, 2) for a in (p, v, wanted))
+    held = held.reshape(-1, k)
+    area = np.full(2, np.inf) if upper_m is None else np.asarray(upper_m, dtype=np.float64)
+    pairs = required_distances_m(config.min_separation_m, altitudes_m, k)
+    required = np.broadcast_to(pairs, (p.shape[0], k, k))
+    p_next, v_next = fly_step(p, v, wanted, dt_s, config, area)
+    current = _paths(p, p, v, dt_s, config, area)  # (B, K, 4, 2): braking from now
+    proposed = _paths(p, p_next, v_next, dt_s, config, area)
+    # Every path lies within its reach of the UAV's position: pairs whose discs keep the gap need no geometry.
+    centre = pair_distances_m(p)
+    accel = config.max_accel_m_s2
+    reach_now = stopping_distance_m(np.linalg.norm(v, axis=-1), accel, dt_s)
+    reach_next = (np.linalg.norm(p_next - p, axis=-1)
+                  + stopping_distance_m(np.linalg.norm(v_next, axis=-1), accel, dt_s))
+    # A pair already closer than the minimum (a start inside it) may only keep or widen its gap.
+    threshold = required.copy()
+    near = centre - reach_now[..., :, None] - reach_now[..., None, :] < required
+    if near.any():
+        b, i, j = np.nonzero(near)
+        threshold[b, i, j] = np.minimum(required[b, i, j], _pair_gaps(current, current, b, i, j) - 1e-9)
+    clear = np.ones_like(near)
+    for others, reach in ((proposed, reach_next), (current, reach_now)):
+        near = centre - reach_next[..., :, None] - reach[..., None, :] < threshold
+        if near.any():
+            b, i, j = np.nonzero(near)
+            clear[b, i, j] &= _pair_gaps(proposed, others, b, i, j) >= threshold[b, i, j]
+    tight = ~clear.all(axis=(-2, -1))
+    safe = wanted.copy()
+    if tight.any():
+        safe[tight], held[tight] = _sequential(p[tight], v[tight], wanted[tight], current[tight],
+                                               threshold[tight], dt_s, config, area)
+    return safe.reshape(*batch, k, 2), held.reshape(*batch, k)
+
+
+def _pair_gaps(paths_a: np.ndarray, paths_b: np.ndarray, world: np.ndarray, first: np.ndarray,
+               second: np.ndarray) -> np.ndarray:
+    """(M,) least distance between ``paths_a[world, first]`` and ``paths_b[world, second]`` (polylines)."""
+    a, b = paths_a[world, first], paths_b[world, second]  # (M, P, 2)
+    gaps = _segment_distances(a[:, :-1, None], a[:, 1:, None], b[:, None, :-1], b[:, None, 1:])
+    return gaps.min(axis=(-2, -1))
+
+
+def _paths(p: np.ndarray, p_next: np.ndarray, v_next: np.ndarray, dt_s: float, config: UAVConfig,
+           area: np.ndarray) -> np.ndarray:
+    """(..., K, 4, 2): the segment from ``p`` to ``p_next``, then braking from ``(p_next, v_next)``."""
+    return np.concatenate([p[..., None, :], braking_paths(p_next, v_next, dt_s, config, area)], axis=-2)
+
+
+def _sequential(p: np.ndarray, v: np.ndarray, wanted: np.ndarray, current: np.ndarray, threshold: np.ndarray,
+                dt_s: float, config: UAVConfig, area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Decide UAV by UAV (priority = index) for the worlds where some command conflicts."""
+    n_worlds, k = p.shape[:2]
+    turns = np.array([[[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]] for t in _TURNS_RAD])
+    options = np.einsum("tij,bkj->bkti", turns, wanted)  # (B, K, T, 2): the command and its turns
+    options = np.concatenate([options, np.zeros((n_worlds, k, 1, 2))], axis=2)  # braking, always last
+    decided = current.copy()  # (B, K, 4, 2): decided paths, current braking paths for the undecided
+    safe = np.zeros_like(wanted)
+    held = np.zeros((n_worlds, k), dtype=bool)
+    rows = np.arange(n_worlds)
+    for uav in range(k):
+        here = np.repeat(p[:, uav:uav + 1], options.shape[2], axis=1)
+        p_next, v_next = fly_step(here, np.repeat(v[:, uav:uav + 1], options.shape[2], axis=1),
+                                  options[:, uav], dt_s, config, area)
+        paths = _paths(here, p_next, v_next, dt_s, config, area)  # (B, T + 1, 4, 2)
+        gaps = path_distances_m(paths, decided)  # (B, T + 1, K)
+        ok = (gaps >= threshold[:, uav][:, None, :]) | (np.arange(k) == uav)
+        ok = ok.all(axis=-1)
+        ok[:, -1] = True
+        choice = np.argmax(ok, axis=1)  # the first option that keeps every gap
+        safe[:, uav] = options[rows, uav, choice]
+        held[:, uav] = choice > 0
+        decided[:, uav] = paths[rows, choice]
+    return safe, held
