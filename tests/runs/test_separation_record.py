@@ -55,7 +55,7 @@ def test_the_summary_equals_an_independent_recomputation_from_the_positions(run)
     assert separation["min_separation_m"] == MIN_SEPARATION_M
     assert separation["closest_m"] == pytest.approx(closest, abs=1e-3)
     assert separation["closest_pair"] == pair and separation["closest_t_s"] == pytest.approx(when)
-    assert separation["conflicts"] == conflicts == 0 and closest >= MIN_SEPARATION_M  # the guard held them apart
+    assert separation["conflicts"] == conflicts == 0 and closest >= MIN_SEPARATION_M  # held apart
     assert separation["time_below_min_s"] == pytest.approx(below_s, abs=1e-6)
     assert separation["holds"] == separation["transition_holds"] + separation["guard_holds"] > 0
     table = format_summary(result.summary)
