@@ -6,6 +6,7 @@ import time
 import numpy as np
 import pytest
 from lossy_relay import free_udp_port
+from peer_fleet import close_all
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import SimVehicle, endpoint_pair
 
@@ -34,10 +35,6 @@ def _vehicles(n, **kwargs):
     return vehicles, endpoints
 
 
-def _close(vehicles):
-    for vehicle in vehicles:
-        vehicle.close()
-
 
 def test_upload_right_after_boot_is_retried_and_verifies_with_exact_positions():
     vehicles, endpoints = _vehicles(2, personality="ardupilot", boot_no_space_s=1.0, **AT_CMAC)
@@ -50,7 +47,7 @@ def test_upload_right_after_boot_is_retried_and_verifies_with_exact_positions():
             missions = fleet.upload_plans(plans)  # verified by download, ArduPilot's changes accepted
             elapsed_s = time.monotonic() - start_s
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     assert 1.0 <= elapsed_s < 6.0
     for vehicle in vehicles:
         assert vehicle.refused_counts >= 1 and vehicle.uploads == 1
@@ -70,7 +67,7 @@ def test_no_space_after_the_retry_time_shows_what_the_vehicle_said():
         with Fleet(config) as fleet, pytest.raises(FleetError) as info:
             fleet.upload_plans({1: [(10.0, 10.0)]})
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     exc = info.value.errors[1]
     assert isinstance(exc, errors.MissionNoSpaceError)
     assert 'vehicle says: "Only 0 items are supported"' in str(exc)
@@ -89,7 +86,7 @@ def test_a_real_capacity_refusal_is_final_at_once():
                 fleet.upload_plans({1: [(10.0, 10.0), (20.0, 20.0)]})  # home, take-off, 2 waypoints, loiter
             elapsed_s = time.monotonic() - start_s
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     assert 'vehicle says: "Only 3 items are supported"' in str(info.value.errors[1])
     assert vehicles[0].refused_counts == 1 and elapsed_s < 2.0
 
@@ -158,7 +155,7 @@ def test_strict_upload_reports_the_mismatch(tmp_path, capsys):
         assert "vehicle 1: uploaded 4 items in" in capsys.readouterr().out
         assert main(["mission", "upload", "--config", str(config), "--target", "1:10,20", "--strict"]) == 1
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     err = capsys.readouterr().err
     assert "vehicle 1: the mission read back differs in item 0" in err
     assert len(err) < 600  # one readable line, not a dump
@@ -188,7 +185,7 @@ def test_a_vehicle_far_from_the_configured_home_is_refused_unless_its_own_home_i
         own = _toml(tmp_path, endpoints, extra=['home = "vehicle"'])
         assert main(["mission", "upload", "--config", str(own), "--target", "1:10,20"]) == 0
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     assert vehicles[0].uploads == 1
     waypoint = vehicles[0].mission[2]  # home, take-off, waypoint: 10 m East, 20 m North of the vehicle
     assert waypoint.x / DEG_E7 == pytest.approx(CMAC.lat_deg + 20 / 111_000, abs=2e-6)
@@ -225,7 +222,7 @@ def test_a_mission_being_flown_is_neither_cleared_nor_replaced_without_force(tmp
         vehicles[0].custom_mode = 5  # LOITER
         assert main(clear) == 0 and vehicles[0].mission == []
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_ten_vehicles_three_absent_each_named_and_every_other_verified(tmp_path, capsys):
@@ -248,7 +245,7 @@ def test_ten_vehicles_three_absent_each_named_and_every_other_verified(tmp_path,
         target = [arg for sid in range(1, 11) for arg in ("--target", f"{sid}:{5 * sid},10")]
         assert main(["mission", "upload", "--config", str(path), *target]) == 1
     finally:
-        _close(present)
+        close_all(present)
     assert elapsed_s < 5.0 + 3.0  # each absent one within its own discovery time, not one after another
     assert set(info.value.errors) == {8, 9, 10} and set(info.value.results) == set(range(1, 8))
     assert isinstance(info.value.errors[8], errors.HeartbeatTimeoutError)

@@ -15,6 +15,7 @@ import numpy as np
 from booting_copter import PREARM_TEXT, BootingCopter
 from flying_vehicle import AUTO, FAILSAFE_ON, RTL, launch_home
 from lossy_relay import free_tcp_port, free_udp_port
+from peer_fleet import bridge_toml, close_all
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import endpoint_pair
 
@@ -59,18 +60,6 @@ def _fleet(n: int, seed: int, options: dict[int, dict] | None = None) -> tuple[l
     return vehicles, urls
 
 
-def _bridge_toml(path, urls: list[str]):
-    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
-             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
-    for sid, url in enumerate(urls, start=1):
-        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def _close(vehicles) -> None:
-    for vehicle in vehicles:
-        vehicle.close()
 
 
 def _restart(vehicles: list[BootingCopter], system_id: int, **options) -> BootingCopter:
@@ -115,7 +104,7 @@ def test_fly_right_after_boot_waits_for_each_fix_and_home_with_one_restart(tmp_p
     vehicles, urls = _fleet(10, seed=27, options={i: {"speed_m_s": 25.0} for i in range(1, 11)})
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)),
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)),
         "duration_s": 72.0, "speedup": 4.0,
         "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 30.0, "arm_retry_s": 0.5},
         "telemetry": {"swarm": "boot", "listen": [endpoint]}})
@@ -144,7 +133,7 @@ def test_fly_right_after_boot_waits_for_each_fix_and_home_with_one_restart(tmp_p
             time.sleep(0.5)
         summary = outcome["result"].summary
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     statuses = {v["system_id"]: v for v in summary["vehicles"]}
     assert all(v["status"] == "ended" for v in statuses.values())
     assert all(v["launches"] == (2 if sid == restarted else 1) for sid, v in statuses.items())
@@ -179,7 +168,7 @@ def test_fly_right_after_boot_waits_for_each_fix_and_home_with_one_restart(tmp_p
 def test_mission_upload_and_clear_right_after_boot_with_one_restart(tmp_path, caplog, capsys):
     caplog.set_level(logging.INFO, logger="bridge")
     vehicles, urls = _fleet(10, seed=7, options={5: {"answer_mission_current": False}})
-    config = str(_bridge_toml(tmp_path / "bridge.toml", urls))
+    config = str(bridge_toml(tmp_path / "bridge.toml", urls, FAST))
     targets = [arg for sid in range(1, 11) for arg in ("--target", f"{sid}:{10 * sid},20")]
     try:
         assert main(["mission", "upload", "--config", config, *targets]) == 0
@@ -210,12 +199,12 @@ def test_mission_upload_and_clear_right_after_boot_with_one_restart(tmp_path, ca
         waits = [r.getMessage() for r in caplog.records if "vehicle 8: waiting for" in r.getMessage()]
         assert waits and any(PREARM_TEXT in text for text in waits)
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_a_vehicle_never_ready_is_named_and_the_others_fly(tmp_path, caplog, capsys):
     vehicles, urls = _fleet(2, seed=1, options={2: {"home_after_s": 1000.0}})
-    toml = _bridge_toml(tmp_path / "bridge.toml", urls)
+    toml = bridge_toml(tmp_path / "bridge.toml", urls, FAST)
     try:
         argv = ["fly", "--bridge-config", str(toml), "--out", str(tmp_path / "out"), "--wait-ready-s", "6",
                 "--duration-s", "4", "--speedup", "2", "--no-telemetry"]
@@ -227,4 +216,4 @@ def test_a_vehicle_never_ready_is_named_and_the_others_fly(tmp_path, caplog, cap
         assert PREARM_TEXT in failure  # what the vehicle said
         assert mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicles[1].commands and not vehicles[1].armed
     finally:
-        _close(vehicles)
+        close_all(vehicles)

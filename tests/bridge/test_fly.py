@@ -9,11 +9,11 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from pathlib import Path
 
 import pytest
 from flying_vehicle import AUTO, FAILSAFE_ON, GUIDED, LAND, RTL, FlyingVehicle, launch_home
 from lossy_relay import free_tcp_port, free_udp_port
+from peer_fleet import bridge_toml, close_all
 from pymavlink.dialects.v20 import common as mavlink
 from sim_vehicle import endpoint_pair
 
@@ -48,22 +48,10 @@ def _vehicles(n: int, transports: tuple[str, ...] = ("udpin",),
     return vehicles, urls
 
 
-def _bridge_toml(path: Path, urls: list[str]) -> Path:
-    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
-             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
-    for sid, url in enumerate(urls, start=1):
-        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
 
 def _free_endpoint() -> str:
     return f"tcp/127.0.0.1:{free_tcp_port()}"
 
-
-def _close(vehicles) -> None:
-    for vehicle in vehicles:
-        vehicle.close()
 
 
 def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
@@ -72,7 +60,7 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
     vehicles, urls = _vehicles(10, ("udpin", "udpout", "tcp"), options)
     endpoint = _free_endpoint()
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)),
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)),
         "duration_s": 68.0, "speedup": 4.0,
         "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         "telemetry": {"swarm": "flytest", "listen": [endpoint]}})
@@ -137,13 +125,13 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
         assert track[0].startswith("time_s,uav_id,system_id,status,x_m,y_m,z_m")
         assert any(",lost," in row for row in track)
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_mission_mode_flies_each_target_in_auto_and_lands(tmp_path):
     vehicles, urls = _vehicles(2, ("udpin",), {i: {"speed_m_s": 25.0} for i in (1, 2)})
     try:
-        argv = ["fly", "--bridge-config", str(_bridge_toml(tmp_path / "bridge.toml", urls)), "--out",
+        argv = ["fly", "--bridge-config", str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "--out",
                 str(tmp_path / "out"), "--mode", "mission", "--end", "land", "--duration-s", "8",
                 "--speedup", "2", "--no-telemetry"]
         assert main(argv) == 0
@@ -152,7 +140,7 @@ def test_mission_mode_flies_each_target_in_auto_and_lands(tmp_path):
             assert vehicle.mission[-1].command == mavlink.MAV_CMD_NAV_LOITER_UNLIM
             assert vehicle.mission[-1].z == 10.0  # the cruise altitude, no descent after take-off
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, caplog):
@@ -160,7 +148,7 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
     vehicles, urls = _vehicles(2, ("udpin",))
     urls.append(f"udpin:127.0.0.1:{free_udp_port()}")  # vehicle 3 never answers
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 600.0,
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 600.0,
         "publish_telemetry": False, "flight": {"ready_timeout_s": 2.0, "end_action": "land"}})
     stop = threading.Event()
     try:
@@ -177,15 +165,15 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
         assert vehicles[1].commands.count(mavlink.MAV_CMD_COMPONENT_ARM_DISARM) == 1  # never re-armed
         assert result.summary["duration_s"] < 600.0
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_a_vehicle_far_from_the_configured_home_is_never_armed(tmp_path, caplog):
     far = Home(lat_deg=Home().lat_deg + 0.05)  # about 5.6 km North
     vehicles, urls = _vehicles(2, ("udpin",), {2: {"home": far}})
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 4.0, "speedup": 2.0,
-        "publish_telemetry": False})
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 4.0,
+        "speedup": 2.0, "publish_telemetry": False})
     try:
         result = fly(config, tmp_path / "out")
         statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
@@ -193,13 +181,13 @@ def test_a_vehicle_far_from_the_configured_home_is_never_armed(tmp_path, caplog)
         assert "HomeMismatchError" in caplog.text and "max_home_offset_m = 100" in caplog.text
         assert not vehicles[1].armed and mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicles[1].commands
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_a_stop_during_the_launch_cancels_it_before_any_take_off(tmp_path):
     vehicles, urls = _vehicles(2, ("udpin",), {1: {"prearm_s": 60.0}, 2: {"prearm_s": 60.0}})
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "publish_telemetry": False,
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "publish_telemetry": False,
         "flight": {"arm_retry_s": 0.2}})
     stop = threading.Event()
     try:
@@ -213,13 +201,13 @@ def test_a_stop_during_the_launch_cancels_it_before_any_take_off(tmp_path):
             assert mavlink.MAV_CMD_NAV_TAKEOFF not in vehicle.commands
         assert "mean_qos_s1" not in result.summary or result.summary["duration_s"] < 1.0
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_bad_configuration_exits_2_before_anything_is_sent(tmp_path, capsys):
     vehicles, urls = _vehicles(1)
     try:
-        toml = _bridge_toml(tmp_path / "bridge.toml", urls)
+        toml = bridge_toml(tmp_path / "bridge.toml", urls, FAST)
         toml.write_text(toml.read_text().replace("x_max_m = 300.0", "x_max_m = 50.0"))
         out = str(tmp_path / "out")
         assert main(["fly", "--bridge-config", str(toml), "--out", out, "--no-telemetry"]) == 2
@@ -235,7 +223,7 @@ def test_bad_configuration_exits_2_before_anything_is_sent(tmp_path, capsys):
         assert vehicles[0].commands == [] and not vehicles[0].armed
         assert not (tmp_path / "out").exists()
     finally:
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def _link_and_tracker(url: str) -> tuple[MavlinkLink, VehicleStateTracker]:
@@ -257,7 +245,7 @@ def test_launch_names_the_vehicle_when_arming_stays_refused():
         assert not vehicles[0].armed
     finally:
         link.close()
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_launch_climbs_to_the_altitude_and_refused_commands_raise_by_name():
@@ -275,7 +263,7 @@ def test_launch_climbs_to_the_altitude_and_refused_commands_raise_by_name():
             set_mode(link, 1, (99.0,), protocol)
     finally:
         link.close()
-        _close(vehicles)
+        close_all(vehicles)
 
 
 def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsys, caplog):
@@ -287,13 +275,13 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     vehicles, urls = _vehicles(2, ("udpin",), {i: {"speed_m_s": 25.0} for i in (1, 2)})
     path = tmp_path / "replay" / "flight.mcap"
     try:
-        argv = ["fly", "--bridge-config", str(_bridge_toml(tmp_path / "bridge.toml", urls)), "--out",
+        argv = ["fly", "--bridge-config", str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "--out",
                 str(tmp_path / "out"), "--duration-s", "4", "--speedup", "2", "--no-telemetry",
                 "--record", str(path), "--live", "127.0.0.1:0"]
         caplog.set_level(logging.INFO, logger="uav_swarm.runs.recording")
         assert main(argv) == 0
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     assert f"recorded the flight in {path}" in capsys.readouterr().out
     assert "live view on ws://127.0.0.1:" in caplog.text
     topics: dict[str, list] = {}

@@ -19,6 +19,7 @@ from fly_measures import live_rows
 from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
 from flying_vehicle import GUIDED, FlyingVehicle, launch_home
 from lossy_relay import free_udp_port
+from peer_fleet import bridge_toml, close_all
 from peer_tracks import FixedTargets, closest_approach
 from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
 from px4_vehicle import LOITER, Px4Vehicle, px4_mode
@@ -48,18 +49,6 @@ def _fleet(kind: str, homes: list, failsafe: bool = True, **options) -> tuple[li
     return vehicles, urls
 
 
-def _bridge_toml(path: Path, urls: list[str]) -> Path:
-    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
-             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
-    for sid, url in enumerate(urls, start=1):
-        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def _close(vehicles) -> None:
-    for vehicle in vehicles:
-        vehicle.close()
 
 
 def _wait(condition, timeout_s: float) -> bool:
@@ -86,14 +75,14 @@ def test_crossing_targets_keep_the_minimum_from_take_off_to_landing(tmp_path, ki
     targets = [((n - 1 - i) * spacing_m, 0.0) for i in range(n)]
     vehicles, urls = _fleet(kind, homes)
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 50.0,
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 50.0,
         "speedup": 2.0, "publish_telemetry": False, "flight": {"ready_timeout_s": 10.0}})
     try:
         result = fly(config, tmp_path / "out", planner=FixedTargets(targets))
         assert _wait(lambda: not any(v.armed for v in vehicles), 60.0)  # both home and landed
         approach = closest_approach(vehicles)
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     assert approach.distance_m >= MIN_M, approach  # from take-off to landing, on their own tracks
     separation = result.summary["separation"]
     assert separation["closest_m"] >= MIN_M and separation["conflicts"] == 0
@@ -123,7 +112,7 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
     """Three vehicles in guided flight; ``fly`` killed: each leaves guided flight for RTL within its
     failsafe timeout + 5 s, and they return in layers without coming closer than the minimum."""
     vehicles, urls = _fleet(kind, [launch_home(i, 10.0) for i in range(3)])
-    process = _fly_process(_bridge_toml(tmp_path / "bridge.toml", urls), tmp_path / "out")
+    process = _fly_process(bridge_toml(tmp_path / "bridge.toml", urls, FAST), tmp_path / "out")
     try:
         def flying() -> bool:
             guided = [(LOITER if isinstance(v, Px4Vehicle) else GUIDED) for v in vehicles]
@@ -148,7 +137,7 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
         if process.poll() is None:
             process.kill()
             process.wait(timeout=10)
-        _close(vehicles)
+        close_all(vehicles)
     for vehicle, timeout_s in zip(vehicles, timeouts_s, strict=True):
         assert vehicle.failsafes[0] - killed_s <= timeout_s + 5.0
         assert _in_rtl(vehicle) and math.hypot(*vehicle.enu[:2]) < 1.0
@@ -159,7 +148,7 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
 def test_a_vehicle_without_a_link_loss_failsafe_is_refused_before_arming_unless_asked(tmp_path, capsys):
     vehicles, urls = _fleet("mixed", [launch_home(0), launch_home(1)], failsafe=False)
     vehicles[1].params["NAV_DLL_ACT"] = (1.0, mavlink.MAV_PARAM_TYPE_INT32)  # a hold: it would stay there
-    toml = str(_bridge_toml(tmp_path / "bridge.toml", urls))
+    toml = str(bridge_toml(tmp_path / "bridge.toml", urls, FAST))
     argv = ["fly", "--bridge-config", toml, "--out", str(tmp_path / "out"), "--duration-s", "4", "--speedup",
             "2", "--no-telemetry"]
     try:
@@ -181,7 +170,7 @@ def test_a_vehicle_without_a_link_loss_failsafe_is_refused_before_arming_unless_
         out = capsys.readouterr().out
         assert "separation: closest pair" in out
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     assert vehicles[1].param("NAV_DLL_ACT") == 2.0 and ("NAV_DLL_ACT", 2.0) in vehicles[1].param_sets
     assert vehicles[0].param("RTL_ALT") == 1600.0 and vehicles[1].param("RTL_RETURN_ALT") == 22.0
     assert all(mavlink.MAV_CMD_COMPONENT_ARM_DISARM in v.commands for v in vehicles)
@@ -190,7 +179,7 @@ def test_a_vehicle_without_a_link_loss_failsafe_is_refused_before_arming_unless_
 def test_take_off_closer_than_the_minimum_and_a_negative_layer_step_are_refused_before_anything_flies(
         tmp_path, capsys):
     vehicles, urls = _fleet("mixed", [launch_home(0), launch_home(0, origin=None)])  # one place
-    toml = str(_bridge_toml(tmp_path / "bridge.toml", urls))
+    toml = str(bridge_toml(tmp_path / "bridge.toml", urls, FAST))
     out = tmp_path / "out"
     argv = ["fly", "--bridge-config", toml, "--out", str(out), "--duration-s", "4", "--no-telemetry"]
     try:
@@ -212,4 +201,4 @@ def test_take_off_closer_than_the_minimum_and_a_negative_layer_step_are_refused_
             assert not vehicle.armed and mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicle.commands
         assert not out.exists()
     finally:
-        _close(vehicles)
+        close_all(vehicles)

@@ -17,6 +17,7 @@ from fly_measures import altitude_share, live_rows, settled_distance_m
 from flying_vehicle import AUTO, GUIDED, RTL, FlyingVehicle, launch_home
 from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
 from lossy_relay import free_udp_port
+from peer_fleet import bridge_toml, close_all
 from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
 from px4_vehicle import LAND, LOITER, MISSION, Px4Vehicle, px4_mode
 from px4_vehicle import RTL as PX4_RTL
@@ -54,18 +55,6 @@ def _fleet(kinds: str, **options) -> tuple[list, list[str]]:
     return vehicles, urls
 
 
-def _bridge_toml(path: Path, urls: list[str]) -> Path:
-    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
-             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
-    for sid, url in enumerate(urls, start=1):
-        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def _close(vehicles) -> None:
-    for vehicle in vehicles:
-        vehicle.close()
 
 
 def _away(vehicle, x_m: float) -> float:
@@ -74,7 +63,7 @@ def _away(vehicle, x_m: float) -> float:
 
 def _fly(tmp_path: Path, urls: list[str], **overrides):
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 40.0,
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 40.0,
         "speedup": 4.0, "publish_telemetry": False,
         "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         **overrides})
@@ -120,7 +109,7 @@ def test_px4_reads_a_relative_reposition_as_sea_level_and_lands_so_the_bridge_se
     finally:
         for link in links:
             link.close()
-        _close(vehicles)
+        close_all(vehicles)
     assert not vehicles[0].armed and vehicles[0].enu[2] == 0.0  # read 10 m above sea level: landed
     assert "Landing detected" in vehicles[0].texts and "Disarmed by landing" in vehicles[0].texts
     assert vehicles[1].armed and vehicles[1].enu[2] == pytest.approx(ALT_M, abs=0.3)
@@ -149,7 +138,7 @@ def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_ret
         time.sleep(0.3)
         rows = live_rows(tmp_path / "out")
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     result = outcome["result"]
     statuses = {v["system_id"]: (v["status"], v["launches"]) for v in result.summary["vehicles"]}
     assert statuses == {1: ("ended", 1), 2: ("ended", 2), 3: ("ended", 1)}
@@ -170,7 +159,7 @@ def test_a_mixed_fleet_of_two_px4_and_two_ardupilot_flies_one_fly(tmp_path):
         time.sleep(0.3)
         rows = live_rows(tmp_path / "out")
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     assert all(v["status"] == "ended" for v in result.summary["vehicles"])
     for vehicle in vehicles:
         sid = vehicle.system_id
@@ -188,12 +177,12 @@ def test_a_mixed_fleet_of_two_px4_and_two_ardupilot_flies_one_fly(tmp_path):
 def test_mission_mode_on_px4_flies_auto_mission_from_its_item_0_and_lands(tmp_path):
     vehicles, urls = _fleet("pa")
     try:
-        argv = ["fly", "--bridge-config", str(_bridge_toml(tmp_path / "bridge.toml", urls)), "--out",
+        argv = ["fly", "--bridge-config", str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "--out",
                 str(tmp_path / "out"), "--mode", "mission", "--end", "land", "--duration-s", "8",
                 "--speedup", "2", "--no-telemetry"]
         assert main(argv) == 0
     finally:
-        _close(vehicles)
+        close_all(vehicles)
     px4, ardupilot = vehicles
     assert px4.uploads >= 1 and MISSION in map(px4_mode, px4.modes) and px4_mode(px4.custom_mode) == LAND
     assert px4.mission[0].command == mavlink.MAV_CMD_NAV_TAKEOFF  # PX4: item 0 is the take-off
@@ -206,7 +195,7 @@ def test_mission_mode_on_px4_flies_auto_mission_from_its_item_0_and_lands(tmp_pa
 def test_clear_refuses_a_vehicle_flying_its_mission_at_any_item(tmp_path, capsys, kind, mode, seq):
     vehicles, urls = _fleet(kind, stream_until_asked=False)
     vehicle = vehicles[0]
-    config = str(_bridge_toml(tmp_path / "bridge.toml", urls))
+    config = str(bridge_toml(tmp_path / "bridge.toml", urls, FAST))
     try:
         assert main(["mission", "upload", "--config", config, "--target", "1:20,30"]) == 0
         vehicle.armed, vehicle.current_seq = True, seq
@@ -224,4 +213,4 @@ def test_clear_refuses_a_vehicle_flying_its_mission_at_any_item(tmp_path, capsys
         if kind == "p":  # PX4 itself would clear it: --force does
             assert main(["mission", "clear", "--config", config, "--force"]) == 0 and vehicle.mission == []
     finally:
-        _close(vehicles)
+        close_all(vehicles)

@@ -9,13 +9,13 @@ from __future__ import annotations
 import json
 import math
 import threading
-from pathlib import Path
 
 import rclpy  # noqa: F401  (the ros2 extra: the test command installs it; missing, the tests fail)
 from fly_measures import live_rows
 from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
 from flying_vehicle import FlyingVehicle, launch_home
 from lossy_relay import free_udp_port
+from peer_fleet import bridge_toml
 from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
 from px4_vehicle import Px4Vehicle
 from ros2_run import domain_id, ros_env, start_peer
@@ -27,14 +27,6 @@ from uav_swarm.runs.fly_config import load_fly_config
 
 FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
 
-
-def _bridge_toml(path: Path, urls: list[str]) -> Path:
-    lines = ["[geofence]", "x_min_m = -20.0", "y_min_m = -20.0", "x_max_m = 300.0", "y_max_m = 300.0",
-             "[protocol]", *(f"{k} = {v}" for k, v in FAST.items())]
-    for sid, url in enumerate(urls, start=1):
-        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def test_a_ros2_operator_flies_a_px4_and_an_ardupilot_vehicle_to_its_targets(tmp_path, monkeypatch):
@@ -49,8 +41,8 @@ def test_a_ros2_operator_flies_a_px4_and_an_ardupilot_vehicle_to_its_targets(tmp
     domain = domain_id()
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     config = load_fly_config(None, {
-        "bridge_config": str(_bridge_toml(tmp_path / "bridge.toml", urls)), "duration_s": 80.0,  # guarded
-        "speedup": 4.0, "publish_telemetry": False,
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)),
+        "duration_s": 80.0, "speedup": 4.0,  # long enough for the guarded way "publish_telemetry": False,
         "flight": {"link_timeout_s": 3.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         "ros2": {"enabled": True, "namespace": "/fleet", "wait_for_subscriber_s": 120.0}})
     targets = {0: (30.0, 30.0, 10.0), 1: (170.0, 170.0, 10.0)}
