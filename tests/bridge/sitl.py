@@ -206,7 +206,7 @@ class Observer:
             if msg is None or msg.get_srcComponent() != 1:
                 continue
             sid, kind = msg.get_srcSystem(), msg.get_type()
-            if kind == "GLOBAL_POSITION_INT":
+            if kind == "GLOBAL_POSITION_INT" and (msg.lat or msg.lon):  # 0, 0: no fix yet, no position
                 self.positions.setdefault(sid, []).append(
                     (time.monotonic(), msg.relative_alt / 1000.0, msg.lat / 1e7, msg.lon / 1e7))
             elif kind == "HEARTBEAT" and msg.type != m.MAV_TYPE_GCS:
