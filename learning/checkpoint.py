@@ -109,7 +109,7 @@ def load_checkpoint(
     if task_name is not None and payload["task_name"] != task_name:
         raise CheckpointError(f"{path}: trained on task {payload['task_name']!r}, not {task_name!r}")
     if task_config is not None:
-        expected, stored = task_config, payload["task_config"]
+        stored: dict[str, Any] = payload["task_config"]
         if isinstance(task_config, Config):
             expected = task_config.to_dict()
             try:
@@ -117,10 +117,13 @@ def load_checkpoint(
             except ConfigError as exc:
                 name = type(task_config).__name__
                 raise CheckpointError(f"{path}: its task config is not a valid {name}: {exc}") from None
+        else:
+            expected = task_config
         if stored != expected:
             diff = sorted(k for k in set(expected) | set(stored) if expected.get(k) != stored.get(k))
             raise CheckpointError(f"{path}: task config differs from the checkpoint's in {diff}")
-    shape = tuple(int(v) for v in payload["input_shape"])
+    channels, height, width = (int(v) for v in payload["input_shape"])
+    shape = (channels, height, width)
     if input_shape is not None and tuple(input_shape) != shape:
         raise CheckpointError(f"{path}: trained on inputs of shape {shape}, not {tuple(input_shape)}")
     try:

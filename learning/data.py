@@ -96,7 +96,7 @@ def generate_samples(task_factory: Callable[[], Task], seed: int, split: str, in
     task = task_factory()
     n = len(indices)
     c, (h, w) = task.channels, task.shape
-    arrays = {
+    arrays: dict[str, np.ndarray] = {
         "inputs": np.zeros((n, c, h, w), dtype=np.float32),
         "positions": np.zeros((n, MAX_POSITIONS, 2), dtype=np.float64),
         "mask": np.zeros((n, MAX_POSITIONS), dtype=bool),

@@ -27,7 +27,7 @@ from typing import Protocol
 import numpy as np
 import torch
 
-from learning.model import UtilityNet
+from learning.model import UtilityNet, with_memory_format
 
 __all__ = ["ENGINES", "Engine", "EagerEngine", "TracedEngine", "OnnxEngine", "build_engine"]
 
@@ -71,7 +71,7 @@ class EagerEngine:
 
     def __init__(self, model: UtilityNet, bfloat16: bool = False) -> None:
         self._dtype = torch.bfloat16 if bfloat16 else torch.float32
-        self._model = _frozen_copy(model, self._dtype).to(memory_format=torch.channels_last)
+        self._model = with_memory_format(_frozen_copy(model, self._dtype), torch.channels_last)
         self.name = "torch-eager-bf16" if bfloat16 else "torch-eager"
         self.exact = not bfloat16
 
@@ -138,7 +138,8 @@ class OnnxEngine:
         graph = io.BytesIO()
         with torch.no_grad(), warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the TorchScript-based exporter's deprecation notice
-            torch.onnx.export(clone, (example,), graph, dynamo=False, input_names=["raster"],
+            torch.onnx.export(clone, (example,), graph,  # type: ignore[arg-type]  # writes to a file object too
+                              dynamo=False, input_names=["raster"],
                               output_names=["utility"], opset_version=17,
                               dynamic_axes={"raster": {0: "batch"}, "utility": {0: "batch"}})
         options = onnxruntime.SessionOptions()

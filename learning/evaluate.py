@@ -46,6 +46,7 @@ from learning.checkpoint import checkpoint_label, load_checkpoint
 from learning.data import generate_dataset, load_arrays, sample_seed
 from learning.inference import utility_maps
 from learning.metrics import MATCH_FRACTION, SampleScore, aggregate, score_sample
+from learning.model import with_memory_format
 from learning.operating_points import choose_peaks
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_examples
@@ -237,7 +238,7 @@ def evaluate(
     eps_px = MATCH_FRACTION * task.mission_dimension_px
 
     resolved = resolve_precision(precision, next(ckpt.model.parameters()).device)
-    ckpt.model.to(memory_format=torch.channels_last)
+    with_memory_format(ckpt.model, torch.channels_last)
     inputs = arrays["inputs"][:n]
     utilities: list[np.ndarray] = []  # n × (h, w)
     threads = torch.get_num_threads()

@@ -16,7 +16,7 @@ import contextlib
 import logging
 import multiprocessing
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
@@ -31,7 +31,7 @@ JobFn = Callable[[int, int], Any]
 
 
 def run_local(fn: JobFn, jobs: Sequence[ShardJob], workers: int | None = None
-              ) -> Iterator[tuple[ShardJob, Any]]:
+              ) -> Generator[tuple[ShardJob, Any], None, None]:
     """Run jobs in a local process pool (spawned workers), or in this process when ``workers == 1``.
 
     Args:
@@ -139,7 +139,7 @@ def ray_session(address: str | None = None, **local_options: Any) -> Iterator[No
 
 
 def run_ray(fn: JobFn, jobs: Sequence[ShardJob], address: str | None = None
-            ) -> Iterator[tuple[ShardJob, Any]]:
+            ) -> Generator[tuple[ShardJob, Any], None, None]:
     """Run jobs as Ray tasks (one CPU each).
 
     Uses the running Ray session if there is one; otherwise connects to ``address``

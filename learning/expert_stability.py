@@ -22,6 +22,7 @@ the jitter from ``default_rng((seed, i))``; the same arguments give the same rep
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
@@ -62,7 +63,8 @@ def expert_stability(task: Task, n: int, seed: int, probe: Probe = "symmetry", s
     method = {"symmetry": "transform_scene", "jitter": "jitter_scene"}.get(probe)
     if method is None:
         raise ValueError(f"probe = {probe!r}: choose 'symmetry' or 'jitter'")
-    if not callable(getattr(task, method, None)):
+    probe_scene: Callable[..., Any] | None = getattr(task, method, None)
+    if not callable(probe_scene):
         raise ValueError(f"task {task.name!r} has no {method}(): the {probe} probe does not apply to it")
     if probe == "jitter" and not scale > 0:
         raise ValueError(f"scale = {scale}: the jitter needs a scale > 0")
@@ -73,12 +75,12 @@ def expert_stability(task: Task, n: int, seed: int, probe: Probe = "symmetry", s
         expert = task.expert(scene)
         if probe == "symmetry":
             symmetry = SYMMETRIES[1 + i % (len(SYMMETRIES) - 1)]
-            moved = task.transform_scene(scene, *symmetry)
+            moved = probe_scene(scene, *symmetry)
             reference = transform_positions(expert, task.shape, *symmetry)
             other = task.expert(moved)
             other_back = inverse_transform_positions(other, task.shape, *symmetry)
         else:
-            moved = task.jitter_scene(scene, np.random.default_rng((seed, i)), scale)
+            moved = probe_scene(scene, np.random.default_rng((seed, i)), scale)
             reference = expert
             other = other_back = task.expert(moved)
         scores.append(score_sample(reference, other, eps))

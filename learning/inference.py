@@ -121,7 +121,8 @@ def select_engine(model: UtilityNet, shape: tuple[int, int, int], precision: Pre
     unknown = [n for n in names if n not in ENGINES]
     if unknown:
         raise ValueError(f"engine(s) {unknown} not allowed: choose from {list(ENGINES)}")
-    shape = tuple(int(v) for v in shape)
+    channels, height, width = (int(v) for v in shape)
+    shape = (channels, height, width)
     key = (_fingerprint(model), shape, names, threads, trials)
     if key in _CHOICES:
         return _CHOICES[key]

@@ -40,7 +40,8 @@ class ShardDataset(Dataset):
     """
 
     def __init__(self, arrays: dict[str, np.ndarray], targets: TargetConfig,
-                 indices: Sequence[int] | None = None, augment: bool = False, augment_seed: int = 0,
+                 indices: Sequence[int] | np.ndarray | None = None, augment: bool = False,
+                 augment_seed: int = 0,
                  peak_heatmaps: bool = False, vector_channels: Sequence[int] = ()) -> None:
         self.inputs = arrays["inputs"]
         self.positions = arrays["positions"]
@@ -81,7 +82,8 @@ class ShardDataset(Dataset):
             x = transform_vector_channels(x, self.vector_channels, bool(flip_x), bool(flip_y), transpose)
             positions = transform_positions(positions, shape, bool(flip_x), bool(flip_y), transpose)
         target = render_targets(positions, shape, self.targets) / np.float32(self.targets.alpha1)  # (h, w)
-        tensors = (torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(target[None]))
+        tensors: tuple[torch.Tensor, ...] = (torch.from_numpy(np.ascontiguousarray(x)),
+                                             torch.from_numpy(target[None]))
         if self.peak_heatmaps:
             heatmap = render_peak_heatmap(positions, shape, self.targets.sigma1)  # (h, w)
             tensors += (torch.from_numpy(heatmap[None]),)

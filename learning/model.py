@@ -26,7 +26,7 @@ from torch import nn
 
 from typed_config import Config, ConfigError, param
 
-__all__ = ["ModelConfig", "UtilityNet", "build_model"]
+__all__ = ["ModelConfig", "UtilityNet", "build_model", "with_memory_format"]
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,8 @@ class UtilityNet(nn.Module):
                 c_in = w
         self.head = nn.Conv2d(c_in, 1, 1)
         self.peak_head = nn.Conv2d(c_in, 1, 1) if config.peak_head else None
-        if self.peak_head is not None:  # CenterNet's prior: every pixel starts at p = sigmoid(-2.19) = 0.1
+        if self.peak_head is not None and self.peak_head.bias is not None:
+            # CenterNet's prior: every pixel starts at p = sigmoid(-2.19) = 0.1
             nn.init.constant_(self.peak_head.bias, -2.19)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -153,3 +154,16 @@ class UtilityNet(nn.Module):
 def build_model(config: ModelConfig) -> UtilityNet:
     """A freshly initialised :class:`UtilityNet` for ``config``."""
     return UtilityNet(config)
+
+
+def with_memory_format(model: UtilityNet, memory_format: torch.memory_format,
+                       device: torch.device | str | None = None) -> UtilityNet:
+    """``model`` moved to ``device`` (when given) with its 4-D weights in ``memory_format``, in place.
+
+    Examples:
+        >>> net = with_memory_format(build_model(ModelConfig(in_channels=1)), torch.channels_last)
+        >>> net.head.weight.is_contiguous(memory_format=torch.channels_last)
+        True
+    """
+    moved = model.to(device) if device is not None else model
+    return moved.to(memory_format=memory_format)  # type: ignore[call-overload]  # torch's stubs omit it

@@ -158,7 +158,8 @@ def _run_ray(spec: TrialSpec, points: Sequence[Point], address: str | None, work
 
     device = spec.train_config["device"]
     use_gpu = device == "cuda" or (device == "auto" and pick_device("auto").type == "cuda")
-    resources = {"cpu": spec.threads, "gpu": 1 if use_gpu else 0}  # Ray hides GPUs from trials without one
+    # Ray hides GPUs from trials without one
+    resources: dict[str, float] = {"cpu": spec.threads, "gpu": 1 if use_gpu else 0}
     with ray_session(address, num_cpus=os.cpu_count(), object_store_memory=256 * 2**20):
         tuner = tune.Tuner(
             tune.with_resources(tune.with_parameters(trainable, spec=spec), resources),

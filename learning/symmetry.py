@@ -18,7 +18,8 @@ __all__ = ["Symmetry", "SYMMETRIES", "transform_positions", "inverse_transform_p
 Symmetry = tuple[bool, bool, bool]
 """``(flip_x, flip_y, transpose)``."""
 
-SYMMETRIES: tuple[Symmetry, ...] = tuple(itertools.product((False, True), repeat=3))
+SYMMETRIES: tuple[Symmetry, ...] = tuple((flip_x, flip_y, transpose) for flip_x, flip_y, transpose
+                                         in itertools.product((False, True), repeat=3))
 """All 8, the identity first."""
 
 

@@ -42,7 +42,7 @@ from learning.data import load_arrays
 from learning.loader import ShardDataset
 from learning.losses import focal_loss
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
-from learning.model import ModelConfig, UtilityNet, build_model
+from learning.model import ModelConfig, UtilityNet, build_model, with_memory_format
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_history
 from learning.precision import Precision, autocast, resolve_precision
@@ -244,7 +244,7 @@ def train(
             stray = [k for k in (*missing, *unexpected) if not k.startswith("peak_head.")]
             if stray:
                 raise CheckpointError(f"{init}: its weights do not fit this network: {stray[:5]}")
-        model = model.to(device, memory_format=memory_format)
+        model = with_memory_format(model, memory_format, device)
     optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     steps_per_epoch = math.ceil(len(train_set) / cfg.batch_size)
     total_steps = min(cfg.epochs * steps_per_epoch, cfg.max_steps or math.inf)
@@ -299,7 +299,7 @@ def train(
                 with autocast(precision, device):  # x (B, C, h, w); y, u, heatmap, logits (B, 1, h, w)
                     u, logits = model.forward_with_peaks(x) if heatmap else (model(x), None)
                 loss = F.mse_loss(u.float(), y)
-                if heatmap:
+                if logits is not None:
                     loss = loss + cfg.focal_weight * focal_loss(logits, heatmap[0])
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
@@ -312,8 +312,9 @@ def train(
                 if step >= total_steps:
                     break
             samples += seen
-            record = {"epoch": epoch, "step": step, "samples": samples,
-                      "train_loss": loss_sum / max(seen, 1), "lr": scheduler.get_last_lr()[0]}
+            record: dict[str, float] = {"epoch": epoch, "step": step, "samples": samples,
+                                        "train_loss": loss_sum / max(seen, 1),
+                                        "lr": float(scheduler.get_last_lr()[0])}
             epoch_peaks = peak_config
             if n_val:
                 metrics, epoch_peaks = validate(model, val_set, eps_px, peak_config, device,

@@ -138,10 +138,10 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
     scores = []
     for name in controllers:
         env_config, decide, planner = _controller(name, velocity, world, mappo_policy, checkpoint, seed)
-        if decide is None:
+        if planner is not None:
             measures, spent = _planned_episodes(env_config, [seed + e for e in range(episodes)], planner,
                                                 replan_every, steps, progress)
-        else:
+        elif decide is not None:
             measures, spent = [], 0.0
             for episode in tqdm(range(episodes), desc=name, unit="episode", disable=not progress,
                                 leave=False):
@@ -170,6 +170,8 @@ def _controller(name: str, velocity: EnvConfig, world: SimulateConfig, mappo_pol
 
         return velocity, random_actions, None
     if name == "mappo":
+        if mappo_policy is None:
+            raise ValueError("controller 'mappo' needs mappo_policy (the policy.pt of rl-train)")
         import torch
 
         from uav_swarm.marl.mappo import load_policy

@@ -79,6 +79,9 @@ class MappoConfig(Config):
 class FeatureNorm(nn.Module):
     """Fixed standardisation ``(x - mean) / std`` of each observation feature (buffers, saved)."""
 
+    mean: torch.Tensor
+    std: torch.Tensor
+
     def __init__(self, mean: torch.Tensor, std: torch.Tensor) -> None:
         super().__init__()
         self.register_buffer("mean", mean.clone().float())
