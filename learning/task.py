@@ -75,6 +75,10 @@ class Refiner(Protocol):
     learned one, and times both against the expert solving the scene from scratch.
     """
 
+    @property
+    def config(self) -> Config:
+        """The refinement's settings (printed beside its results)."""
+
     def refine(self, scene: Any, positions_px: np.ndarray) -> np.ndarray:
         """The refined ``(k, 2)`` float64 pixel positions ``(x, y)`` starting from ``positions_px``."""
         ...

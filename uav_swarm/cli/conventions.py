@@ -24,7 +24,7 @@ import dataclasses
 import difflib
 import importlib
 import re
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from types import UnionType
 from typing import Any, Union, get_args, get_origin, get_type_hints
 
@@ -148,7 +148,8 @@ class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
             allowed = f"; allowed {' and '.join(bounds)}" if bounds else ""
             if "(default" not in text:
                 shown = _shown(field.default).replace("%", "%%")
-                source = f", or {action.config_key} of --config" if action.config_key else ""
+                key = getattr(action, "config_key", None)
+                source = f", or {key} of --config" if key else ""
                 text += f" (default: {shown}{source}{allowed})"
             return text
         if isinstance(action, SWITCH_ACTIONS) or action.required or "default" in text:
@@ -177,8 +178,9 @@ class CliParser(argparse.ArgumentParser):
             kwargs["help"] = plain_text(kwargs["help"])
         return super().add_argument(*args, **kwargs)
 
-    def parse_known_args(self, args: Any = None, namespace: Any = None
-                         ) -> tuple[argparse.Namespace, list[str]]:
+    def parse_known_args(  # type: ignore[override]  # one signature for argparse's three overloads
+            self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
         """Parse; an argument this parser does not know is an error in its own usage, with a suggestion."""
         if args is not None and not any(isinstance(a, argparse._SubParsersAction) for a in self._actions):
             args = list(args)
@@ -187,10 +189,10 @@ class CliParser(argparse.ArgumentParser):
             unknown = [a for a in flags if a.startswith("--") and a.split("=", 1)[0] not in known]
             if unknown:  # before the check of required arguments, which would hide the typo
                 self.error(f"unrecognized arguments: {' '.join(unknown)}{self._suggestion(unknown)}")
-        namespace, extras = super().parse_known_args(args, namespace)
+        parsed, extras = super().parse_known_args(args, namespace)
         if extras:
             self.error(f"unrecognized arguments: {' '.join(extras)}{self._suggestion(extras)}")
-        return namespace, extras
+        return parsed, extras
 
     def _suggestion(self, extras: list[str]) -> str:
         known = sorted(self._option_string_actions)

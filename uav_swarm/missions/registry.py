@@ -24,7 +24,7 @@ import importlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from learning.task import PlacementCheck, Refiner, Task
 from typed_config import Config, ConfigError, read_toml
@@ -64,9 +64,18 @@ def _entry(name: str) -> TaskEntry:
     return TASKS[name]
 
 
-def _task_class(name: str) -> type:
+class _TaskClass(Protocol):
+    """A mission's Task class: built from its config class."""
+
+    config_class: type[Config]
+
+    def __call__(self, config: Config) -> Task: ...
+
+
+def _task_class(name: str) -> _TaskClass:
     module_name, _, class_name = _entry(name).target.partition(":")
-    return getattr(importlib.import_module(module_name), class_name)
+    task_class: _TaskClass = getattr(importlib.import_module(module_name), class_name)
+    return task_class
 
 
 def build_task(name: str, task_config: Mapping[str, Any] | None = None) -> Task:
@@ -83,8 +92,7 @@ def build_task(name: str, task_config: Mapping[str, Any] | None = None) -> Task:
             raise ConfigError(f"[task] {key} = {values[key]!r} contradicts task {name!r} (needs {value!r})")
         values[key] = value
     cls = _task_class(name)
-    config_class: type[Config] = cls.config_class
-    return cls(config_class.from_dict(values, where="[task]"))
+    return cls(cls.config_class.from_dict(values, where="[task]"))
 
 
 @dataclass(frozen=True)

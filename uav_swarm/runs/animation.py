@@ -95,8 +95,8 @@ class SceneAnimation:
                                    edgecolor="#707070", linewidth=0.8))
         scene.set_ylabel("North (m)", fontsize=9)
         obstacles = np.asarray(obstacles_m, dtype=np.float64).reshape(-1, 2, 2)
-        scene.add_collection(LineCollection(obstacles, colors=_OBSTACLE, linewidths=1.6))
-        panel.add_collection(LineCollection(obstacles, colors="white", linewidths=0.8, alpha=0.6))
+        scene.add_collection(LineCollection(list(obstacles), colors=_OBSTACLE, linewidths=1.6))
+        panel.add_collection(LineCollection(list(obstacles), colors="white", linewidths=0.8, alpha=0.6))
         bar_m = _scale_bar_m(width_m)
         scene.add_artist(AnchoredSizeBar(scene.transData, bar_m, f"{bar_m:g} m", "lower right", pad=0.3,
                                          borderpad=0.3, sep=3, frameon=False, size_vertical=0.01 * height_m,

@@ -30,14 +30,14 @@ def _three_d() -> fl.ThreeDeePanel:
     crowd = fl.BaseRendererPointCloudTopicSettings(
         visible=True, point_size=6.0, color_mode="gradient", color_field="covered",
         gradient=("#9e9e9eff", "#2e9e44ff"), min_value=0.0, max_value=1.0)
-    topics = {"/scene": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
-              "/pedestrians": crowd,
-              "/plan/targets": fl.BaseRendererPosesTopicSettings(visible=False)}
     camera = fl.ThreeDeeCameraState(distance=260.0, perspective=False, phi=0.0, theta_offset=0.0,
                                     target=(100.0, 100.0, 0.0), target_offset=(0.0, 0.0, 0.0),
                                     target_orientation=(0.0, 0.0, 0.0, 1.0), fovy=45.0, near=0.5, far=5000.0)
     config = fl.ThreeDeeConfig(follow_tf=MAP_FRAME, fixed_frame=MAP_FRAME, follow_mode="follow-none",
-                               camera_state=camera, topics=topics)
+                               camera_state=camera,
+                               topics={"/scene": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+                                       "/pedestrians": crowd,
+                                       "/plan/targets": fl.BaseRendererPosesTopicSettings(visible=False)})
     return fl.ThreeDeePanel(title="Swarm over the crowd (map frame)", config=config)
 
 

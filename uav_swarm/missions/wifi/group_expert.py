@@ -184,7 +184,7 @@ class _UnitBuilder:
         """The unit of these UAVs, or None when a load or a justification breaks the rules in the horizon."""
         rules = self.rules
         touched_sets, served_mean = [], np.zeros(len(uavs_m))
-        served_now, depth_now = None, 0.0
+        served_now, depth_now = np.zeros(0, np.int64), 0.0  # set at step 0
         for step, (tree, users) in enumerate(zip(self.trees, self.predicted, strict=True)):
             near = np.unique(np.concatenate(
                 [np.asarray(tree.query_ball_point(p, self.reach_m), np.int64) for p in uavs_m]))

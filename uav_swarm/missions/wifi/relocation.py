@@ -178,7 +178,7 @@ def relocate(search: PlacementSearch, max_moves: int) -> int:
             return moves
         current = _key(int(placement_violation(search.state.counts, rules).sum()), search.state.n_served, n)
         violation, served = relocation_scores(search.pairs, search.users_m, search.uavs_m, rules)
-        key = _key(violation, served, n)
+        key = np.asarray(_key(violation, served, n))
         crowded = _crowded(search.uavs_m, search.pairs.candidates_m, rules.min_separation_m)
         if crowded is not None:
             key = np.where(crowded, np.iinfo(np.int64).max, key)

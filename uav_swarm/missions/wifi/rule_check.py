@@ -39,14 +39,21 @@ __all__ = ["RasterFrame", "RuleCheckConfig", "WifiRuleCheck", "raster_users", "d
 
 
 class _DensityConfig(Protocol):
-    density_scale: float
+    @property
+    def density_scale(self) -> float:
+        """Pedestrians per unit of the raster's density channel."""
 
 
 class RasterFrame(Protocol):
     """What the check needs of a Wi-Fi task (:class:`uav_swarm.missions.wifi.task.WifiTask` is one)."""
 
-    config: _DensityConfig
-    rules: CoverageRules
+    @property
+    def config(self) -> _DensityConfig:
+        """The task's config (its density scale)."""
+
+    @property
+    def rules(self) -> CoverageRules:
+        """The coverage rules the check applies."""
 
     def to_metres(self, xy_px: np.ndarray) -> np.ndarray:
         """Pixel coordinates to metres."""

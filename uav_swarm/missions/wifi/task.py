@@ -269,7 +269,7 @@ class WifiTask:
         steps = int(round(warmup_s / cfg.crowd.dt_s))
         if steps:
             crowd.step(steps)
-        return _scene(np.array(crowd.positions_m, dtype=np.float64), crowd.time_s,
+        return _scene(np.array(crowd.positions_m, dtype=np.float64), float(crowd.time_s),
                       np.array(crowd.velocities_m_s, dtype=np.float64))
 
     def transform_scene(self, scene: WifiScene, flip_x: bool, flip_y: bool, transpose: bool) -> WifiScene:
