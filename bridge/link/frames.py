@@ -96,7 +96,7 @@ def layout(dialect: MavMessage, message: str) -> Layout:
     return Layout(cls, bytes([cls.crc_extra]), operator.itemgetter(*cls.ordered_fieldnames), cls.id)
 
 
-def crc_function(dialect: MavMessage) -> Callable[[bytes], int]:
+def crc_function(dialect: MavMessage) -> Callable[[bytes | bytearray], int]:
     """The MAVLink CRC (CRC-16/MCRF4XX) of some bytes: pymavlink's own, called directly when it is native."""
     native = getattr(dialect, "mcrf4xx", None)  # fastcrc's, when installed
     if native is not None:
@@ -115,7 +115,7 @@ def pack_body(message: Layout, fields: dict, source_system: int, source_componen
     return bytearray(header + payload)
 
 
-def frame(packed: PackedMessage, seq: int, crc: Callable[[bytes], int]) -> bytes:
+def frame(packed: PackedMessage, seq: int, crc: Callable[[bytes | bytearray], int]) -> bytes:
     """The wire frame of an unsigned :class:`PackedMessage` with sequence number ``seq``."""
     body = packed.body
     if body is None:

@@ -213,6 +213,7 @@ class VehicleStateTracker:
             return
         kind = msg.get_type()
         now_s = time.time()
+        changes: dict[str, Any]
         if kind == "HEARTBEAT":
             if msg.type == mavlink.MAV_TYPE_GCS:
                 return
@@ -238,7 +239,8 @@ class VehicleStateTracker:
             old = self._states.get(system_id, VehicleState(system_id=system_id))
             state = dataclasses.replace(old, **changes, updated_time_s=now_s)
             if state.has_fix and _fix_lost(state):
-                state = dataclasses.replace(state, **dict.fromkeys(_POSITION_FIELDS))
+                unknown: dict[str, Any] = dict.fromkeys(_POSITION_FIELDS)
+                state = dataclasses.replace(state, **unknown)
             self._states[system_id] = state
             listeners = list(self._listeners)
         for callback in listeners:

@@ -15,6 +15,7 @@ silent through every retry) is started again from the beginning, up to
 
 from __future__ import annotations
 
+import functools
 import logging
 import queue
 import time
@@ -35,6 +36,11 @@ __all__ = ["MissionClient", "UploadTimes"]
 log = logging.getLogger(__name__)
 
 T = TypeVar("T")
+
+
+def _is_item(seq: int, msg: MavMessage) -> bool:
+    """``msg`` is mission item ``seq`` (as MISSION_ITEM_INT, or the float MISSION_ITEM)."""
+    return bool(msg.get_type() in ("MISSION_ITEM_INT", "MISSION_ITEM") and msg.seq == seq)
 
 
 @dataclass(frozen=True)
@@ -138,22 +144,9 @@ class MissionClient:
             count = self._await(ex, lambda msg: msg.get_type() == "MISSION_COUNT").count
             items = []
             for seq in range(count):
-                ex.expect(
-                    "MISSION_ITEM_INT",
-                    seq,
-                    self.protocol.item_timeout_s,
-                    lambda seq=seq: self.link.send(
-                        lambda mav: mav.mission_request_int_send(
-                            seq=seq, mission_type=m.MAV_MISSION_TYPE_MISSION, **self._targets()
-                        )
-                    ),
-                )
-                msg = self._await(
-                    ex,
-                    lambda msg, seq=seq: (
-                        msg.get_type() in ("MISSION_ITEM_INT", "MISSION_ITEM") and msg.seq == seq
-                    ),
-                )
+                ex.expect("MISSION_ITEM_INT", seq, self.protocol.item_timeout_s,
+                          functools.partial(self._request_item, seq))
+                msg = self._await(ex, functools.partial(_is_item, seq))
                 items.append(self._item_from(msg))
                 if msg.get_type() == "MISSION_ITEM":
                     as_float.add(seq)
@@ -163,6 +156,11 @@ class MissionClient:
                 )
             )
         return tuple(items), frozenset(as_float)
+
+    def _request_item(self, seq: int) -> None:
+        """Ask the vehicle for item ``seq`` (MISSION_REQUEST_INT)."""
+        self.link.send(lambda mav: mav.mission_request_int_send(
+            seq=seq, mission_type=self._m.MAV_MISSION_TYPE_MISSION, **self._targets()))
 
     def _await(self, ex: _Exchange, wanted: Callable[[MavMessage], bool]) -> MavMessage:
         """The next message satisfying ``wanted``; error acknowledgements raise."""

@@ -105,7 +105,8 @@ class _Upload:
         self.busy_since_s: float | None = None
         self.backoff_s = _BACKOFF_FIRST_S
         self.sent_last = not items
-        self.stage, self.seq, self.tries = "MISSION_REQUEST", None, 0
+        self.stage, self.tries = "MISSION_REQUEST", 0
+        self.seq: int | None = None
         self.timeout_s = protocol.handshake_timeout_s
         self.deadline_s = time.monotonic() + self.timeout_s
         self.resend: Callable[[], None] = self._send_count
@@ -305,8 +306,8 @@ def upload_concurrently(
                 except (MissionResultError, MissionTimeoutError) as exc:
                     errors[sid] = exc
                     pending.discard(sid)
-    for sid, exc in errors.items():
-        exc.add_detail(vehicle_says(links[sid].status_texts(sid, start_s)))
+    for sid, error in errors.items():
+        error.add_detail(vehicle_says(links[sid].status_texts(sid, start_s)))
     for sid, elapsed_s in seconds.items():
         log.info("vehicle %d: uploaded %d items in %.4f s", sid, len(items[sid]), elapsed_s)
     return seconds, errors

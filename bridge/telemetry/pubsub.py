@@ -151,7 +151,7 @@ class SwarmPublisher:
         """Wait until a subscriber matches the swarm's keys; True when one does within ``timeout_s``."""
         publisher = self._publishers[plan_key(self.config.swarm)]
         deadline = time.monotonic() + timeout_s
-        while not publisher.matching_status.matching:
+        while not publisher.matching_status.matching:  # type: ignore[attr-defined]  # stub: bool; runtime: MatchingStatus
             if time.monotonic() >= deadline:
                 return False
             time.sleep(0.01)

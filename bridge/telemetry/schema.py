@@ -24,7 +24,7 @@ Examples:
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Final, Literal, cast
 
 import msgspec
 import zenoh
@@ -52,7 +52,7 @@ __all__ = [
     "state_from_vehicle",
 ]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION: Final = 1
 """Version of the JSON payloads; readers reject any other."""
 
 ENCODING = zenoh.Encoding.APPLICATION_JSON
@@ -85,11 +85,11 @@ class _Payload(msgspec.Struct, frozen=True, kw_only=True, gc=False, tag_field="k
 
     def to_json(self) -> bytes:
         """The UTF-8 JSON payload sent over Zenoh (validated, see :func:`encode_payload`)."""
-        return encode_payload(self)
+        return encode_payload(cast("Payload", self))
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object of this payload, as plain dicts, lists and numbers."""
-        return msgspec.json.decode(encode_payload(self))
+        return msgspec.json.decode(encode_payload(cast("Payload", self)))
 
 
 class GeoPoint(msgspec.Struct, frozen=True, gc=False):
@@ -289,6 +289,11 @@ def _explain(data: bytes | str, exc: msgspec.DecodeError) -> str:
     return str(exc)
 
 
+def _known(a: float | None, b: float | None, c: float | None) -> tuple[float, float, float] | None:
+    """The three values, or None when one of them is unknown."""
+    return None if a is None or b is None or c is None else (a, b, c)
+
+
 def state_from_vehicle(vehicle: VehicleState, seq: int, *, uav_id: int | None = None,
                        target_enu_m: Vec3 | None = None) -> UavState | None:
     """The telemetry state of a real (or SITL) vehicle, from the MAVLink bridge's snapshot.
@@ -305,14 +310,15 @@ def state_from_vehicle(vehicle: VehicleState, seq: int, *, uav_id: int | None = 
     """
     if vehicle.position_time_s is None:
         return None
-    enu = (vehicle.x_m, vehicle.y_m, vehicle.z_m)
-    velocity = (vehicle.vx_m_s, vehicle.vy_m_s, vehicle.vz_m_s)
-    geodetic = (vehicle.lat_deg, vehicle.lon_deg, vehicle.alt_m)
-    fix = vehicle.has_fix and None not in enu and None not in velocity and None not in geodetic
+    enu = _known(vehicle.x_m, vehicle.y_m, vehicle.z_m)
+    velocity = _known(vehicle.vx_m_s, vehicle.vy_m_s, vehicle.vz_m_s)
+    geodetic = _known(vehicle.lat_deg, vehicle.lon_deg, vehicle.alt_m)
+    fix = vehicle.has_fix and enu is not None and velocity is not None and geodetic is not None
     return UavState(
         stamp_s=vehicle.position_time_s, seq=seq, source="vehicle",
         uav_id=vehicle.system_id if uav_id is None else uav_id, fix=fix,
         position_enu_m=enu if fix else None, velocity_enu_m_s=velocity if fix else None,
-        position_wgs84=GeoPoint(*geodetic) if fix else None, target_enu_m=target_enu_m,
+        position_wgs84=GeoPoint(*geodetic) if fix and geodetic is not None else None,
+        target_enu_m=target_enu_m,
         battery_pct=vehicle.battery_remaining_pct, mission_item=vehicle.mission_seq_current,
         mission_items_total=vehicle.mission_total)
