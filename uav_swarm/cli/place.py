@@ -23,19 +23,26 @@ rounded raster outline is not simple gets no proposals, and the repair covers it
 Outputs in ``--out`` (written only when every building succeeded): ``guards.geojson`` (the buildings as
 given, the raster outlines the network saw, the guards; longitude/latitude for GeoJSON input, metres
 otherwise), ``placement.json`` (per building: its centroid in latitude and longitude, guards in metres,
-witnesses, coverage on the real outline, time; ``frame``: the origin and axes of the guards' metres;
-``peaks``: the peak settings the network ran with and their source),
-``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with ``--bridge-config``,
-one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
-placed in the bridge's local frame around its home; metres are taken as East-North metres from that home).
+witnesses, coverage on the real outline, time; ``frame``: the origin of the guards' metres and what it is;
+``missions``: which vehicle flies which guard; ``peaks``: the peak settings the network ran with and their
+source), ``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with
+``--bridge-config``, one QGroundControl ``.plan`` mission per guard in ``missions/`` (``uav-swarm mission
+upload --config BRIDGE --from-dir OUT/missions`` sends them).
 
-Each building's line names its centroid in latitude and longitude; a GeoJSON site whose coordinates look
-swapped (latitude first: its centroid beyond 75 degrees of latitude, or far from the bridge's home but near
-it once swapped) is warned about on stderr.
+One frame: with ``--bridge-config`` the guards are East-North metres around the bridge's home (GeoJSON is
+projected around it; metres are taken as East-North metres from it), the frame the missions fly in;
+without, around the mean of the outer rings' distinct vertices (GeoJSON), or the input's own metres.
+
+Each building's line names its centroid in latitude and longitude. GeoJSON lists [longitude, latitude]:
+a site more than 20 km from the bridge's home is refused (exit 2), naming the swap when the site lies near
+the home with the two swapped; without a bridge config, a site beyond 75 degrees of latitude is warned
+about on stderr.
 
 Input the placement cannot take (a self-intersecting or degenerate outline, a courtyard outside its
 building, too many vertices, a building wider than the tiles allow, witnesses no guard position sees
-with the margin, named in metres) exits with code 2, a message naming the problem and nothing written.
+with the margin, named in metres, or none keeping ``--min-separation-m``, named as the cause, a guard
+outside the bridge's geofence, named with its vehicle) exits with code 2, a message naming the problem
+and nothing written.
 """
 
 from __future__ import annotations
@@ -281,10 +288,12 @@ def run(args: argparse.Namespace) -> int:
                  "standoff_m": args.standoff_m, "min_separation_m": args.min_separation_m}
         sight = SightConfig(**{key: value for key, value in given.items() if value is not None})
         bridge = load_toml(BridgeConfig, args.bridge_config) if args.bridge_config else None
-        site = read_site(args.building, origin=None if bridge is None else bridge.home)
+        site = read_site(args.building)
         far = None if bridge is None else far_from_home(site, bridge.home)
         if far:
             raise FootprintError(f"{args.building}: {far}")
+        if bridge is not None:  # the guards in the bridge's East-North frame, around its home
+            site = read_site(args.building, origin=bridge.home)
         warning = swap_warning(site)
         if warning:
             print(f"uav-swarm place: warning: {args.building}: {warning}", file=sys.stderr)
