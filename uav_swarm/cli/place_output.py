@@ -185,7 +185,8 @@ def plot_site(path: Path, buildings: list[PlacedBuilding], title: str) -> None:
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
-    ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)  # below the site
+    fig.tight_layout(rect=(0.0, 0.04, 1.0, 1.0))
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
