@@ -171,6 +171,8 @@ def _read_rings(path: Path, origin: Home | None = None
         polygons = [([_as_points(ring, path) for ring in rings], name)
                     for rings, name in _polygons_from_geojson(data, path)]
         lonlat = np.concatenate([rings[0] for rings, _ in polygons])
+        if len(lonlat) == 0:
+            raise FootprintError(f"{path}: no vertices; a building needs at least 3")
         if np.any(np.abs(lonlat[:, 0]) > 180.0) or np.any(np.abs(lonlat[:, 1]) > 90.0):
             raise FootprintError(f"{path}: coordinates outside longitude [-180, 180] / latitude [-90, 90]; "
                                  "GeoJSON is WGS84 degrees (give metres as a plain list of vertices instead)")
