@@ -1,8 +1,10 @@
 # `make demo` runs the main job, `make test` the tests, `make docs` builds the site, `make lint` checks style.
 # Each creates .venv (Python >= 3.11) and installs only what it needs: the demo the package itself, the
-# tests and the site their extras too. torch comes from pip's configured index (PyPI by default, where the
-# Linux wheel is the CUDA build); for the CPU-only build give its index:
+# tests and the site the package with TEST_EXTRAS (the extras of pyproject.toml; the README and
+# docs/index.md name the same, tests/test_install_lines.py checks it). torch comes from pip's configured
+# index (PyPI by default, where the Linux wheel is the CUDA build); for the CPU-only build give its index:
 #   make demo TORCH_INDEX=https://download.pytorch.org/whl/cpu
+TEST_EXTRAS := test,distributed,marl,docs,ros2
 VENV ?= .venv
 PYTHON ?= python3
 TORCH ?= torch==2.13.0
@@ -23,7 +25,7 @@ $(VENV)/.demo-installed: pyproject.toml | $(PY)
 	touch $@
 
 $(VENV)/.test-installed: pyproject.toml $(VENV)/.demo-installed
-	$(PIP) -e ".[test,distributed,marl,docs,inference,ros2]" "$(TORCH)"  # torch pinned: no extra may move it
+	$(PIP) -e ".[$(TEST_EXTRAS)]" "$(TORCH)"  # torch pinned: no extra may move it
 	touch $@
 
 install: $(VENV)/.demo-installed

@@ -186,7 +186,7 @@ def generate_dataset(
         executor: ``"local"`` (process pool) or ``"ray"``.
         workers: Local worker processes (``None``: all CPUs; 1: in this process).
         address: Ray cluster address (``executor="ray"`` only).
-        progress: Show a progress bar.
+        progress: Show a progress bar (on a terminal only: none in a log or a pipe).
         on_shard: Called with each shard's manifest record after it is written.
 
     Returns:
@@ -231,8 +231,8 @@ def generate_dataset(
     fn = functools.partial(generate_shard, task_factory, seed, split)
     results = run_ray(fn, jobs, address) if executor == "ray" else run_local(fn, jobs, workers)
     done = sum(s["stop"] - s["start"] for s in manifest["shards"])
-    with contextlib.closing(results), tqdm(total=n, initial=done, disable=not progress, unit="scene",
-                                           desc=f"{task.name} {split}") as bar:
+    with contextlib.closing(results), tqdm(total=n, initial=done, disable=None if progress else True,
+                                           unit="scene", desc=f"{task.name} {split}") as bar:
         for (index, start, stop), arrays in results:
             path = out / f"shard-{index:05d}.npz"
             _write_npz_atomic(path, arrays)

@@ -10,7 +10,7 @@ engines differ only in how the network's arithmetic is scheduled:
 - ``"torch-jit"``: the module traced once (``torch.jit.trace``), frozen and optimised for inference
   (constant weights folded into the graph, convolution + ReLU fused);
 - ``"onnxruntime"``: the traced graph exported to ONNX in memory and run by ONNX Runtime's CPU
-  provider (an optional package: ``pip install uav-swarm[inference]``).
+  provider (``onnxruntime`` and ``onnx``, dependencies of the package; without them it is skipped).
 
 Each engine is built for one input shape ``(C, h, w)``; the batch size may change from call to call.
 :func:`learning.inference.select_engine` builds the candidates, checks them against the reference

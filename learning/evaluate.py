@@ -210,7 +210,7 @@ def evaluate(
         check: Mission knowledge applied to the learned peaks from the observation alone (the Wi-Fi
             rule check): peaks at ``check.threshold_abs``, then what ``check`` keeps is the learned
             placement (recorded as ``"check"`` in the summary).
-        progress: Show progress bars.
+        progress: Show progress bars (on a terminal only: none in a log or a pipe).
 
     Returns:
         The summary (also in ``summary.json``).
@@ -247,7 +247,7 @@ def evaluate(
     else:  # one scene at a time, as the planner runs it: one thread, none left spinning beside the timed code
         torch.set_num_threads(1)
     samples, scores, max_scores, refined_scores = [], [], [], []
-    for i in tqdm(range(n), disable=not progress, desc="qos", unit="scene"):
+    for i in tqdm(range(n), disable=None if progress else True, desc="qos", unit="scene"):
         expert = arrays["positions"][i][arrays["mask"][i]]
         scene = task.sample(np.random.default_rng(int(arrays["seeds"][i])))
         if refiner is not None:  # each pipeline timed on this scene alone

@@ -136,8 +136,10 @@ def select_engine(model: UtilityNet, shape: tuple[int, int, int], precision: Pre
         try:
             engine = reference_engine if name == "torch-eager" else build_engine(name, model, shape, threads)
         except ImportError as exc:
-            choice.skipped[name] = f"not installed ({exc.name or exc})"
-            logger.info("inference engine %s skipped: %s is not installed", name, exc.name or exc)
+            missing = exc.name or str(exc)
+            choice.skipped[name] = f"not installed ({missing}; pip install {missing})"
+            logger.info("inference engine %s skipped: %s is not installed (pip install %s: a dependency "
+                        "of uav-swarm, which reinstalling it restores)", name, missing, missing)
             continue
         except Exception as exc:  # an exporter's failure must not stop the planner
             choice.skipped[name] = f"failed to build: {exc}"

@@ -89,7 +89,7 @@ def score_grid(task: Task, utilities: np.ndarray, arrays: Mapping[str, np.ndarra
         utilities: ``(n, h, w)`` utility maps of the scenes.
         arrays: ``positions``, ``mask`` and ``seeds`` of the scenes (a dataset's arrays).
         configs: The settings scored.
-        progress: Show a progress bar.
+        progress: Show a progress bar (on a terminal only: none in a log or a pipe).
 
     Returns:
         One row per config: its settings, ``corr``, ``precision`` (means over scenes, the paper's rule),
@@ -109,7 +109,7 @@ def score_grid(task: Task, utilities: np.ndarray, arrays: Mapping[str, np.ndarra
         return judged[i][key]
 
     rows = []
-    for config in tqdm(configs, disable=not progress, desc="grid", unit="point"):
+    for config in tqdm(configs, disable=None if progress else True, desc="grid", unit="point"):
         predicted = [find_peaks(u, config) for u in utilities]
         summary = aggregate(score_sample(e, p, eps_px) for e, p in zip(experts, predicted, strict=True))
         mean_qos = float(np.mean([qos(i, p) for i, p in enumerate(predicted)]))
@@ -162,7 +162,8 @@ def validation_samples(ckpt: Checkpoint, task: Task, n: int | None, cache_dir: s
     cache.mkdir(parents=True, exist_ok=True)
     parts: list[dict[str, np.ndarray]] = []
     chunks = range(0, len(val), _CHUNK)
-    for start in tqdm(chunks, disable=not progress, desc=f"{task.name} validation", unit="chunk"):
+    for start in tqdm(chunks, disable=None if progress else True, desc=f"{task.name} validation",
+                      unit="chunk"):
         indices = val[start:start + _CHUNK]
         path = cache / f"{task.name}-{identity}-val-{start // _CHUNK:05d}.npz"
         if path.is_file():
@@ -190,7 +191,7 @@ def calibrate_mission(ckpt: Checkpoint, task: Task, paper: Mapping[str, float], 
         n: At most this many validation scenes (default: all).
         grid: The settings tried; default ``MissionGrid()``.
         precision: Network precision (``"auto"``: bfloat16 where native, as ``evaluate``).
-        progress: Show progress bars.
+        progress: Show progress bars (on a terminal only: none in a log or a pipe).
 
     Returns:
         ``{"task", "checkpoint", "n_validation", "paper", "floors", "balanced", "mission", "front",

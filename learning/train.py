@@ -190,7 +190,7 @@ def train(
             e.g. a shipped ``best.pt`` on a larger dataset); its model config is used (but
             ``peak_head`` from ``model_config`` when given: a new head starts from scratch), the
             optimiser, schedule and history start afresh.
-        progress: Show a progress bar.
+        progress: Show a progress bar (on a terminal only: none in a log or a pipe).
 
     Raises:
         learning.data.DatasetError: Incomplete or corrupt dataset.
@@ -279,7 +279,7 @@ def train(
     torch.use_deterministic_algorithms(device.type == "cpu" or deterministic, warn_only=True)
     if cfg.torch_threads:
         torch.set_num_threads(cfg.torch_threads)
-    bar = tqdm(total=int(total_steps), initial=step, disable=not progress, unit="step")
+    bar = tqdm(total=int(total_steps), initial=step, disable=None if progress else True, unit="step")
     try:
         for epoch in range(first_epoch, cfg.epochs):
             if step >= total_steps:

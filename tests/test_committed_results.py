@@ -10,6 +10,8 @@ import json
 import re
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 RUN = ROOT / "results" / "simulate"
 PAGE = (ROOT / "docs" / "simulate.md").read_text(encoding="utf-8")
@@ -47,12 +49,21 @@ def test_the_committed_run_is_the_demos_run():
         assert (RUN / name).is_file(), name
 
 
-def test_the_readme_and_the_simulate_page_print_the_committed_run():
+def _printed_blocks(text: str, header: str) -> list[list[str]]:
+    """Every fenced block of a page that starts with the table's header, as lines."""
+    blocks = []
+    for start in (m.start() for m in re.finditer(re.escape(header + "\n"), text)):
+        blocks.append(text[start:text.index("```", start)].splitlines())
+    return blocks
+
+
+@pytest.mark.parametrize(("page", "run"), [("README.md", "simulate"), ("docs/simulate.md", "simulate"),
+                                           ("docs/simulate.md", "simulate-s2")])
+def test_the_pages_print_the_committed_runs_as_the_command_does(page, run):
+    """Word for word and in the command's order (rows, then the lines below the table)."""
     from uav_swarm.cli.simulate import format_summary
 
-    lines = format_summary(_summary()).splitlines()
-    for name in ("README.md", "docs/simulate.md"):
-        text = (ROOT / name).read_text(encoding="utf-8")
-        start = text.index(lines[0] + "\n")  # the table's header, the first of its printed block
-        block = text[start:text.index("```", start)].splitlines()
-        assert sorted(block) == sorted(lines), f"{name}: paste format_summary of the summary"
+    summary = json.loads((ROOT / "results" / run / "summary.json").read_text(encoding="utf-8"))
+    lines = format_summary(summary).splitlines()
+    blocks = _printed_blocks((ROOT / page).read_text(encoding="utf-8"), lines[0])
+    assert lines in blocks, f"{page}: paste format_summary of results/{run}/summary.json"

@@ -68,24 +68,11 @@ def test_export_writes_one_file_per_vehicle(tmp_path, capsys):
     assert "vehicle_1.waypoints" in capsys.readouterr().out
 
 
-def test_export_refuses_points_outside_the_geofence(tmp_path, capsys):
-    config = _config(tmp_path, {1: 1})
-    assert (
-        main(
-            [
-                "mission",
-                "export",
-                "--config",
-                str(config),
-                "--target",
-                "1:9000,0",
-                "--out",
-                str(tmp_path / "o"),
-            ]
-        )
-        == 2
-    )
-    assert "outside the geofence" in capsys.readouterr().err
+def test_export_refuses_points_outside_the_geofence_naming_the_vehicle(tmp_path, capsys):
+    config = _config(tmp_path, {1: 1, 2: 2})
+    targets = ["--target", "1:10,0", "--target", "2:9000,0"]
+    assert main(["mission", "export", "--config", str(config), *targets, "--out", str(tmp_path / "o")]) == 2
+    assert "vehicle 2: target: x_m = 9000.00 is outside the geofence" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 
 

@@ -11,10 +11,10 @@ import pytest
 import shapely
 from scipy.spatial.distance import pdist
 
-from bridge.geo import Home, geodetic_to_enu
+from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
 from bridge.missions.files import load_plan
 from uav_swarm.cli import main
-from uav_swarm.missions.monitoring.footprint import read_footprint
+from uav_swarm.missions.monitoring.footprint import read_footprint, read_site
 from uav_swarm.missions.monitoring.outline import Outline
 
 BUILDINGS = Path(__file__).resolve().parents[1] / "data" / "buildings"
@@ -71,12 +71,14 @@ def test_a_geojson_building_gets_covering_guards_points_a_picture_and_missions(t
     geojson = json.loads((out / "guards.geojson").read_text())
     guards = [f for f in geojson["features"] if f["properties"]["role"] == "guard"]
     assert len(guards) == summary["n_guards"] == record["n_guards"] >= 1
-    outline = read_footprint(building)
+    outline = read_site(building, origin=home)[0]  # the bridge's frame: East-North metres around its home
+    origin = summary["frame"]["origin"]
+    assert origin == {"lat_deg": home.lat_deg, "lon_deg": home.lon_deg, "alt_m": home.alt_m}
     assert _geos_unseen(outline.outline(), "exterior", np.array(record["guards_m"])) == 0
     for feature, guard_m in zip(guards, record["guards_m"], strict=True):
         lon, lat = feature["geometry"]["coordinates"]
         assert -84.37 < lon < -84.35 and 33.74 < lat < 33.75  # WGS84, near the building
-        x, y, _ = geodetic_to_enu(outline.origin, lat, lon, 0.0)
+        x, y, _ = geodetic_to_enu(home, lat, lon, home.alt_m)
         assert np.hypot(x - guard_m[0], y - guard_m[1]) < 0.01
     plans = sorted((out / "missions").glob("vehicle_*.plan"))
     assert [p.name for p in plans] == [f"vehicle_{11 + i}.plan" for i in range(len(guards))]
@@ -196,13 +198,15 @@ def test_a_collinear_geojson_outline_is_named_degenerate_and_nothing_is_written(
     assert "witness" not in err and not out.exists()
 
 
-def test_a_fence_refusal_writes_nothing(tmp_path, capsys):
+def test_a_fence_refusal_names_the_vehicle_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "out"
-    far_home = Home(lat_deg=47.0, lon_deg=8.0, alt_m=400.0)  # another continent: outside the fence
-    bridge = _bridge_toml(tmp_path / "bridge.toml", far_home, [])
+    home = Home(lat_deg=33.7400, lon_deg=-84.3600, alt_m=300.0)  # about 1.2 km away: outside the fence
+    bridge = _bridge_toml(tmp_path / "bridge.toml", home, [7, 8, 9, 10, 11, 12])
     assert main(["place", "--task", "fp", "--building", str(BUILDINGS / "urban_market.geojson"), "--out",
                  str(out), "--bridge-config", str(bridge)]) == 2
-    assert "geofence" in capsys.readouterr().err and not out.exists()
+    err = capsys.readouterr().err
+    assert re.search(r"vehicle 7 \(.+, guard 1\): target: [xy]_m = -?\d+\.\d+ is outside the geofence", err)
+    assert not out.exists()
 
 
 def _shelter_ring(shift_lon_deg: float = 0.0, shift_lat_deg: float = 0.0, swap: bool = False) -> list:
@@ -251,19 +255,93 @@ def test_swapped_coordinates_beyond_the_polar_circle_are_warned_about(tmp_path, 
     assert "no guard position" in refusal and not out.exists()
 
 
-def test_swapped_coordinates_far_from_home_are_warned_about_before_the_fence_refuses(tmp_path, capsys):
+def test_swapped_coordinates_far_from_home_are_refused_with_the_fix(tmp_path, capsys):
     ring = _shelter_ring(shift_lon_deg=8.54 + 84.35, shift_lat_deg=47.37 - 33.75, swap=True)  # Zurich
     building = _polygon_file(tmp_path / "swapped.geojson", ring)
     bridge = _bridge_toml(tmp_path / "bridge.toml", Home(lat_deg=47.3702, lon_deg=8.5401, alt_m=400.0), [])
     out = tmp_path / "out"
     assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out), "--method",
                  "expert", "--bridge-config", str(bridge)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "km from the bridge's home" in err
+    assert "with latitude and longitude swapped" in err and "[longitude, latitude]" in err
+    assert not out.exists()
+    elsewhere = _polygon_file(tmp_path / "atlanta.geojson", _shelter_ring())  # far, and far swapped too
+    assert main(["place", "--task", "agp", "--building", str(elsewhere), "--out", str(out), "--method",
+                 "expert", "--bridge-config", str(bridge)]) == 2
     err = capsys.readouterr().err
-    assert "warning" in err and "with latitude and longitude swapped" in err and not out.exists()
+    assert "give a bridge config whose [home] is at the site" in err and not out.exists()
     unswapped = _polygon_file(tmp_path / "right.geojson", _shelter_ring(8.54 + 84.35, 47.37 - 33.75))
     assert main(["place", "--task", "agp", "--building", str(unswapped), "--out", str(out), "--method",
                  "expert", "--bridge-config", str(bridge)]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+WGS84_A_M, WGS84_F = 6378137.0, 1 / 298.257223563
+
+
+def _east_north_m(home: Home, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+    """Metres east and north of home, written out on the WGS84 ellipsoid (the radii of curvature at the
+    mean latitude), independent of the package's pymap3d: within millimetres over a few hundred metres."""
+    e2 = WGS84_F * (2 - WGS84_F)
+    phi = np.radians((lat_deg + home.lat_deg) / 2)
+    w = np.sqrt(1 - e2 * np.sin(phi) ** 2)
+    meridian_m, prime_vertical_m = WGS84_A_M * (1 - e2) / w ** 3, WGS84_A_M / w
+    north = np.radians(lat_deg - home.lat_deg) * meridian_m
+    east = np.radians(lon_deg - home.lon_deg) * prime_vertical_m * np.cos(phi)
+    return float(east), float(north)
+
+
+@pytest.mark.parametrize("name", ["urban_market", "ferguson_two_parts"])
+def test_missions_fly_to_the_guards_placement_json_names_in_the_bridges_frame(tmp_path, name):
+    building = BUILDINGS / f"{name}.geojson"
+    ring = np.array(json.loads(building.read_text())["features"][0]["geometry"]["coordinates"][0][0]
+                    if name == "ferguson_two_parts" else
+                    json.loads(building.read_text())["features"][0]["geometry"]["coordinates"][0])
+    home = Home(lat_deg=float(ring[0, 1]) + 0.0007, lon_deg=float(ring[0, 0]) - 0.0009, alt_m=280.0)  # ~100 m
+    bridge = _bridge_toml(tmp_path / "bridge.toml", home, list(range(21, 31)))
+    out = tmp_path / "out"
+    assert main(["place", "--task", "fp", "--building", str(building), "--out", str(out), "--method",
+                 "expert", "--bridge-config", str(bridge)]) == 0
+    summary = json.loads((out / "placement.json").read_text())
+    assert summary["frame"]["origin_is"].startswith("the bridge's home")
+    guards = {(b["building"], i + 1): g for b in summary["buildings"] for i, g in enumerate(b["guards_m"])}
+    assert len(summary["missions"]) == len(guards) == summary["n_guards"] >= 2
+    for flown in summary["missions"]:
+        target = load_plan(out / flown["file"]).items[-1]
+        east, north = _east_north_m(home, target.x / 1e7, target.y / 1e7)
+        x, y = guards[flown["building"], flown["guard"]]
+        assert np.hypot(east - x, north - y) < 0.05  # the 1e-7 degree integers: about 1 cm
+        assert f"vehicle_{flown['vehicle']}.plan" in flown["file"] and target.z == pytest.approx(25.0)
+    assert sorted(f["vehicle"] for f in summary["missions"]) == list(range(21, 21 + len(guards)))
+
+
+def test_without_a_bridge_the_origin_is_the_mean_of_the_distinct_vertices(tmp_path):
+    home = Home(lat_deg=47.3977, lon_deg=8.5456, alt_m=0.0)
+    corners = [(-20.0, -10.0), (20.0, -10.0), (20.0, 10.0), (-20.0, 10.0)]  # 40 x 20 m around home
+    ring = [[lon, lat] for lat, lon, _ in (enu_to_geodetic(home, x, y, 0.0) for x, y in corners)]
+    building = _polygon_file(tmp_path / "hall.geojson", [*ring, ring[0]])  # closed: the first vertex twice
+    out = tmp_path / "out"
+    assert main(["place", "--task", "agp", "--building", str(building), "--out", str(out),
+                 "--method", "expert"]) == 0
+    frame = json.loads((out / "placement.json").read_text())["frame"]
+    assert frame["origin_is"].startswith("the mean of the outer rings' distinct vertices")
+    assert _east_north_m(home, frame["origin"]["lat_deg"], frame["origin"]["lon_deg"]) == pytest.approx(
+        (0.0, 0.0), abs=0.01)
+    footprint = read_footprint(building)
+    assert footprint.vertices_m.min(axis=0) == pytest.approx([-20.0, -10.0], abs=0.01)
+    assert footprint.vertices_m.max(axis=0) == pytest.approx([20.0, 10.0], abs=0.01)
+
+
+def test_a_separation_no_guard_set_keeps_is_named_as_the_cause(tmp_path, capsys):
+    building = tmp_path / "hall.csv"
+    building.write_text("0,0\n40,0\n40,20\n0,20\n")  # Fortress needs two guards, 86 m apart at most
+    out = tmp_path / "out"
+    assert main(["place", "--task", "fp", "--building", str(building), "--out", str(out),
+                 "--min-separation-m", "100"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "min_separation_m = 100 is the cause" in err
+    assert "min_clearance_m" not in err and not out.exists()
 
 
 @pytest.mark.parametrize("method", ["expert", "refined", "learned"])

@@ -56,9 +56,12 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
     out = tmp_path / "sim"
     argv = ["simulate", "--out", str(out), "--config", str(small_config),
             "--checkpoint", str(tiny_checkpoint), "--duration-s", "3", "--seed", "2",
-            "--no-telemetry", "--quiet"]
+            "--no-telemetry"]
     assert main(argv) == 0
-    printed = capsys.readouterr().out
+    captured = capsys.readouterr()
+    printed = captured.out
+    assert "planner:" not in captured.err and "step/s" not in captured.err  # not a terminal: no progress bar
+    assert f"wrote qos.png, timeseries.csv, scene.gif, summary.json, missions/ (3 files) in {out}" in printed
     assert "3 UAVs" in printed and "\nlearned " in printed and "\nexpert " in printed
     assert "learned / expert: QoS S1" in printed
     assert "learned network: " in printed and " engine, float32" in printed

@@ -68,7 +68,8 @@ def test_a_missing_package_is_skipped_with_a_log_line(model, monkeypatch, caplog
     with caplog.at_level(logging.INFO, logger="learning.inference"):
         choice = select_engine(model, SHAPE, trials=2)
     assert "onnxruntime" not in choice.timings_ms and "not installed" in choice.skipped["onnxruntime"]
-    assert "inference engine onnxruntime skipped: onnxruntime is not installed" in caplog.text
+    assert "inference engine onnxruntime skipped: onnxruntime is not installed (pip install onnxruntime" in \
+        caplog.text
     assert choice.name in ("torch-jit", "torch-eager")
     only = select_engine(model, SHAPE, engines=["onnxruntime"], trials=2)  # asked for, missing: eager runs
     assert only.name == "torch-eager" and "no requested inference engine is usable" in caplog.text

@@ -118,7 +118,8 @@ def run(args: argparse.Namespace) -> int:
     ax_rate.plot(times_s, throughput, color="grey", linestyle="--", label="mean throughput")
     ax_rate.set_ylabel("mean throughput per user (Mbps)")
     lines = ax_qos.get_lines() + ax_rate.get_lines()
-    ax_qos.legend(lines, [line.get_label() for line in lines], loc="lower right")
+    ax_qos.legend(lines, [line.get_label() for line in lines], loc="upper center",
+                  bbox_to_anchor=(0.5, -0.12), ncol=3, fontsize=8, frameon=False)  # below: S2 stays visible
     figure.tight_layout()
 
     args.out.mkdir(parents=True, exist_ok=True)

@@ -302,7 +302,7 @@ def _export(args: argparse.Namespace, config: BridgeConfig) -> int:
     plans = _plans(args)
     if not plans or args.out is None:
         raise ValueError("export needs --target or --plans, and --out")
-    _check_ids(plans, config)  # a mission for a vehicle the config does not list is refused, not written
+    _check_plans(plans, config)  # unknown vehicles and points outside the fence refused, naming the vehicle
     _check_separation(plans, config, args.min_separation_m)
     missions = {
         sid: build_mission(

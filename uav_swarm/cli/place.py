@@ -23,19 +23,26 @@ rounded raster outline is not simple gets no proposals, and the repair covers it
 Outputs in ``--out`` (written only when every building succeeded): ``guards.geojson`` (the buildings as
 given, the raster outlines the network saw, the guards; longitude/latitude for GeoJSON input, metres
 otherwise), ``placement.json`` (per building: its centroid in latitude and longitude, guards in metres,
-witnesses, coverage on the real outline, time; ``frame``: the origin and axes of the guards' metres;
-``peaks``: the peak settings the network ran with and their source),
-``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with ``--bridge-config``,
-one QGroundControl ``.plan`` mission per guard in ``missions/`` (GeoJSON guards are
-placed in the bridge's local frame around its home; metres are taken as East-North metres from that home).
+witnesses, coverage on the real outline, time; ``frame``: the origin of the guards' metres and what it is;
+``missions``: which vehicle flies which guard; ``peaks``: the peak settings the network ran with and their
+source), ``placement.png`` (the site in metres, what each guard sees, what nobody sees) and, with
+``--bridge-config``, one QGroundControl ``.plan`` mission per guard in ``missions/`` (``uav-swarm mission
+upload --config BRIDGE --from-dir OUT/missions`` sends them).
 
-Each building's line names its centroid in latitude and longitude; a GeoJSON site whose coordinates look
-swapped (latitude first: its centroid beyond 75 degrees of latitude, or far from the bridge's home but near
-it once swapped) is warned about on stderr.
+One frame: with ``--bridge-config`` the guards are East-North metres around the bridge's home (GeoJSON is
+projected around it; metres are taken as East-North metres from it), the frame the missions fly in;
+without, around the mean of the outer rings' distinct vertices (GeoJSON), or the input's own metres.
+
+Each building's line names its centroid in latitude and longitude. GeoJSON lists [longitude, latitude]:
+a site more than 20 km from the bridge's home is refused (exit 2), naming the swap when the site lies near
+the home with the two swapped; without a bridge config, a site beyond 75 degrees of latitude is warned
+about on stderr.
 
 Input the placement cannot take (a self-intersecting or degenerate outline, a courtyard outside its
 building, too many vertices, a building wider than the tiles allow, witnesses no guard position sees
-with the margin, named in metres) exits with code 2, a message naming the problem and nothing written.
+with the margin, named in metres, or none keeping ``--min-separation-m``, named as the cause, a guard
+outside the bridge's geofence, named with its vehicle) exits with code 2, a message naming the problem
+and nothing written.
 """
 
 from __future__ import annotations
@@ -217,25 +224,39 @@ def place_building(task: Any, footprint: Any, method: str, network: Any, sight: 
     return PlacedBuilding(footprint, rasters, placement, time.perf_counter() - start)
 
 
-def _missions(args: argparse.Namespace, bridge: Any, footprint: Any, guards_m: np.ndarray) -> dict[int, Any]:
-    """One mission per guard, by vehicle id (checked against the fence before anything is written)."""
-    from bridge.geo import geodetic_to_enu
+def _missions(args: argparse.Namespace, bridge: Any, buildings: list[Any]) -> dict[int, Any]:
+    """One mission per guard, by vehicle id (checked against the fence before anything is written).
+
+    The guards are East-North metres around the bridge's home already (the site was read in that frame).
+    """
+    from bridge.errors import GeofenceError
     from bridge.missions.items import build_mission
     from typed_config import ConfigError
 
-    if bridge.vehicles and len(bridge.vehicles) < len(guards_m):
-        raise ConfigError(f"{args.bridge_config}: {len(bridge.vehicles)} vehicles for {len(guards_m)} "
+    guards = [(b.footprint.name, i + 1, g) for b in buildings for i, g in enumerate(b.placement.guards_m)]
+    if bridge.vehicles and len(bridge.vehicles) < len(guards):
+        raise ConfigError(f"{args.bridge_config}: {len(bridge.vehicles)} vehicles for {len(guards)} "
                           "guards: list at least one vehicle per guard")
-    ids = [v.system_id for v in bridge.vehicles[:len(guards_m)]] or list(range(1, len(guards_m) + 1))
+    ids = [v.system_id for v in bridge.vehicles[:len(guards)]] or list(range(1, len(guards) + 1))
     alt_m = bridge.mission.cruise_alt_m if args.alt_m is None else args.alt_m
-    if footprint.origin is None:
-        local = guards_m
-    else:
-        lonlat = footprint.to_input(guards_m)
-        local = np.array([geodetic_to_enu(bridge.home, lat, lon, bridge.home.alt_m)[:2]
-                          for lon, lat in lonlat])
-    return {sid: build_mission([(float(x), float(y), alt_m)], bridge.home, bridge.mission, bridge.geofence)
-            for sid, (x, y) in zip(ids, local, strict=True)}
+    missions = {}
+    for sid, (name, guard, (x, y)) in zip(ids, guards, strict=True):
+        try:
+            missions[sid] = build_mission([(float(x), float(y), alt_m)], bridge.home, bridge.mission,
+                                          bridge.geofence)
+        except GeofenceError as exc:
+            raise GeofenceError(f"vehicle {sid} ({name}, guard {guard}): {exc}") from None
+    return missions
+
+
+def counted(n: int, noun: str) -> str:
+    """``n`` and the noun, plural unless one.
+
+    Examples:
+        >>> counted(1, "guard"), counted(3, "guard"), counted(0, "building")
+        ('1 guard', '3 guards', '0 buildings')
+    """
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -248,6 +269,7 @@ def run(args: argparse.Namespace) -> int:
     from typed_config.files import write_json_atomic
     from uav_swarm.cli.place_output import (
         centroid_lonlat,
+        far_from_home,
         frame_record,
         plot_site,
         site_geojson,
@@ -267,7 +289,12 @@ def run(args: argparse.Namespace) -> int:
         sight = SightConfig(**{key: value for key, value in given.items() if value is not None})
         bridge = load_toml(BridgeConfig, args.bridge_config) if args.bridge_config else None
         site = read_site(args.building)
-        warning = swap_warning(list(site), bridge.home if bridge is not None else None)
+        far = None if bridge is None else far_from_home(site, bridge.home)
+        if far:
+            raise FootprintError(f"{args.building}: {far}")
+        if bridge is not None:  # the guards in the bridge's East-North frame, around its home
+            site = read_site(args.building, origin=bridge.home)
+        warning = swap_warning(site)
         if warning:
             print(f"uav-swarm place: warning: {args.building}: {warning}", file=sys.stderr)
         network = None if args.method == "expert" else load_network(task, args.checkpoint,
@@ -278,7 +305,7 @@ def run(args: argparse.Namespace) -> int:
             buildings.append(place_building(task, footprint, args.method, network, sight, args.max_pixel_m,
                                             placed))
         guards_m = np.concatenate([b.placement.guards_m for b in buildings])
-        missions = _missions(args, bridge, site[0], guards_m) if bridge is not None else {}
+        missions = _missions(args, bridge, buildings) if bridge is not None else {}
     except (FootprintError, OutlineError, InfeasibleCoverError, CheckpointError, ConfigError) as exc:
         print(f"uav-swarm place: {exc}", file=sys.stderr)
         return 2
@@ -288,10 +315,14 @@ def run(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.out / "guards.geojson", site_geojson(buildings, args.method))
     files = ["guards.geojson", "placement.json", "placement.png"]
-    for sid, mission in missions.items():
+    guard_of = [(b.footprint.name, i + 1) for b in buildings for i in range(len(b.placement.guards_m))]
+    flown = []
+    for (sid, mission), (name, guard) in zip(missions.items(), guard_of, strict=False):
         (args.out / "missions").mkdir(exist_ok=True)
         save_mission(args.out / "missions" / f"vehicle_{sid}.plan", mission)
         files.append(f"missions/vehicle_{sid}.plan")
+        flown.append({"vehicle": sid, "building": name, "guard": guard,
+                      "file": f"missions/vehicle_{sid}.plan"})
     records = []
     for b in buildings:
         placement = b.placement
@@ -311,24 +342,28 @@ def run(args: argparse.Namespace) -> int:
         "task": task.name, "method": args.method, "judged_on": "the input outline in metres", "sight": {
             "witness_spacing_m": sight.witness_spacing_m, "min_clearance_m": sight.min_clearance_m,
             "standoff_m": sight.standoff_m, "min_separation_m": sight.min_separation_m},
-        "frame": frame_record(site[0]), "peaks": None if network is None else network[2].to_dict(),
+        "frame": frame_record(site[0], None if bridge is None else bridge.home, args.bridge_config),
+        "peaks": None if network is None else network[2].to_dict(),
         "n_guards": len(guards_m),
         "fully_covered": all(r["fully_covered"] for r in records),
-        "buildings": records, "time_ms": (time.perf_counter() - start) * 1e3, "files": files}
+        "buildings": records, "missions": flown, "time_ms": (time.perf_counter() - start) * 1e3,
+        "files": files}
     write_json_atomic(args.out / "placement.json", summary)
     n_seen = sum(r["n_witnesses"] - r["n_unseen"] for r in records)
     n_all = sum(r["n_witnesses"] for r in records)
     share = 100.0 * n_seen / n_all if n_all else 100.0
-    title = f"{args.building.name}: {task.name} {args.method}, {len(guards_m)} guards, {share:.1f} % seen"
+    title = (f"{args.building.name}: {task.name} {args.method}, {counted(len(guards_m), 'guard')}, "
+             f"{share:.1f} % seen")
     plot_site(args.out / "placement.png", buildings, title)
     for r in records:
         where = ("" if r["centroid"] is None else
                  f" at lat {r['centroid']['lat_deg']:.6f}, lon {r['centroid']['lon_deg']:.6f}")
-        print(f"{r['building']}{where}: {r['n_guards']} {args.method} guards ({task.name}), "
+        print(f"{r['building']}{where}: {counted(r['n_guards'], args.method + ' guard')} ({task.name}), "
               f"{100 * r['seen_fraction']:.1f} % of {r['n_witnesses']} witnesses seen on the outline "
               f"({r['n_unseen']} unseen), {r['time_ms']:.0f} ms")
     if network is not None:
         print(f"peaks: {json.dumps(network[2].config.to_dict())} from the {network[2].source}")
-    print(f"{len(records)} building(s), {len(guards_m)} guards, {share:.1f} % of the witnesses seen; "
+    print(f"{counted(len(records), 'building')}, {counted(len(guards_m), 'guard')}, {share:.1f} % of the "
+          "witnesses seen; "
           f"wrote {', '.join(files)} in {args.out}")
     return 0

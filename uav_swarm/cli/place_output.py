@@ -11,10 +11,11 @@ import numpy as np
 from uav_swarm.missions.monitoring.footprint import FittedFootprint, Footprint
 from uav_swarm.missions.monitoring.outline_guards import Placement
 
-__all__ = ["PlacedBuilding", "site_geojson", "plot_site", "centroid_lonlat", "frame_record", "swap_warning"]
+__all__ = ["PlacedBuilding", "site_geojson", "plot_site", "centroid_lonlat", "frame_record", "swap_warning",
+           "far_from_home"]
 
 NEAR_HOME_M = 20_000.0
-"""A building this close to the bridge's home is where the user meant; swapped, it would be far."""
+"""Farthest a site may lie from the bridge's home its guards are placed around and flown from, metres."""
 
 POLAR_LAT_DEG = 75.0
 """Few buildings stand farther north or south than this: a latitude beyond it is likely a longitude."""
@@ -48,23 +49,39 @@ def centroid_lonlat(footprint: Footprint) -> tuple[float, float] | None:
     return float(lon), float(lat)
 
 
-def frame_record(footprint: Footprint) -> dict[str, Any]:
-    """The frame of ``guards_m`` in placement.json: East-North metres from an origin, or the input's."""
+def frame_record(footprint: Footprint, home: Any | None = None, bridge_config: Path | None = None
+                 ) -> dict[str, Any]:
+    """The frame of ``guards_m`` in placement.json: East-North metres from a named origin, or the input's.
+
+    Args:
+        footprint: A building of the site (they share one frame).
+        home: The bridge config's home (:class:`bridge.geo.Home`) when one was given: the origin.
+        bridge_config: That config's path, to name it.
+    """
+    if home is not None:
+        axes = ("east, north metres (local ENU, WGS84) from origin" if footprint.origin is not None else
+                "x east, y north metres from origin (the input's metres, taken as such)")
+        return {"guards_m": axes, "origin": {"lat_deg": home.lat_deg, "lon_deg": home.lon_deg,
+                                             "alt_m": home.alt_m},
+                "origin_is": f"the bridge's home ([home] of {bridge_config})"}
     origin = footprint.origin
     if origin is None:
         return {"guards_m": "x, y metres of the input (no geodetic origin: the building was given in metres)",
                 "origin": None}
     return {"guards_m": "east, north metres (local ENU, WGS84) from origin",
-            "origin": {"lat_deg": origin.lat_deg, "lon_deg": origin.lon_deg},
-            "origin_is": "the mean of the input's outer-ring vertices"}
+            "origin": {"lat_deg": origin.lat_deg, "lon_deg": origin.lon_deg, "alt_m": origin.alt_m},
+            "origin_is": "the mean of the outer rings' distinct vertices (each ring's closing vertex once)"}
 
 
-def swap_warning(footprints: list[Footprint], home: Any | None = None) -> str | None:
-    """A warning when the GeoJSON's coordinates look like (latitude, longitude) instead of (lon, lat).
+def _swap_hint() -> str:
+    return "GeoJSON coordinates are [longitude, latitude]; if the file lists [latitude, longitude], swap them"
 
-    Args:
-        footprints: The site's buildings.
-        home: The bridge config's home (:class:`bridge.geo.Home`), if any: the site should be near it.
+
+def far_from_home(footprints: list[Footprint], home: Any) -> str | None:
+    """Why a GeoJSON site cannot be placed around the bridge's ``home`` (farther than NEAR_HOME_M), or None.
+
+    The guards are placed in East-North metres around the home and flown from it; a site far from it is
+    a wrong home or, when it lies near the home with latitude and longitude swapped, a swapped file.
     """
     from bridge.geo import geodetic_to_enu
 
@@ -72,19 +89,31 @@ def swap_warning(footprints: list[Footprint], home: Any | None = None) -> str | 
     if not centres:
         return None
     lon, lat = np.mean(np.array(centres), axis=0)
-    hint = ("GeoJSON coordinates are [longitude, latitude]; if the file lists [latitude, longitude], swap "
-            "them")
-    if home is not None:
-        def distance_m(lat_deg: float, lon_deg: float) -> float:
-            return float(np.hypot(*geodetic_to_enu(home, lat_deg, lon_deg, home.alt_m)[:2]))
 
-        far, swapped = distance_m(lat, lon), distance_m(lon, lat) if abs(lon) <= 90.0 else np.inf
-        if far > NEAR_HOME_M and swapped <= NEAR_HOME_M:
-            return (f"the site's centroid (lat {lat:.5f}, lon {lon:.5f}) is {far / 1e3:.0f} km from the "
-                    f"bridge's home, but {swapped / 1e3:.1f} km with latitude and longitude swapped: {hint}")
+    def distance_m(lat_deg: float, lon_deg: float) -> float:
+        return float(np.hypot(*geodetic_to_enu(home, lat_deg, lon_deg, home.alt_m)[:2]))
+
+    far = distance_m(lat, lon)
+    if far <= NEAR_HOME_M:
+        return None
+    swapped = distance_m(lon, lat) if abs(lon) <= 90.0 else np.inf
+    where = (f"the site's centroid (lat {lat:.5f}, lon {lon:.5f}) is {far / 1e3:.0f} km from the bridge's "
+             f"home (lat {home.lat_deg:.5f}, lon {home.lon_deg:.5f}; allowed within "
+             f"{NEAR_HOME_M / 1e3:.0f} km)")
+    if swapped <= NEAR_HOME_M:
+        return f"{where}, but {swapped / 1e3:.1f} km with latitude and longitude swapped: {_swap_hint()}"
+    return f"{where}: give a bridge config whose [home] is at the site"
+
+
+def swap_warning(footprints: list[Footprint]) -> str | None:
+    """A warning when a GeoJSON site's latitude is implausible (beyond POLAR_LAT_DEG): likely swapped."""
+    centres = [c for c in map(centroid_lonlat, footprints) if c is not None]
+    if not centres:
+        return None
+    lon, lat = np.mean(np.array(centres), axis=0)
     if abs(lat) > POLAR_LAT_DEG:
         return (f"the site's centroid is at latitude {lat:.5f} (beyond {POLAR_LAT_DEG:g} degrees, where few "
-                f"buildings stand) and longitude {lon:.5f}: {hint}")
+                f"buildings stand) and longitude {lon:.5f}: {_swap_hint()}")
     return None
 
 
@@ -156,7 +185,8 @@ def plot_site(path: Path, buildings: list[PlacedBuilding], title: str) -> None:
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
-    ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)  # below the site
+    fig.tight_layout(rect=(0.0, 0.04, 1.0, 1.0))
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")

@@ -29,7 +29,7 @@ from typing import Any
 
 from uav_swarm.cli.conventions import config_flag, number
 
-__all__ = ["register", "run", "format_summary", "CHECKPOINT_HELP"]
+__all__ = ["register", "run", "format_summary", "wrote_line", "CHECKPOINT_HELP"]
 
 CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: wifi-s1.pt for "
                    "strategy 1, wifi-s2-ac.pt for strategy 2 under admission control, wifi-s2.pt for "
@@ -106,6 +106,7 @@ def format_summary(summary: dict[str, Any]) -> str:
     first = next(iter(summary["planners"].values()), {})
     if "association" in first:
         lines.append(f"radio association: {first['association']}")
+        lines.extend(_why_s2_is_low(first["association"], summary.get("config", {}).get("task", {})))
     paper = {kind: s["mean_qos_s2_paper_radio"] for kind, s in summary["planners"].items()
              if "mean_qos_s2_paper_radio" in s}
     if paper:
@@ -125,6 +126,36 @@ def format_summary(summary: dict[str, Any]) -> str:
     if "inference_engine" in summary:
         lines.append(f"learned network: {summary['inference_engine']} engine, {summary['network_precision']}")
     return "\n".join(lines)
+
+
+def _why_s2_is_low(association: str, task: dict[str, Any]) -> list[str]:
+    """On the paper's radio, one line saying why few users reach the S2 rate (none on another radio)."""
+    radio = task.get("radio", {})
+    if not association.startswith("paper") or "capacity_mbps" not in radio:
+        return []
+    capacity, rate = radio["capacity_mbps"], radio["min_user_rate_mbps"]
+    aim = "strategy 1 places for S1; " if task.get("strategy", 1) == 1 else ""
+    return [f"  on this radio every user in range shares its UAV's {capacity:g} Mbps: over "
+            f"{capacity / rate:.0f} users a UAV gives each under {rate:g} Mbps, so QoS S2 stays low ({aim}"
+            "admission control: docs/admission.md)"]
+
+
+def wrote_line(files: list[str], out: Path) -> str:
+    """The files a run wrote, those in a folder counted by folder.
+
+    Examples:
+        >>> wrote_line(["qos.png", "missions/vehicle_1.plan", "missions/vehicle_2.plan", "summary.json"],
+        ...            Path("out"))
+        'wrote qos.png, summary.json, missions/ (2 files) in out'
+    """
+    top = [name for name in files if "/" not in name]
+    folders: dict[str, int] = {}
+    for name in files:
+        if "/" in name:
+            folder = name.split("/", 1)[0]
+            folders[folder] = folders.get(folder, 0) + 1
+    counted = [f"{folder}/ ({n} file{'' if n == 1 else 's'})" for folder, n in folders.items()]
+    return f"wrote {', '.join(top + counted)} in {out}"
 
 
 def _separation_line(kind: str, figures: dict[str, Any]) -> str:
@@ -170,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
           f"seed {config.seed}")
     print(format_summary(summary))
     files = summary["files"]
-    print(f"wrote {', '.join(files[:5])}{' ...' if len(files) > 5 else ''} in {args.out}")
+    print(wrote_line(files, args.out))
     if "recording" in summary:
         print(f"recorded the {config.planner} planner's run in {summary['recording']}")
     return 0

@@ -87,7 +87,8 @@ def _planned_episodes(env_config: EnvConfig, seeds: list[int], planner: Planner,
     held: list[dict] = [{} for _ in seeds]
     measures = np.zeros((len(seeds), steps, 3))
     spent = 0.0
-    for step in tqdm(range(steps), desc=planner.name, unit="step", disable=not progress, leave=False):
+    for step in tqdm(range(steps), desc=planner.name, unit="step", disable=None if progress else True,
+                     leave=False):
         start = time.perf_counter()
         if step % replan_every == 0:
             results = plan_batch(planners, [env.pedestrian_positions_m for env in envs],
@@ -119,7 +120,7 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
         replan_every: Steps between two replans of the planners.
         mappo_policy: ``policy.pt`` of ``rl-train`` (needed for ``mappo``).
         checkpoint: The learned planner's checkpoint (default: the shipped one).
-        progress: Show a progress bar per controller.
+        progress: Show a progress bar per controller (on a terminal only).
 
     Raises:
         ValueError: An unknown controller, or ``mappo`` without a policy.
@@ -143,8 +144,8 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
                                                 replan_every, steps, progress)
         elif decide is not None:
             measures, spent = [], 0.0
-            for episode in tqdm(range(episodes), desc=name, unit="episode", disable=not progress,
-                                leave=False):
+            for episode in tqdm(range(episodes), desc=name, unit="episode",
+                                disable=None if progress else True, leave=False):
                 m, s = _episode(env_config, seed + episode, decide, steps)
                 measures.append(m)
                 spent += s

@@ -140,7 +140,7 @@ def train_mappo(config: MappoConfig, out: str | Path, *, resume: bool = False, p
         out: Output folder (created).
         resume: Continue from ``out/checkpoint.pt`` with ``config`` (which may raise ``total_frames`` or
             ``max_minutes``; the networks and the task must be the checkpoint's); the worlds restart.
-        progress: Show a progress bar.
+        progress: Show a progress bar (on a terminal only: none in a log or a pipe).
 
     Returns:
         The summary written to ``summary.json``.
@@ -200,7 +200,8 @@ def train_mappo(config: MappoConfig, out: str | Path, *, resume: bool = False, p
     buffer = ReplayBuffer(storage=LazyTensorStorage(frames_per_batch), sampler=SamplerWithoutReplacement(),
                           batch_size=config.minibatch_size)
     start = time.perf_counter() - (history[-1]["elapsed_s"] if history else 0.0)
-    bar = tqdm(total=config.total_frames, initial=frames_done, unit="frame", disable=not progress)
+    bar = tqdm(total=config.total_frames, initial=frames_done, unit="frame",
+               disable=None if progress else True)
     for batch in collector:
         if frames_done >= config.total_frames:
             break

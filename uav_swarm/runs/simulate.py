@@ -120,7 +120,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         frame_every: Keep a :class:`Frame` every this many steps (and the last); 0 keeps none.
         sample_every_s: Keep the crowd every this many simulated seconds from 0 (the static reference's
             instants); 0 keeps none.
-        progress: Show a progress bar.
+        progress: Show a progress bar (on a terminal only: none in a log or a pipe).
 
     Raises:
         ValueError: The planner is for another number of UAVs.
@@ -153,7 +153,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
     watch = SeparationWatch(config.uav, config.n_uavs, area_m)  # transitions between plans, closest approach
     steered = 0  # the operator targets' version the transition was planned for
-    for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=not progress, leave=False):
+    for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=None if progress else True,
+                     leave=False):
         if step % config.replan_every == 0:
             result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
                                   env.pedestrian_velocities_m_s)
@@ -306,7 +307,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     Args:
         config: The sequence, the planners and the outputs.
         out_dir: Output folder.
-        progress: Show a progress bar.
+        progress: Show a progress bar (on a terminal only: none in a log or a pipe).
         record: Also record the flown planner's run into this MCAP file
             (:mod:`uav_swarm.runs.recording`, every ``telemetry_every`` steps and every plan).
         live: Also stream the flown planner's run to Foxglove from a WebSocket server listening here.

@@ -102,6 +102,7 @@ def test_vertices_in_metres_from_json_and_csv(tmp_path):
     ("{not json", ".geojson", "not valid JSON"),
     ('{"type": "Point", "coordinates": [1, 2]}', ".geojson", "no Polygon"),
     ('{"type": "Polygon", "coordinates": [[[0, 0], [500, 0], [0, 1]]]}', ".geojson", "longitude"),
+    ('{"type": "Polygon", "coordinates": [[]]}', ".geojson", "no vertices; a building needs at least 3"),
     ("0 0\n1 0\n", ".kml", "unknown building file type"),
 ])
 def test_malformed_buildings_get_a_clear_error(tmp_path, content, suffix, match):

@@ -5,8 +5,9 @@ Two inputs (:func:`read_site`):
 - **GeoJSON** (``.geojson``, or ``.json`` holding a GeoJSON object), in WGS84 longitude/latitude as GIS
   tools export it: a ``Polygon`` (holes, i.e. courtyards, allowed), a ``MultiPolygon`` (one building per
   part), a ``Feature`` with either, or a ``FeatureCollection`` of such features (a whole site). The site
-  is projected to East-North metres around the mean of its outer vertices
-  (:func:`bridge.geo.geodetic_to_enu`).
+  is projected to East-North metres (:func:`bridge.geo.geodetic_to_enu`) around a given origin (the
+  bridge's home), else around the mean of the outer rings' distinct vertices (a ring's closing vertex,
+  which repeats its first, counted once).
 - **Vertices in metres** (one building without holes): a ``.json`` list of ``[x, y]`` pairs, or a
   ``.csv`` / ``.txt`` file with one ``x, y`` (or ``x y``) pair per line (``#`` starts a comment).
 
@@ -44,7 +45,8 @@ from uav_swarm.missions.monitoring.outline import Outline, OutlineError
 from uav_swarm.missions.monitoring.polygons import Polygon, is_simple
 from uav_swarm.world.geometry import point_segment_distances
 
-__all__ = ["FootprintError", "Footprint", "FittedFootprint", "read_site", "read_footprint", "fit_to_raster"]
+__all__ = ["FootprintError", "Footprint", "FittedFootprint", "read_site", "read_footprint", "fit_to_raster",
+           "site_origin"]
 
 DEFAULT_MAX_VERTICES = 64
 """Most vertices a footprint may have (the exact experts' cost grows with them)."""
@@ -136,8 +138,25 @@ def _polygons_from_geojson(data: Any, path: Path) -> list[tuple[list, str | None
     return [(coordinates, name)]
 
 
-def _read_rings(path: Path) -> tuple[list[tuple[list[np.ndarray], str | None]], Home | None]:
-    """The rings of every building of a file (metres), the geodetic origin (GeoJSON) and the names."""
+def site_origin(outer_rings_lonlat: list[np.ndarray]) -> Home:
+    """The mean of the outer rings' distinct vertices (closing vertices once), as a geodetic origin.
+
+    Examples:
+        >>> ring = np.array([[8.0, 47.0], [8.0004, 47.0], [8.0004, 47.0002], [8.0, 47.0002], [8.0, 47.0]])
+        >>> origin = site_origin([ring])  # the closing vertex (8.0, 47.0) counts once
+        >>> round(origin.lon_deg, 6), round(origin.lat_deg, 6)
+        (8.0002, 47.0001)
+    """
+    points = np.concatenate([_clean(ring) for ring in outer_rings_lonlat])
+    return Home(lat_deg=float(points[:, 1].mean()), lon_deg=float(points[:, 0].mean()), alt_m=0.0)
+
+
+def _read_rings(path: Path, origin: Home | None = None
+                ) -> tuple[list[tuple[list[np.ndarray], str | None]], Home | None]:
+    """The rings of every building of a file (metres), the geodetic origin (GeoJSON) and the names.
+
+    GeoJSON is projected around ``origin`` when given, else around :func:`site_origin`.
+    """
     try:
         text = path.read_text()
     except OSError as exc:
@@ -152,15 +171,18 @@ def _read_rings(path: Path) -> tuple[list[tuple[list[np.ndarray], str | None]], 
         polygons = [([_as_points(ring, path) for ring in rings], name)
                     for rings, name in _polygons_from_geojson(data, path)]
         lonlat = np.concatenate([rings[0] for rings, _ in polygons])
+        if len(lonlat) == 0:
+            raise FootprintError(f"{path}: no vertices; a building needs at least 3")
         if np.any(np.abs(lonlat[:, 0]) > 180.0) or np.any(np.abs(lonlat[:, 1]) > 90.0):
             raise FootprintError(f"{path}: coordinates outside longitude [-180, 180] / latitude [-90, 90]; "
                                  "GeoJSON is WGS84 degrees (give metres as a plain list of vertices instead)")
-        origin = Home(lat_deg=float(lonlat[:, 1].mean()), lon_deg=float(lonlat[:, 0].mean()), alt_m=0.0)
+        frame = origin if origin is not None else site_origin([rings[0] for rings, _ in polygons])
 
         def metres(ring: np.ndarray) -> np.ndarray:
-            return np.array([geodetic_to_enu(origin, float(lat), float(lon), 0.0)[:2] for lon, lat in ring])
+            return np.array([geodetic_to_enu(frame, float(lat), float(lon), frame.alt_m)[:2]
+                             for lon, lat in ring])
 
-        return [([metres(ring) for ring in rings], name) for rings, name in polygons], origin
+        return [([metres(ring) for ring in rings], name) for rings, name in polygons], frame
     if path.suffix.lower() in (".csv", ".txt"):
         rows = []
         for line in text.splitlines():
@@ -224,8 +246,12 @@ def _building(rings: list[np.ndarray], origin: Home | None, name: str, where: st
     return footprint
 
 
-def read_site(path: str | Path, max_vertices: int = DEFAULT_MAX_VERTICES) -> list[Footprint]:
+def read_site(path: str | Path, max_vertices: int = DEFAULT_MAX_VERTICES, origin: Home | None = None
+              ) -> list[Footprint]:
     """Every building of a file (see the module docstring), in one East-North frame.
+
+    GeoJSON is projected around ``origin`` (e.g. the bridge's home) when given, else around the mean of
+    the outer rings' distinct vertices (:func:`site_origin`); vertices in metres are taken as they are.
 
     Raises:
         FootprintError: Unreadable or unknown file, a building of fewer than 3 or more than
@@ -233,12 +259,12 @@ def read_site(path: str | Path, max_vertices: int = DEFAULT_MAX_VERTICES) -> lis
             its building; the message names the building.
     """
     path = Path(path)
-    buildings, origin = _read_rings(path)
+    buildings, frame = _read_rings(path, origin)
     out = []
     for i, (rings, name) in enumerate(buildings):
         label = name or (path.stem if len(buildings) == 1 else f"{path.stem} {i + 1}")
         where = f"{path}" if len(buildings) == 1 else f"{path} ({label})"
-        out.append(_building(rings, origin, label, where, max_vertices))
+        out.append(_building(rings, frame, label, where, max_vertices))
     return out
 
 

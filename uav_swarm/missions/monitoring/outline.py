@@ -9,7 +9,8 @@ truth a placement is judged on. An :class:`Outline` is a polygon in East-North m
 clockwise, so the building's interior is on the left of every wall.
 
 * **Witnesses** (:func:`witnesses`, spacing ``witness_spacing_m``): the Art Gallery's are the points of
-  a square grid strictly inside the building (courtyards excluded) and every vertex; the Fortress's are
+  a square grid strictly inside the building (farther than :data:`TOUCH_M` from every wall; courtyards
+  excluded) and every vertex; the Fortress's are
   every vertex and points at most the spacing apart along every wall, courtyard walls included.
 * **Candidates** (:func:`candidates`): lattice points of the mission's region (inside the building,
   or outside it, courtyards included, within ``reach_m`` of its bounding box) at least ``standoff_m``
@@ -202,6 +203,7 @@ def witnesses(outline: Outline, region: Region, spacing_m: float = 0.5) -> Witne
     corners = _wall_points(outline, spacing_m, vertices_only=True)
     grid = _grid(outline.polygon.bounds, spacing_m)
     grid = grid[outline.inside(grid)]
+    grid = grid[outline.wall_distances(grid) > TOUCH_M]  # closer is on the wall: a projection's rounding
     return Witnesses(np.concatenate([corners.points_m, grid]),
                      np.concatenate([corners.walls, np.full((len(grid), 2), -1, dtype=np.int64)]))
 

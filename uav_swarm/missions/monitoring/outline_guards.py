@@ -248,8 +248,27 @@ def _cover_blind(outline: Outline, region: Region, lattice: np.ndarray, targets:
         seen_by = visibility(outline, chosen, targets, config.min_clearance_m, region)
         blind = ~np.any(seen_by, axis=0)
         if np.any(blind):
-            raise _infeasible(outline, targets, blind, config, region)
+            kept = np.concatenate([fixed_m, chosen])
+            separation = _too_close(outline, region, targets.subset(np.flatnonzero(blind)), config, kept)
+            raise separation or _infeasible(outline, targets, blind, config, region)
     return chosen, seen_by
+
+
+def _too_close(outline: Outline, region: Region, blind: Witnesses, config: SightConfig, kept_m: np.ndarray
+               ) -> InfeasibleCoverError | None:
+    """The error naming the minimum separation when only positions it excludes see ``blind``, else None."""
+    minimum = config.min_separation_m
+    if minimum <= 0.0 or len(kept_m) == 0:
+        return None
+    positions = np.concatenate([candidates(outline, region, config.lattice_m, config.standoff_m,
+                                           config.reach_m), _aimed(outline, region, blind, config)])
+    excluded = positions[~_far(positions, kept_m, minimum)]
+    if len(excluded) == 0 or not np.any(visibility(outline, excluded, blind, config.min_clearance_m, region)):
+        return None
+    return InfeasibleCoverError(
+        f"{outline.name}: min_separation_m = {minimum:g} is the cause: {len(blind)} witness point(s) stay "
+        f"unseen, which positions closer than {minimum:g} m to the {len(kept_m)} guard(s) placed already "
+        "would see (guards keep the UAVs' minimum separation); lower --min-separation-m")
 
 
 def repair_on_outline(outline: Outline, region: Region, proposals_m: np.ndarray, config: SightConfig,

@@ -235,8 +235,9 @@ def separated_cover(sees: np.ndarray, cost: np.ndarray, points_m: np.ndarray, mi
     result = milp(cost.sum() + 1.0 + cost, integrality=np.ones(n), bounds=Bounds(0.0, 1.0),
                   constraints=constraints, options={"mip_rel_gap": 0.0})
     if result.x is None:
-        raise InfeasibleCoverError(f"no guards {min_separation_m:g} m apart see every witness (the minimum "
-                                   "separation between UAVs): lower it, or add candidate positions")
+        raise InfeasibleCoverError(f"min_separation_m = {min_separation_m:g} is the cause: no guards "
+                                   f"{min_separation_m:g} m apart see every witness (the UAVs' minimum "
+                                   "separation): lower it, or add candidate positions")
     return np.flatnonzero(result.x > 0.5)
 
 
