@@ -8,7 +8,7 @@ Each step (explicit Euler, ``dt_s``) sums, per pedestrian ``i`` (accelerations i
   (:meth:`uav_swarm.world.walls.Walls.steer_around`), so crowds flow around walls rather than jam;
 - pedestrian repulsion (Helbing) ``A exp((2 r - d_ij) / B) n_ij`` weighted by the anisotropy
   ``lambda + (1 - lambda) (1 + cos phi_ij) / 2`` (people react more to whom they face), only for pairs
-  closer than ``neighbour_cutoff_m`` (``scipy.spatial.cKDTree.query_pairs``);
+  closer than ``neighbour_cutoff_m`` (compiled: :func:`uav_swarm.world.pair_forces.pair_forces`);
 - wall repulsion ``A_w exp((r - d_iw) / B_w)`` away from the closest point of every obstacle segment and
   of the four area bounds within the cutoff;
 - group cohesion towards the group's centroid, ``group_cohesion_m_s2 * clip(d - R_g, 0, 1)`` with
@@ -28,10 +28,10 @@ import dataclasses
 import logging
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from typed_config import Config, ConfigError, param
 from uav_swarm.world.geometry import point_segment_distances
+from uav_swarm.world.pair_forces import pair_forces
 from uav_swarm.world.scenario import Scenario, ScenarioError
 from uav_swarm.world.walls import SKIN_M, Walls
 
@@ -165,6 +165,8 @@ class CrowdSim:
             array.flags.writeable = False
         self._velocities = np.zeros((n, 2))
         self._velocities.flags.writeable = False
+        self._world_starts = np.array([0, n], dtype=np.int64)  # one world (B worlds in BatchedCrowd)
+        self._sweep_order = np.arange(n, dtype=np.int64)  # the pair sweep's order, kept between steps
         logger.debug(
             "crowd of %d pedestrians in %d groups, %d obstacles", n, len(sizes), self._walls.n_obstacles
         )
@@ -250,7 +252,9 @@ class CrowdSim:
         )
         self._walls.steer_around(p, target, self._waypoints_m[target], direction, wall_distance2, near)
         force = (direction * self.desired_speeds_m_s[:, None] - v) / cfg.relaxation_time_s
-        force += self._pedestrian_forces(p, direction)
+        force += pair_forces(p, direction, self._world_starts, self._sweep_order, cfg.neighbour_cutoff_m,
+                             cfg.ped_repulsion_m_s2, cfg.ped_repulsion_range_m, cfg.pedestrian_radius_m,
+                             cfg.ped_anisotropy)
         force += wall_force
         force += self._cohesion_forces(p)
 
@@ -275,45 +279,6 @@ class CrowdSim:
         positions.flags.writeable = False
         v_new.flags.writeable = False
         self._positions, self._velocities = positions, v_new
-
-    def _pedestrian_forces(self, p: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        """Anisotropic exponential repulsion between pedestrians closer than the cutoff, ``(N, 2)``."""
-        cfg = self.config
-        n = len(p)
-        pairs = self._neighbour_pairs(p)
-        if not len(pairs):
-            return np.zeros((n, 2))
-        i, j = pairs[:, 0], pairs[:, 1]
-        pi, pj = np.take(p, i, axis=0), np.take(p, j, axis=0)
-        dx, dy = pi[:, 0] - pj[:, 0], pi[:, 1] - pj[:, 1]  # from j to i
-        dist = np.sqrt(dx * dx + dy * dy)
-        coincident = dist < 1e-9
-        if coincident.any():  # same spot (e.g. a zero-size spawn area): a fixed direction per pair
-            angle = 2.399963229728653 * self._pair_key(i[coincident], j[coincident])
-            dx[coincident], dy[coincident], dist[coincident] = np.cos(angle), np.sin(angle), 1.0
-        magnitude = cfg.ped_repulsion_m_s2 * np.exp(
-            (2 * cfg.pedestrian_radius_m - dist) / cfg.ped_repulsion_range_m
-        )
-        magnitude /= dist
-        di, dj = np.take(direction, i, axis=0), np.take(direction, j, axis=0)
-        half = 0.5 * (1.0 - cfg.ped_anisotropy)
-        # cos of the angle between i's heading and j (and vice versa): the one in front counts more.
-        w_i = (cfg.ped_anisotropy + half) - half * (di[:, 0] * dx + di[:, 1] * dy) / dist
-        w_j = (cfg.ped_anisotropy + half) + half * (dj[:, 0] * dx + dj[:, 1] * dy) / dist
-        f_i, f_j = magnitude * w_i, -magnitude * w_j
-        index = np.concatenate([i, j])
-        force = np.empty((n, 2))
-        force[:, 0] = np.bincount(index, np.concatenate([f_i * dx, f_j * dx]), n)
-        force[:, 1] = np.bincount(index, np.concatenate([f_i * dy, f_j * dy]), n)
-        return force
-
-    def _neighbour_pairs(self, p: np.ndarray) -> np.ndarray:
-        """``(P, 2)`` index pairs ``i < j`` of pedestrians closer than ``neighbour_cutoff_m``."""
-        return cKDTree(p).query_pairs(self.config.neighbour_cutoff_m, output_type="ndarray")
-
-    def _pair_key(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-        """An integer per pair that fixes the push direction of two coincident pedestrians."""
-        return i * 7 + j
 
     def _cohesion_forces(self, p: np.ndarray) -> np.ndarray:
         """Pull towards the group centroid for pedestrians farther than the group radius, ``(N, 2)``."""
