@@ -47,6 +47,7 @@ CROWD_FILES = ("uav_swarm/world/crowd.py", "uav_swarm/world/crowd_batch.py")  # 
 KERNEL = "uav_swarm/world/pair_forces.py"
 N_UAVS = 10
 GROUPS = {200: 5, 516: 6, 1000: 10}  # pedestrians -> groups of equal size
+Clocks = tuple[dict[str, list[float]], dict[str, list[float]]]  # wall, CPU seconds per step and round
 
 
 def crowd_of(pedestrians: int) -> dict:
@@ -121,10 +122,10 @@ def serve() -> None:
             for _ in range(3):
                 step()  # warm-up: compiled kernels loaded, buffers allocated
         elif command["do"] == "run":
-            step, start = steppers[command["name"]], time.perf_counter()
+            step, start, start_cpu = steppers[command["name"]], time.perf_counter(), time.process_time()
             for _ in range(command["steps"]):
                 step()
-            answer = time.perf_counter() - start
+            answer = [time.perf_counter() - start, time.process_time() - start_cpu]
         elif command["do"] == "where":
             import uav_swarm.world.crowd
 
@@ -186,14 +187,22 @@ def before_tree(rev: str | None, folder: Path) -> str:
     return commit[:10]
 
 
-def measure(steppers: dict[str, tuple[Worker, str]], steps: int, rounds: int) -> dict[str, list[float]]:
-    """Seconds per step of each stepper in each round: interleaved rounds of ``steps // rounds`` steps."""
+def measure(steppers: dict[str, tuple[Worker, str]], steps: int, rounds: int
+            ) -> Clocks:
+    """Wall and CPU seconds per step of each stepper in each round (interleaved, ``steps // rounds`` a round).
+
+    The CPU time is the worker's own (user + system): on a shared machine, the time it really worked.
+    """
     per_round = max(1, steps // rounds)
-    seconds: dict[str, list[float]] = {name: [] for name in steppers}
+    wall: dict[str, list[float]] = {name: [] for name in steppers}
+    cpu: dict[str, list[float]] = {name: [] for name in steppers}
     for _ in range(rounds):
         for name, (worker, key) in steppers.items():
-            seconds[name].append(float(worker.ask(do="run", name=key, steps=per_round)) / per_round)
-    return seconds
+            answer = worker.ask(do="run", name=key, steps=per_round)
+            assert isinstance(answer, list)
+            wall[name].append(answer[0] / per_round)
+            cpu[name].append(answer[1] / per_round)
+    return wall, cpu
 
 
 def cpu_model() -> str:
@@ -246,14 +255,26 @@ def main() -> None:
             before.close()
 
 
+def milliseconds(clocks: Clocks, name: str, digits: int) -> str:
+    """``CPU / wall`` milliseconds per step, means over the rounds."""
+    wall, cpu = clocks
+    return f"{1e3 * statistics.fmean(cpu[name]):.{digits}f} / {1e3 * statistics.fmean(wall[name]):.{digits}f}"
+
+
+def report(label: str, slow: str, fast: str, clocks: Clocks, unit: str = "") -> None:
+    """One ratio line: by CPU time first, then by wall time."""
+    wall, cpu = clocks
+    print(f"  {label:<24}cpu {ratio(cpu[slow], cpu[fast])}   wall {ratio(wall[slow], wall[fast])}{unit}")
+
+
 def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> None:
     print(f"CPU: {cpu_model()}, {os.cpu_count()} logical CPUs; python {platform.python_version()}, "
           f"numpy {np.__version__}; before = the crowd of {commit}")
     for name, worker in (("now", now), ("before", before)):
         print(f"{name}: {worker.ask(do='where')}")
     print(f"load average before: {load()}")
-    print(f"{N_UAVS} UAVs per copy; ms per step (mean over {args.rounds} interleaved rounds); "
-          f"ratios: total time, (range over rounds)")
+    print(f"{N_UAVS} UAVs per copy; ms per step, CPU / wall, mean over {args.rounds} interleaved rounds; "
+          f"ratios of total time (range over rounds)")
     for pedestrians in args.pedestrians:
         copies = args.copies
         steppers = {"batched": (now, "batched"), "separate": (now, "separate"),
@@ -262,17 +283,16 @@ def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> N
             steppers["vmas"] = (now, "vmas")
         for worker, kind in steppers.values():
             worker.ask(do="build", name=kind, kind=kind, copies=copies, pedestrians=pedestrians)
-        seconds = measure(steppers, args.steps, args.rounds)
-        ms = {name: 1e3 * statistics.fmean(s) for name, s in seconds.items()}
-        times = ", ".join(f"{name} {value:.2f}" for name, value in ms.items())
+        clocks = measure(steppers, args.steps, args.rounds)
+        times = ", ".join(f"{name} {milliseconds(clocks, name, 2)}" for name in steppers)
         print(f"\n{pedestrians} pedestrians, {copies} copies: {times}")
-        print(f"  batched/separate now    {ratio(seconds['separate'], seconds['batched'])}  "
-              f"({copies * N_UAVS / statistics.fmean(seconds['batched']):.0f} agent-steps/s batched)")
-        print(f"  batched/separate before {ratio(seconds['separate before'], seconds['batched before'])}")
-        print(f"  batched now/before      {ratio(seconds['batched before'], seconds['batched'])} as fast")
-        print(f"  separate now/before     {ratio(seconds['separate before'], seconds['separate'])} as fast")
+        rate = copies * N_UAVS / statistics.fmean(clocks[1]["batched"])
+        report("batched/separate now", "separate", "batched", clocks, f"   ({rate:.0f} agent-steps/CPU-s)")
+        report("batched/separate before", "separate before", "batched before", clocks)
+        report("batched now/before", "batched before", "batched", clocks, "   as fast")
+        report("separate now/before", "separate before", "separate", clocks, "   as fast")
         if args.vmas:
-            print(f"  batched/vmas            {ratio(seconds['vmas'], seconds['batched'])}")
+            report("batched/vmas", "vmas", "batched", clocks)
         if args.profile:
             print("  profile of the batched step now (share of own time):")
             for function, share in now.ask(do="profile", name="batched", steps=max(5, args.steps // 5)):
@@ -281,11 +301,11 @@ def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> N
             worker.ask(do="clear")
         for worker in (now, before):
             worker.ask(do="build", name="single", kind="separate", copies=1, pedestrians=pedestrians)
-        pair = {"now": (now, "single"), "before": (before, "single")}
-        single = measure(pair, args.single_steps, args.rounds)
-        print(f"  single env: now {1e3 * statistics.fmean(single['now']):.3f} ms, before "
-              f"{1e3 * statistics.fmean(single['before']):.3f} ms; now/before time "
-              f"{ratio(single['now'], single['before'])}")
+        clocks = measure({"now": (now, "single"), "before": (before, "single")}, args.single_steps,
+                         args.rounds)
+        print(f"  single env: now {milliseconds(clocks, 'now', 3)} ms, "
+              f"before {milliseconds(clocks, 'before', 3)} ms")
+        report("single now/before time", "now", "before", clocks)
         for worker in (now, before):
             worker.ask(do="clear")
     print(f"\nload average after: {load()}")
