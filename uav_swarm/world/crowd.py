@@ -26,7 +26,9 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 
+import numba
 import numpy as np
 
 from typed_config import Config, ConfigError, param
@@ -282,14 +284,30 @@ class CrowdSim:
 
     def _cohesion_forces(self, p: np.ndarray) -> np.ndarray:
         """Pull towards the group centroid for pedestrians farther than the group radius, ``(N, 2)``."""
-        cfg = self.config
-        if cfg.group_cohesion_m_s2 == 0:
+        strength_m_s2 = self.config.group_cohesion_m_s2
+        if strength_m_s2 == 0:
             return np.zeros_like(p)
-        g = self.group_ids
-        n_groups = len(self._group_sizes)
-        sums = np.stack([np.bincount(g, p[:, 0], n_groups), np.bincount(g, p[:, 1], n_groups)], axis=1)
-        centroid = sums / self._group_sizes[:, None]
-        to_centre = centroid[g] - p
-        dist = np.sqrt(to_centre[:, 0] ** 2 + to_centre[:, 1] ** 2)
-        pull = cfg.group_cohesion_m_s2 * np.clip(dist - self._group_radius_m[g], 0.0, 1.0)
-        return to_centre * (pull / np.maximum(dist, _EPS))[:, None]
+        return _cohesion(p, self.group_ids, self._group_sizes, self._group_radius_m, strength_m_s2)
+
+
+@numba.njit(cache=True, nogil=True)
+def _cohesion(p: np.ndarray, group_ids: np.ndarray, group_sizes: np.ndarray, group_radius_m: np.ndarray,
+              strength_m_s2: float) -> np.ndarray:
+    """``(N, 2)`` pull ``strength * clip(d - R_g, 0, 1)`` towards each group's centroid (compiled).
+
+    The centroid sums run over the pedestrians in index order, as ``numpy.bincount`` adds them.
+    """
+    n, n_groups = p.shape[0], group_sizes.shape[0]
+    sum_x, sum_y = np.zeros(n_groups), np.zeros(n_groups)
+    for k in range(n):
+        sum_x[group_ids[k]] += p[k, 0]
+        sum_y[group_ids[k]] += p[k, 1]
+    centre_x, centre_y = sum_x / group_sizes, sum_y / group_sizes
+    pull = np.empty((n, 2))
+    for k in range(n):
+        g = group_ids[k]
+        to_x, to_y = centre_x[g] - p[k, 0], centre_y[g] - p[k, 1]
+        dist = math.sqrt(to_x * to_x + to_y * to_y)
+        scale = strength_m_s2 * min(max(dist - group_radius_m[g], 0.0), 1.0) / max(dist, _EPS)
+        pull[k, 0], pull[k, 1] = to_x * scale, to_y * scale
+    return pull
