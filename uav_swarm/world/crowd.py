@@ -242,9 +242,8 @@ class CrowdSim:
         cfg = self.config
         p, v = self._positions, self._velocities
         target = self._route_flat[self._route_start[self.group_ids] + self._route_position]
-        to_goal = self._waypoints_m[target] - p
-        goal_dist = np.sqrt(to_goal[:, 0] ** 2 + to_goal[:, 1] ** 2)
-        direction = to_goal * (self._has_route / np.maximum(goal_dist, _EPS))[:, None]
+        goal_m = self._waypoints_m[target]
+        direction = _directions(p, goal_m, self._has_route)
         wall_distance2, wall_force, near = self._walls.repulsion(
             p,
             cfg.obstacle_repulsion_m_s2,
@@ -252,26 +251,20 @@ class CrowdSim:
             cfg.pedestrian_radius_m,
             cfg.neighbour_cutoff_m,
         )
-        self._walls.steer_around(p, target, self._waypoints_m[target], direction, wall_distance2, near)
-        force = (direction * self.desired_speeds_m_s[:, None] - v) / cfg.relaxation_time_s
-        force += pair_forces(p, direction, self._world_starts, self._sweep_order, cfg.neighbour_cutoff_m,
-                             cfg.ped_repulsion_m_s2, cfg.ped_repulsion_range_m, cfg.pedestrian_radius_m,
-                             cfg.ped_anisotropy)
-        force += wall_force
-        force += self._cohesion_forces(p)
-
-        v_new = v + force * self.dt_s
-        speed = np.sqrt(v_new[:, 0] ** 2 + v_new[:, 1] ** 2)
-        v_new *= np.minimum(1.0, self.max_speeds_m_s / np.maximum(speed, _EPS))[:, None]
-        move = v_new * self.dt_s
-        changed = self._walls.resolve(
-            p, move, wall_distance2, np.minimum(speed, self.max_speeds_m_s) * self.dt_s
+        self._walls.steer_around(p, target, goal_m, direction, wall_distance2, near)
+        pair_force = pair_forces(p, direction, self._world_starts, self._sweep_order, cfg.neighbour_cutoff_m,
+                                 cfg.ped_repulsion_m_s2, cfg.ped_repulsion_range_m, cfg.pedestrian_radius_m,
+                                 cfg.ped_anisotropy)
+        v_new, move, step_m = _integrate(
+            v, direction, self.desired_speeds_m_s, self.max_speeds_m_s, pair_force, wall_force,
+            self._cohesion_forces(p), cfg.relaxation_time_s, self.dt_s,
         )
+        changed = self._walls.resolve(p, move, wall_distance2, step_m)
         if len(changed):
             v_new[changed] = move[changed] / self.dt_s
 
         positions = p + move
-        to_goal = self._waypoints_m[target] - positions
+        to_goal = goal_m - positions
         radius = self._waypoint_radius_m[target]
         reached = self._has_route & (to_goal[:, 0] ** 2 + to_goal[:, 1] ** 2 <= radius * radius)
         if reached.any():
@@ -311,3 +304,44 @@ def _cohesion(p: np.ndarray, group_ids: np.ndarray, group_sizes: np.ndarray, gro
         scale = strength_m_s2 * min(max(dist - group_radius_m[g], 0.0), 1.0) / max(dist, _EPS)
         pull[k, 0], pull[k, 1] = to_x * scale, to_y * scale
     return pull
+
+
+@numba.njit(cache=True, nogil=True)
+def _directions(p: np.ndarray, goal_m: np.ndarray, has_route: np.ndarray) -> np.ndarray:
+    """``(N, 2)`` unit directions to the goals (zero without a route), compiled."""
+    direction = np.empty_like(p)
+    for k in range(p.shape[0]):
+        to_x, to_y = goal_m[k, 0] - p[k, 0], goal_m[k, 1] - p[k, 1]
+        scale = (1.0 if has_route[k] else 0.0) / max(math.sqrt(to_x * to_x + to_y * to_y), _EPS)
+        direction[k, 0], direction[k, 1] = to_x * scale, to_y * scale
+    return direction
+
+
+@numba.njit(cache=True, nogil=True)
+def _integrate(v: np.ndarray, direction: np.ndarray, desired_m_s: np.ndarray, max_m_s: np.ndarray,
+               pair: np.ndarray, wall: np.ndarray, cohesion: np.ndarray, relaxation_s: float, dt_s: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One explicit Euler step of the velocities under the summed forces, capped; compiled.
+
+    Returns the new velocities, the moves ``v dt`` and the bound ``min(|v|, cap) dt`` of each move.
+    """
+    n = v.shape[0]
+    v_new, move, step_m = np.empty((n, 2)), np.empty((n, 2)), np.empty(n)
+    for k in range(n):
+        force_x = (direction[k, 0] * desired_m_s[k] - v[k, 0]) / relaxation_s
+        force_y = (direction[k, 1] * desired_m_s[k] - v[k, 1]) / relaxation_s
+        force_x += pair[k, 0]
+        force_y += pair[k, 1]
+        force_x += wall[k, 0]
+        force_y += wall[k, 1]
+        force_x += cohesion[k, 0]
+        force_y += cohesion[k, 1]
+        v_x, v_y = v[k, 0] + force_x * dt_s, v[k, 1] + force_y * dt_s
+        speed = math.sqrt(v_x * v_x + v_y * v_y)
+        cap = min(1.0, max_m_s[k] / max(speed, _EPS))
+        v_x *= cap
+        v_y *= cap
+        v_new[k, 0], v_new[k, 1] = v_x, v_y
+        move[k, 0], move[k, 1] = v_x * dt_s, v_y * dt_s
+        step_m[k] = min(speed, max_m_s[k]) * dt_s
+    return v_new, move, step_m
