@@ -15,7 +15,8 @@ Each implementation runs in its own worker process; the main process steps them 
 (one at a time), so a load that changes during the run affects them alike. Every step draws fresh uniform
 random actions from a seeded generator (velocity actions in [-1, 1]). The load average before and after
 is printed. Goals: batched >= 5x the separate envs at every crowd size; the single env no slower than
-before (<= 1.05x). ``--profile`` prints where a batched step of the current code spends its time.
+before (<= 1.05x). ``--profile`` prints where a batched step and a single env's step of the current code
+spend their time.
 
 Usage: python benchmarks/batched_env.py [--pedestrians 200 516 1000] [--copies 64] [--steps 100]
 [--single-steps 500] [--rounds 5] [--before REV] [--vmas] [--profile]
@@ -96,18 +97,32 @@ def stepper(kind: str, copies: int, pedestrians: int) -> Callable[[], None]:
                                for d in dims])
 
 
-def profile(step: Callable[[], None], steps: int) -> list[tuple[str, float]]:
-    """The functions with the most own time over ``steps`` steps, with their share of the total."""
-    profiler = cProfile.Profile()
+def profile(step: Callable[[], None], steps: int) -> dict[str, object]:
+    """CPU-time profile of ``steps`` steps.
+
+    The share of the crowd's step (with what it calls), and the functions with the most own time.
+    """
+    profiler = cProfile.Profile(time.process_time)
     profiler.enable()
     for _ in range(steps):
         step()
     profiler.disable()
     stats = vars(pstats.Stats(profiler, stream=io.StringIO()))["stats"]
     total = sum(row[2] for row in stats.values())
+    crowd = sum(row[3] for (file, _, name), row in stats.items()  # CrowdSim.step, under BatchedCrowd's too
+                if name == "step" and file.endswith("world/crowd.py"))
     rows = sorted(((f"{Path(file).name}:{line}({name})", row[2] / total)
                    for (file, line, name), row in stats.items()), key=lambda r: -r[1])
-    return rows[:12]
+    return {"crowd": crowd / total, "top": rows[:12]}
+
+
+def print_profile(what: str, answer: object) -> None:
+    """Print a worker's :func:`profile`."""
+    assert isinstance(answer, dict)
+    print(f"  profile of {what} now: the crowd's step {100 * answer['crowd']:.0f} % of its CPU time; "
+          "own time of the functions:")
+    for function, share in answer["top"]:
+        print(f"    {100 * share:5.1f} %  {function}")
 
 
 def serve() -> None:
@@ -294,9 +309,8 @@ def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> N
         if args.vmas:
             report("batched/vmas", "vmas", "batched", clocks)
         if args.profile:
-            print("  profile of the batched step now (share of own time):")
-            for function, share in now.ask(do="profile", name="batched", steps=max(5, args.steps // 5)):
-                print(f"    {100 * share:5.1f} %  {function}")
+            steps = max(5, args.steps // 5)
+            print_profile("the batched step", now.ask(do="profile", name="batched", steps=steps))
         for worker in (now, before):
             worker.ask(do="clear")
         for worker in (now, before):
@@ -306,6 +320,9 @@ def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> N
         print(f"  single env: now {milliseconds(clocks, 'now', 3)} ms, "
               f"before {milliseconds(clocks, 'before', 3)} ms")
         report("single now/before time", "now", "before", clocks)
+        if args.profile:
+            steps = args.single_steps
+            print_profile("the single env's step", now.ask(do="profile", name="single", steps=steps))
         for worker in (now, before):
             worker.ask(do="clear")
     print(f"\nload average after: {load()}")
