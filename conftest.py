@@ -19,7 +19,7 @@ PACKAGES = ("uav_swarm", "learning", "bridge", "typed_config")
 OPTIONAL = {  # an import of the module -> the extra (pyproject.toml) that installs it
     "torchrl": "marl", "tensordict": "marl", "supersuit": "marl", "ray": "distributed",
     "vmas": "bench", "mkdocs": "docs",
-    "rclpy": "ROS 2 (a ROS 2 installation, not PyPI)",
+    "rclpy": "ros2",
 }
 
 

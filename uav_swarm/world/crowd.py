@@ -8,7 +8,7 @@ Each step (explicit Euler, ``dt_s``) sums, per pedestrian ``i`` (accelerations i
   (:meth:`uav_swarm.world.walls.Walls.steer_around`), so crowds flow around walls rather than jam;
 - pedestrian repulsion (Helbing) ``A exp((2 r - d_ij) / B) n_ij`` weighted by the anisotropy
   ``lambda + (1 - lambda) (1 + cos phi_ij) / 2`` (people react more to whom they face), only for pairs
-  closer than ``neighbour_cutoff_m`` (``scipy.spatial.cKDTree.query_pairs``);
+  closer than ``neighbour_cutoff_m`` (compiled: :func:`uav_swarm.world.pair_forces.pair_forces`);
 - wall repulsion ``A_w exp((r - d_iw) / B_w)`` away from the closest point of every obstacle segment and
   of the four area bounds within the cutoff;
 - group cohesion towards the group's centroid, ``group_cohesion_m_s2 * clip(d - R_g, 0, 1)`` with
@@ -26,12 +26,14 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 
+import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
 from typed_config import Config, ConfigError, param
 from uav_swarm.world.geometry import point_segment_distances
+from uav_swarm.world.pair_forces import pair_forces
 from uav_swarm.world.scenario import Scenario, ScenarioError
 from uav_swarm.world.walls import SKIN_M, Walls
 
@@ -165,6 +167,8 @@ class CrowdSim:
             array.flags.writeable = False
         self._velocities = np.zeros((n, 2))
         self._velocities.flags.writeable = False
+        self._world_starts = np.array([0, n], dtype=np.int64)  # one world (B worlds in BatchedCrowd)
+        self._sweep_order = np.arange(n, dtype=np.int64)  # the pair sweep's order, kept between steps
         logger.debug(
             "crowd of %d pedestrians in %d groups, %d obstacles", n, len(sizes), self._walls.n_obstacles
         )
@@ -238,9 +242,8 @@ class CrowdSim:
         cfg = self.config
         p, v = self._positions, self._velocities
         target = self._route_flat[self._route_start[self.group_ids] + self._route_position]
-        to_goal = self._waypoints_m[target] - p
-        goal_dist = np.sqrt(to_goal[:, 0] ** 2 + to_goal[:, 1] ** 2)
-        direction = to_goal * (self._has_route / np.maximum(goal_dist, _EPS))[:, None]
+        goal_m = self._waypoints_m[target]
+        direction = _directions(p, goal_m, self._has_route)
         wall_distance2, wall_force, near = self._walls.repulsion(
             p,
             cfg.obstacle_repulsion_m_s2,
@@ -248,24 +251,20 @@ class CrowdSim:
             cfg.pedestrian_radius_m,
             cfg.neighbour_cutoff_m,
         )
-        self._walls.steer_around(p, target, self._waypoints_m[target], direction, wall_distance2, near)
-        force = (direction * self.desired_speeds_m_s[:, None] - v) / cfg.relaxation_time_s
-        force += self._pedestrian_forces(p, direction)
-        force += wall_force
-        force += self._cohesion_forces(p)
-
-        v_new = v + force * self.dt_s
-        speed = np.sqrt(v_new[:, 0] ** 2 + v_new[:, 1] ** 2)
-        v_new *= np.minimum(1.0, self.max_speeds_m_s / np.maximum(speed, _EPS))[:, None]
-        move = v_new * self.dt_s
-        changed = self._walls.resolve(
-            p, move, wall_distance2, np.minimum(speed, self.max_speeds_m_s) * self.dt_s
+        self._walls.steer_around(p, target, goal_m, direction, wall_distance2, near)
+        pair_force = pair_forces(p, direction, self._world_starts, self._sweep_order, cfg.neighbour_cutoff_m,
+                                 cfg.ped_repulsion_m_s2, cfg.ped_repulsion_range_m, cfg.pedestrian_radius_m,
+                                 cfg.ped_anisotropy)
+        v_new, move, step_m = _integrate(
+            v, direction, self.desired_speeds_m_s, self.max_speeds_m_s, pair_force, wall_force,
+            self._cohesion_forces(p), cfg.relaxation_time_s, self.dt_s,
         )
+        changed = self._walls.resolve(p, move, wall_distance2, step_m)
         if len(changed):
             v_new[changed] = move[changed] / self.dt_s
 
         positions = p + move
-        to_goal = self._waypoints_m[target] - positions
+        to_goal = goal_m - positions
         radius = self._waypoint_radius_m[target]
         reached = self._has_route & (to_goal[:, 0] ** 2 + to_goal[:, 1] ** 2 <= radius * radius)
         if reached.any():
@@ -276,55 +275,73 @@ class CrowdSim:
         v_new.flags.writeable = False
         self._positions, self._velocities = positions, v_new
 
-    def _pedestrian_forces(self, p: np.ndarray, direction: np.ndarray) -> np.ndarray:
-        """Anisotropic exponential repulsion between pedestrians closer than the cutoff, ``(N, 2)``."""
-        cfg = self.config
-        n = len(p)
-        pairs = self._neighbour_pairs(p)
-        if not len(pairs):
-            return np.zeros((n, 2))
-        i, j = pairs[:, 0], pairs[:, 1]
-        pi, pj = np.take(p, i, axis=0), np.take(p, j, axis=0)
-        dx, dy = pi[:, 0] - pj[:, 0], pi[:, 1] - pj[:, 1]  # from j to i
-        dist = np.sqrt(dx * dx + dy * dy)
-        coincident = dist < 1e-9
-        if coincident.any():  # same spot (e.g. a zero-size spawn area): a fixed direction per pair
-            angle = 2.399963229728653 * self._pair_key(i[coincident], j[coincident])
-            dx[coincident], dy[coincident], dist[coincident] = np.cos(angle), np.sin(angle), 1.0
-        magnitude = cfg.ped_repulsion_m_s2 * np.exp(
-            (2 * cfg.pedestrian_radius_m - dist) / cfg.ped_repulsion_range_m
-        )
-        magnitude /= dist
-        di, dj = np.take(direction, i, axis=0), np.take(direction, j, axis=0)
-        half = 0.5 * (1.0 - cfg.ped_anisotropy)
-        # cos of the angle between i's heading and j (and vice versa): the one in front counts more.
-        w_i = (cfg.ped_anisotropy + half) - half * (di[:, 0] * dx + di[:, 1] * dy) / dist
-        w_j = (cfg.ped_anisotropy + half) + half * (dj[:, 0] * dx + dj[:, 1] * dy) / dist
-        f_i, f_j = magnitude * w_i, -magnitude * w_j
-        index = np.concatenate([i, j])
-        force = np.empty((n, 2))
-        force[:, 0] = np.bincount(index, np.concatenate([f_i * dx, f_j * dx]), n)
-        force[:, 1] = np.bincount(index, np.concatenate([f_i * dy, f_j * dy]), n)
-        return force
-
-    def _neighbour_pairs(self, p: np.ndarray) -> np.ndarray:
-        """``(P, 2)`` index pairs ``i < j`` of pedestrians closer than ``neighbour_cutoff_m``."""
-        return cKDTree(p).query_pairs(self.config.neighbour_cutoff_m, output_type="ndarray")
-
-    def _pair_key(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-        """An integer per pair that fixes the push direction of two coincident pedestrians."""
-        return i * 7 + j
-
     def _cohesion_forces(self, p: np.ndarray) -> np.ndarray:
         """Pull towards the group centroid for pedestrians farther than the group radius, ``(N, 2)``."""
-        cfg = self.config
-        if cfg.group_cohesion_m_s2 == 0:
+        strength_m_s2 = self.config.group_cohesion_m_s2
+        if strength_m_s2 == 0:
             return np.zeros_like(p)
-        g = self.group_ids
-        n_groups = len(self._group_sizes)
-        sums = np.stack([np.bincount(g, p[:, 0], n_groups), np.bincount(g, p[:, 1], n_groups)], axis=1)
-        centroid = sums / self._group_sizes[:, None]
-        to_centre = centroid[g] - p
-        dist = np.sqrt(to_centre[:, 0] ** 2 + to_centre[:, 1] ** 2)
-        pull = cfg.group_cohesion_m_s2 * np.clip(dist - self._group_radius_m[g], 0.0, 1.0)
-        return to_centre * (pull / np.maximum(dist, _EPS))[:, None]
+        return _cohesion(p, self.group_ids, self._group_sizes, self._group_radius_m, strength_m_s2)
+
+
+@numba.njit(cache=True, nogil=True)
+def _cohesion(p: np.ndarray, group_ids: np.ndarray, group_sizes: np.ndarray, group_radius_m: np.ndarray,
+              strength_m_s2: float) -> np.ndarray:
+    """``(N, 2)`` pull ``strength * clip(d - R_g, 0, 1)`` towards each group's centroid (compiled).
+
+    The centroid sums run over the pedestrians in index order, as ``numpy.bincount`` adds them.
+    """
+    n, n_groups = p.shape[0], group_sizes.shape[0]
+    sum_x, sum_y = np.zeros(n_groups), np.zeros(n_groups)
+    for k in range(n):
+        sum_x[group_ids[k]] += p[k, 0]
+        sum_y[group_ids[k]] += p[k, 1]
+    centre_x, centre_y = sum_x / group_sizes, sum_y / group_sizes
+    pull = np.empty((n, 2))
+    for k in range(n):
+        g = group_ids[k]
+        to_x, to_y = centre_x[g] - p[k, 0], centre_y[g] - p[k, 1]
+        dist = math.sqrt(to_x * to_x + to_y * to_y)
+        scale = strength_m_s2 * min(max(dist - group_radius_m[g], 0.0), 1.0) / max(dist, _EPS)
+        pull[k, 0], pull[k, 1] = to_x * scale, to_y * scale
+    return pull
+
+
+@numba.njit(cache=True, nogil=True)
+def _directions(p: np.ndarray, goal_m: np.ndarray, has_route: np.ndarray) -> np.ndarray:
+    """``(N, 2)`` unit directions to the goals (zero without a route), compiled."""
+    direction = np.empty_like(p)
+    for k in range(p.shape[0]):
+        to_x, to_y = goal_m[k, 0] - p[k, 0], goal_m[k, 1] - p[k, 1]
+        scale = (1.0 if has_route[k] else 0.0) / max(math.sqrt(to_x * to_x + to_y * to_y), _EPS)
+        direction[k, 0], direction[k, 1] = to_x * scale, to_y * scale
+    return direction
+
+
+@numba.njit(cache=True, nogil=True)
+def _integrate(v: np.ndarray, direction: np.ndarray, desired_m_s: np.ndarray, max_m_s: np.ndarray,
+               pair: np.ndarray, wall: np.ndarray, cohesion: np.ndarray, relaxation_s: float, dt_s: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One explicit Euler step of the velocities under the summed forces, capped; compiled.
+
+    Returns the new velocities, the moves ``v dt`` and the bound ``min(|v|, cap) dt`` of each move.
+    """
+    n = v.shape[0]
+    v_new, move, step_m = np.empty((n, 2)), np.empty((n, 2)), np.empty(n)
+    for k in range(n):
+        force_x = (direction[k, 0] * desired_m_s[k] - v[k, 0]) / relaxation_s
+        force_y = (direction[k, 1] * desired_m_s[k] - v[k, 1]) / relaxation_s
+        force_x += pair[k, 0]
+        force_y += pair[k, 1]
+        force_x += wall[k, 0]
+        force_y += wall[k, 1]
+        force_x += cohesion[k, 0]
+        force_y += cohesion[k, 1]
+        v_x, v_y = v[k, 0] + force_x * dt_s, v[k, 1] + force_y * dt_s
+        speed = math.sqrt(v_x * v_x + v_y * v_y)
+        cap = min(1.0, max_m_s[k] / max(speed, _EPS))
+        v_x *= cap
+        v_y *= cap
+        v_new[k, 0], v_new[k, 1] = v_x, v_y
+        move[k, 0], move[k, 1] = v_x * dt_s, v_y * dt_s
+        step_m[k] = min(speed, max_m_s[k]) * dt_s
+    return v_new, move, step_m

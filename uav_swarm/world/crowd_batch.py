@@ -1,8 +1,7 @@
 """Many independent crowds stepped together: :class:`BatchedCrowd`, B copies of :class:`CrowdSim` in one.
 
 The B copies form one disjoint world that :class:`CrowdSim`'s own step code advances, so a copy moves
-as the same crowd stepped alone would (same equations, same order of operations; only the order in
-which pedestrian-pair forces are summed differs, a difference of a few ulps):
+bit for bit as the same crowd stepped alone (same equations, same operations in the same order):
 
 - pedestrians of all copies are stacked, copy by copy, in one ``(N, 2)`` array (``copy_index``,
   ``offsets``); group, waypoint and route indices are made global by offsets;
@@ -11,9 +10,9 @@ which pedestrian-pair forces are summed differs, a difference of a few ulps):
   arrays (K: the most walls near one cell) gathered per pedestrian
   (:class:`~uav_swarm.world.walls_batch.BatchedWalls`): the cost is linear in B and does not grow with
   the number of walls far away;
-- neighbour pairs come from one sweep over all pedestrians sorted by (copy, row of cutoff height, x)
-  (:meth:`BatchedCrowd._neighbour_pairs`), which never pairs two copies; the exact distance decides, so
-  the pairs are the ones a k-d tree finds for each copy alone.
+- the pair forces come from the compiled kernel :func:`~uav_swarm.world.pair_forces.pair_forces` that
+  :class:`CrowdSim` calls for one world, here over the B copies (``offsets``): it never pairs two copies,
+  and sums each pedestrian's pair forces in an order fixed by its own copy.
 
 Examples:
     >>> from uav_swarm.world.crowd import CrowdConfig
@@ -44,7 +43,6 @@ __all__ = ["BatchedCrowd"]
 _CELL_MARGIN_M = 0.5  # cells list the walls this much beyond the farthest a wall can matter
 _CELL_M = 4.0  # side of the cells that list nearby walls ...
 _MAX_CELLS_PER_SIDE = 256  # ... unless the area is larger than this many cells
-_SWEEP_SLACK_M = 1e-6  # the sweep's windows reach this much farther; the exact distance then decides
 
 
 class BatchedCrowd(CrowdSim):
@@ -169,7 +167,6 @@ class BatchedCrowd(CrowdSim):
         counts = np.array([sim.n_pedestrians for sim in parts], dtype=np.int64)
         self.offsets = np.concatenate([[0], np.cumsum(counts)])
         self.copy_index = np.repeat(np.arange(len(parts)), counts)
-        self._local_index = np.arange(self.offsets[-1]) - self.offsets[self.copy_index]
         n_groups = np.array([len(sim._group_sizes) for sim in parts])
         n_goals = np.array([len(sim._waypoints_m) - 1 for sim in parts])  # without the dummy waypoint
         n_legs = np.array([len(sim._route_flat) - 1 for sim in parts])
@@ -201,16 +198,8 @@ class BatchedCrowd(CrowdSim):
         self.waypoints_reached = np.concatenate(reached).astype(np.int64)
         self.time_s = np.array(time_s, dtype=np.float64)
         self._walls = self._batched_walls(parts)
-        # Sweep keys (see _neighbour_pairs): row r of copy c is row c * n_rows + r (rows a little taller than
-        # the cutoff), x is added to row * row_stride; the last row of a copy stays empty, so no row
-        # follows into the next copy.
-        cutoff = self.config.neighbour_cutoff_m
-        height, width = (max(getattr(s, name) for s in self.scenarios) for name in ("height_m", "width_m"))
-        self._row_scale = 1.0 / (cutoff * (1.0 + 1e-9))
-        self._n_rows = math.floor(height * self._row_scale) + 2
-        self._row_stride = 2.0 ** math.ceil(math.log2(width + 4.0 * (cutoff + 1.0)))
-        self._row_base = self.copy_index * self._n_rows
-        self._sweep_order = np.arange(4 * len(self.copy_index))
+        self._world_starts = self.offsets
+        self._sweep_order = np.arange(self.offsets[-1], dtype=np.int64)
 
     def _batched_walls(self, parts: list[CrowdSim]) -> BatchedWalls:
         """The walls of ``parts``, with the cell lists of the crowds seen before taken from the cache."""
@@ -229,51 +218,6 @@ class BatchedCrowd(CrowdSim):
         self._near_cache = cache
         walls = [sim._walls for sim in parts]
         return BatchedWalls(walls, self.copy_index, self._waypoint_offsets, near, grid, cell_m)
-
-    def _neighbour_pairs(self, p: np.ndarray) -> np.ndarray:
-        """Pairs ``i < j`` closer than the cutoff within each copy (the pairs :class:`CrowdSim` finds).
-
-        A sweep over the pedestrians sorted by the key (copy, row of height ``cutoff``, x): the candidates
-        of a pedestrian are those after it in its row within ``cutoff`` along x, and those in the next row
-        within ``cutoff`` along x; the exact distance decides. The three window bounds of every
-        pedestrian are found by sorting them with the keys (the previous step's order makes that sort
-        almost linear) and counting the keys before each.
-        """
-        n, cutoff = len(p), self.config.neighbour_cutoff_m
-        row = np.minimum((p[:, 1] * self._row_scale).astype(np.int64), self._n_rows - 2)
-        np.maximum(row, 0, out=row)
-        key = (self._row_base + row) * self._row_stride + p[:, 0]
-        slack = _SWEEP_SLACK_M + 8.0 * np.spacing(key.max())
-        stride = self._row_stride
-        values = np.concatenate([key, key + (cutoff + slack), key + (stride - cutoff - slack),
-                                 key + (stride + cutoff + slack)])
-        order = self._sweep_order[np.argsort(values[self._sweep_order], kind="stable")]
-        self._sweep_order = order
-        is_key = order < n
-        keys_up_to = np.empty(4 * n, dtype=np.int64)
-        keys_up_to[order] = np.cumsum(is_key)  # keys sorted at or before each value
-        sorted_ids = order[is_key]  # pedestrians by key
-        rank, row_end, next_start, next_end = keys_up_to.reshape(4, n)  # per pedestrian
-        starts = np.concatenate([rank, next_start])  # sorted positions (rank: the pedestrian's own + 1)
-        counts = np.concatenate([row_end, next_end]) - starts
-        np.maximum(counts, 0, out=counts)
-        ends = np.cumsum(counts)
-        total = int(ends[-1]) if n else 0
-        first = np.repeat(np.tile(np.arange(n), 2), counts)
-        second = sorted_ids[np.arange(total) + np.repeat(starts - (ends - counts), counts)]
-        x, y = p[:, 0], p[:, 1]
-        dx = x[first] - x[second]
-        dy = y[first] - y[second]
-        close = dx * dx + dy * dy <= cutoff * cutoff
-        first, second = first[close], second[close]
-        pairs = np.empty((len(first), 2), dtype=np.intp)
-        np.minimum(first, second, out=pairs[:, 0])
-        np.maximum(first, second, out=pairs[:, 1])
-        return pairs
-
-    def _pair_key(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-        """The key :class:`CrowdSim` gives the pair, from the indices within the copy."""
-        return self._local_index[i] * 7 + self._local_index[j]
 
 
 def _state_of(sim: CrowdSim) -> tuple[Any, ...]:
