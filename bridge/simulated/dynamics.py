@@ -33,10 +33,14 @@ target brakes straight: the vehicle holds exactly where braking at ``a`` stops i
   each carries the true state of ``position_age_s`` earlier (its ``stamp_s``) plus Gaussian noise of
   ``position_noise_m`` (sigma, on each axis of the position);
 - wind: a steady ``wind_m_s`` from a direction drawn once, plus a gust vector that wanders (an
-  Ornstein-Uhlenbeck process with a 2 s time constant) and is clipped to ``gust_m_s``; while airborne
-  (``z > 0``) the tracking error follows ``wind_response_s * (wind + gust)`` with that time constant,
-  so ``|e| <= wind_response_s * (wind_m_s + gust_m_s)`` at all times (:attr:`Realism.tracking_error_bound_m`)
-  and the error is horizontal only.
+  Ornstein-Uhlenbeck process with a 2 s time constant) and is clipped to ``gust_m_s``. While airborne
+  (set point ``z > 0``) the autopilot's velocity loop learns the wind it feels (an integrator with a
+  5 s time constant, as ArduCopter's and PX4's velocity loops remove a steady wind) and the tracking
+  error follows ``wind_response_s * (wind + gust - learned)`` with the time constant ``wind_response_s``:
+  a steady wind pushes a vehicle that has just taken off, then fades; gusts keep pushing. The error is
+  horizontal and ``|e| <= wind_response_s * (wind_m_s + 2 gust_m_s)`` at all times
+  (:attr:`Realism.tracking_error_bound_m`: the learned wind is an average of winds felt, so it is
+  never further than ``wind_m_s + 2 gust_m_s`` from the wind now).
 
 Example: five metres east, from rest, at 2.5 m/s^2 and 10 m/s:
 
@@ -66,6 +70,7 @@ __all__ = ["AutopilotLimits", "Realism", "PositionReport", "PointMassCopter", "M
 MAX_STEP_S = 0.05
 """The longest integration step: :meth:`PointMassCopter.advance` splits longer spans (20 Hz at least)."""
 _GUST_TIME_S = 2.0
+_LEARN_TIME_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -118,8 +123,9 @@ class Realism:
         position_noise_m: Standard deviation of the Gaussian noise on each axis of a reported position.
         wind_m_s: Steady wind speed (its direction drawn once from the generator).
         gust_m_s: Largest gust on top of the steady wind.
-        wind_response_s: Position error the autopilot leaves per m/s of wind, and the time constant with
-            which that error follows the wind (a position loop with gain 1/s: ArduCopter's ``PSC_POSXY_P``).
+        wind_response_s: Position error the autopilot leaves per m/s of wind it has not yet learned, and
+            the time constant with which that error follows the wind (0.3 s: a gust of 4 m/s moves a
+            vehicle about 1.2 m, as ArduCopter's position loop in gusty wind).
     """
 
     command_latency_s: float = 0.0
@@ -129,7 +135,7 @@ class Realism:
     position_noise_m: float = 0.0
     wind_m_s: float = 0.0
     gust_m_s: float = 0.0
-    wind_response_s: float = 1.0
+    wind_response_s: float = 0.3
 
     def __post_init__(self) -> None:
         for name in ("command_latency_s", "position_age_s", "position_noise_m", "wind_m_s", "gust_m_s"):
@@ -146,7 +152,7 @@ class Realism:
     @property
     def tracking_error_bound_m(self) -> float:
         """The largest horizontal distance between the true position and the controller's set point."""
-        return self.wind_response_s * (self.wind_m_s + self.gust_m_s)
+        return self.wind_response_s * (self.wind_m_s + 2.0 * self.gust_m_s)
 
 
 class PositionReport(NamedTuple):
@@ -186,6 +192,7 @@ class PointMassCopter:
         self._e = [0.0, 0.0]
         self._de = [0.0, 0.0]
         self._gust = [0.0, 0.0]
+        self._learned = [0.0, 0.0]
         heading = float(self._wind_rng.uniform(0.0, 2.0 * math.pi))
         self._wind = (realism.wind_m_s * math.cos(heading), realism.wind_m_s * math.sin(heading))
         self._target: tuple[float, float, float] | None = None
@@ -313,8 +320,10 @@ class PointMassCopter:
         if realism.wind_m_s == 0.0 and realism.gust_m_s == 0.0:
             return
         airborne = self._p[2] > 0.0
-        goal = [realism.wind_response_s * (w + g) if airborne else 0.0
-                for w, g in zip(self._wind, self._gust, strict=True)]
+        felt = [w + g if airborne else 0.0 for w, g in zip(self._wind, self._gust, strict=True)]
+        learn = min(1.0, h / _LEARN_TIME_S)
+        self._learned = [a + (f - a) * learn for a, f in zip(self._learned, felt, strict=True)]
+        goal = [realism.wind_response_s * (f - a) for f, a in zip(felt, self._learned, strict=True)]
         blend = min(1.0, h / realism.wind_response_s)
         for axis in range(2):
             moved = (goal[axis] - self._e[axis]) * blend
