@@ -173,6 +173,8 @@ def _toward(offset: float, v_max: float, accel: float, h: float) -> float:
 class PointMassCopter:
     """A multicopter flown by its autopilot, advanced in simulated time (see the module docstring).
 
+    ``limits`` may be replaced between two :meth:`advance` calls (an autopilot whose parameters change).
+
     Args:
         position_m: Where it starts, at rest (East, North, Up metres).
         limits: How its autopilot flies.
@@ -220,6 +222,26 @@ class PointMassCopter:
     def target_m(self) -> np.ndarray | None:
         """The goto target in effect (None before any command took effect)."""
         return None if self._target is None else np.array(self._target)
+
+    @property
+    def setpoint_m(self) -> np.ndarray:
+        """Where the position controller is (``position_m`` less the tracking error).
+
+        It is the autopilot's own idea of where the vehicle should be: autopilots judge arrival by it.
+        """
+        return np.array(self._p)
+
+    def settle(self, position_m: np.ndarray) -> None:
+        """Put the vehicle at rest at ``position_m``, holding there (a touchdown; a vehicle placed by hand).
+
+        Commands not yet in effect are dropped; the clock runs on.
+        """
+        array = np.asarray(position_m, dtype=float)
+        if array.shape != (3,) or not np.all(np.isfinite(array)):
+            raise ValueError(f"position_m must be 3 finite metres (East, North, Up), got {position_m!r}")
+        self._p = [float(x) for x in array]
+        self._v, self._e, self._de, self._learned = [0.0, 0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
+        self._target, self._pending = (self._p[0], self._p[1], self._p[2]), []
 
     def stopping_point_m(self) -> np.ndarray:
         """Where the set point stops if it brakes now at the autopilot's limits (the tracking error aside)."""
