@@ -254,7 +254,7 @@ class ArduCopter(SimVehicle):
     def _telemetry(self) -> None:
         self._step()
         x, y, z = self.enu
-        self.track.append((time.monotonic(), x, y, z))
+        self.track.append((self._boot_s + self._copter.now_s, x, y, z))  # when it was there
         mav = self._conn.mav
         base_mode = m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (m.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
         mav.heartbeat_send(type=m.MAV_TYPE_QUADROTOR, autopilot=self.autopilot, base_mode=base_mode,

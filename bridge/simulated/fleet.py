@@ -79,7 +79,7 @@ def fleet_bridge_config(n: int, *, home: Home | None = None, half_width_m: float
     if not 1 <= n <= 10:
         raise ValueError(f"n = {n}: a fleet has 1 to 10 vehicles")
     home = home or Home()
-    lines = ["# A simulated fleet (uav-swarm vehicles): the vehicles listen on these loopback ports.",
+    lines = ["# A simulated fleet (uav-swarm vehicles): fly listens on these ports, the vehicles send there.",
              "[home]", f"lat_deg = {home.lat_deg!r}", f"lon_deg = {home.lon_deg!r}",
              f"alt_m = {home.alt_m!r}",
              "[geofence]", f"x_min_m = {-half_width_m!r}", f"x_max_m = {half_width_m!r}",

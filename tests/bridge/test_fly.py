@@ -1,6 +1,6 @@
 """``uav-swarm fly`` end to end: the planner flies test vehicles over real MAVLink sockets on loopback.
 
-Every vehicle is a :class:`ArduCopter` (pymavlink, its own socket, simple kinematics) and the
+Every vehicle is a simulated :class:`ArduCopter` (pymavlink, its own socket, a point mass) and the
 telemetry goes through a real Zenoh session to a subscriber connected over ``tcp/127.0.0.1``.
 """
 
@@ -162,8 +162,8 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
         result = fly(config, tmp_path / "out", stop_event=stop)
         assert time.monotonic() - started < 25.0
         statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
-        assert statuses == {1: "ended", 2: "landed", 3: "lost"}
-        assert "vehicle 3: no heartbeat" in caplog.text and "vehicle 2 disarmed in flight" in caplog.text
+        assert statuses == {1: "ended", 2: "landed", 3: "not found"}
+        assert "vehicle 3 not found: no heartbeat" in caplog.text and "vehicle 2 disarmed in flight" in caplog.text
         assert vehicles[0].custom_mode == LAND and not vehicles[1].armed
         assert vehicles[1].commands.count(mavlink.MAV_CMD_COMPONENT_ARM_DISARM) == 1  # never re-armed
         assert result.summary["duration_s"] < 600.0
