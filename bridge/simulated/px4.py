@@ -239,8 +239,8 @@ class Px4Copter(ArduCopter):
             x, y, _ = geodetic_to_enu(self.geo_home, msg.x / DEG_E7, msg.y / DEG_E7, self.geo_home.alt_m)
             self.target = (x, y, msg.z - self.geo_home.alt_m)  # z above sea level, whatever the frame
             self.reposition_target = (msg.x, msg.y, msg.z)
-            if math.isfinite(msg.param1) and msg.param1 > 0:
-                self._cruise_m_s = msg.param1  # the ground speed asked for
+            asked = math.isfinite(msg.param1) and msg.param1 > 0  # the ground speed, else the default
+            self._cruise_m_s = msg.param1 if asked else None
         self.set_mode(LOITER)
         self._answer(msg, m.MAV_RESULT_ACCEPTED)
 

@@ -66,7 +66,7 @@ def _away(vehicle, x_m: float) -> float:
 def _fly(tmp_path: Path, urls: list[str], **overrides):
     config = load_fly_config(None, {
         "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 40.0,
-        "speedup": 4.0, "publish_telemetry": False,
+        "speedup": 4.0, "publish_telemetry": False, "uav": {"max_speed_m_s": 25.0},  # as fast as the peers
         "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         **overrides})
     return fly(config, tmp_path / "out")
