@@ -125,7 +125,7 @@ def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_ret
     outcome: dict = {}
     killed = 2
     try:
-        runner = threading.Thread(target=lambda: outcome.update(result=_fly(tmp_path, urls, duration_s=60.0)))
+        runner = threading.Thread(target=lambda: outcome.update(result=_fly(tmp_path, urls, duration_s=80.0)))
         runner.start()
         deadline = time.monotonic() + 30.0
         while time.monotonic() < deadline and not all(v.enu[2] >= ALT_M - 0.5 for v in vehicles):
