@@ -154,13 +154,24 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
         "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 600.0,
         "publish_telemetry": False, "flight": {"ready_timeout_s": 2.0, "end_action": "land"}})
     stop = threading.Event()
+    caplog.set_level(logging.INFO)
+
+    def said(start: str) -> bool:
+        return any(r.getMessage().startswith(start) for r in list(caplog.records))
+
+    def pilot_then_stop() -> None:  # once fly has both airborne: a pilot takes vehicle 2, then a Ctrl-C
+        deadline = time.monotonic() + 120.0
+        while time.monotonic() < deadline and not all(said(f"vehicle {sid}: airborne") for sid in (1, 2)):
+            time.sleep(0.05)
+        time.sleep(1.0)
+        vehicles[1].armed = False
+        while time.monotonic() < deadline and not said("vehicle 2 disarmed in flight"):
+            time.sleep(0.05)
+        stop.set()  # as Ctrl-C or SIGTERM would
+
     try:
-        timer = threading.Timer(11.0, stop.set)  # as Ctrl-C or SIGTERM would
-        timer.start()
-        threading.Timer(9.0, lambda: setattr(vehicles[1], "armed", False)).start()
-        started = time.monotonic()
+        threading.Thread(target=pilot_then_stop, daemon=True).start()
         result = fly(config, tmp_path / "out", stop_event=stop)
-        assert time.monotonic() - started < 25.0
         statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
         assert statuses == {1: "ended", 2: "landed", 3: "not found"}
         assert "vehicle 3 not found: no heartbeat" in caplog.text
