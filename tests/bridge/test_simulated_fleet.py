@@ -113,7 +113,10 @@ def _ack_times(realism: Realism, n: int) -> list[float]:
     with ArduCopter(vehicle_url, 1, realism=realism, rng=np.random.default_rng(3), stream_until_asked=False):
         link = MavlinkLink(gcs_url)
         link.add_listener(on_ack, {"COMMAND_ACK"})
+        heard = threading.Event()
+        link.add_listener(lambda _: heard.set(), {"HEARTBEAT"})
         try:
+            assert heard.wait(60.0)  # our udpin end knows where the vehicle is only once it heard it
             for _ in range(n):
                 answered.clear()
                 sent_s[0] = time.monotonic()
