@@ -1,4 +1,5 @@
-# `make demo` runs the main job, `make test` the tests, `make docs` builds the site, `make lint` checks style.
+# `make demo` runs the main job, `make test` the tests, `make docs` builds the site, `make lint` checks style;
+# `make fly-demo` flies 5 simulated ArduCopters through `uav-swarm fly` (AUTOPILOT=px4: PX4).
 # Each creates .venv (Python >= 3.11) and installs only what it needs: the demo the package itself, the
 # tests and the site the package with TEST_EXTRAS (the extras of pyproject.toml; the README and
 # docs/index.md name the same, tests/test_install_lines.py checks it). torch comes from pip's configured
@@ -9,11 +10,12 @@ VENV ?= .venv
 PYTHON ?= python3
 TORCH ?= torch==2.13.0
 TORCH_INDEX ?=
+AUTOPILOT ?= ardupilot
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --quiet
 TORCH_FROM := $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX),)
 
-.PHONY: demo test install install-test lint docs
+.PHONY: demo fly-demo test install install-test lint docs
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -34,6 +36,9 @@ install-test: $(VENV)/.test-installed
 
 demo: $(VENV)/.demo-installed
 	$(VENV)/bin/uav-swarm simulate --out out/simulate
+
+fly-demo: $(VENV)/.demo-installed
+	$(VENV)/bin/uav-swarm fly --simulated $(AUTOPILOT) --duration-s 60 --speedup 2 --out out/fly-$(AUTOPILOT)
 
 test: $(VENV)/.test-installed
 	$(PY) -m pytest -q

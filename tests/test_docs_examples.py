@@ -1,7 +1,7 @@
 """Every ```python block of README.md and docs/ runs, from the repository root, each in a fresh namespace.
 
 One block talks to MAVLink vehicles: its fence has ``title="Needs the config's vehicles 1 and 2"``. For it
-the test starts two simulated vehicles on loopback (``tests/bridge/sim_vehicle.py``) and puts a config of
+the test starts two simulated vehicles on loopback (``bridge/simulated/peer.py``) and puts a config of
 their links in place of the block's bridge config file; everything else in the block runs as written.
 """
 
@@ -46,7 +46,8 @@ def _run(name: str, code: str) -> None:
 def _run_with_vehicles(name: str, code: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.syspath_prepend(str(ROOT / "tests" / "bridge"))
     from lossy_relay import free_udp_port
-    from sim_vehicle import SimVehicle, endpoint_pair
+
+    from bridge.simulated.peer import SimVehicle, endpoint_pair
 
     assert BRIDGE_CONFIG in code, f"{name}: the block no longer reads {BRIDGE_CONFIG}"
     vehicles, table = [], []

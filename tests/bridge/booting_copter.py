@@ -22,10 +22,9 @@ from __future__ import annotations
 
 import time
 
-from flying_vehicle import AUTO, GUIDED, FlyingVehicle
-from sim_vehicle import m
-
 from bridge.missions.items import DEG_E7
+from bridge.simulated.ardupilot import AUTO, GUIDED, ArduCopter
+from bridge.simulated.peer import m
 
 __all__ = ["BootingCopter", "PREARM_TEXT"]
 
@@ -38,8 +37,8 @@ _HEARTBEAT_S = 0.2
 _PREARM_TEXT_S = 1.0
 
 
-class BootingCopter(FlyingVehicle):
-    """A :class:`FlyingVehicle` that boots as ArduCopter (see the module docstring).
+class BootingCopter(ArduCopter):
+    """A :class:`ArduCopter` that boots as ArduCopter (see the module docstring).
 
     Args:
         url: Its end of the link.
@@ -48,7 +47,7 @@ class BootingCopter(FlyingVehicle):
         home_after_s: Its EKF position and home (arming allowed), this long after start.
         answer_mission_current: Send MISSION_CURRENT when asked (False: never, streamed or requested).
         climbed_mark_m: :attr:`climbed_s` is the time it first rose above this height.
-        **options: :class:`FlyingVehicle`'s.
+        **options: :class:`ArduCopter`'s.
     """
 
     def __init__(self, url: str, system_id: int, *, fix_after_s: float = 2.0, home_after_s: float = 4.0,

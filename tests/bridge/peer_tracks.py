@@ -1,6 +1,6 @@
 """How close test vehicles came, judged from their own tracks (not from anything the bridge measured).
 
-Each :class:`FlyingVehicle` keeps where it flew (``track``: its clock, East, North, Up from its own
+Each :class:`ArduCopter` keeps where it flew (``track``: its clock, East, North, Up from its own
 home). Its motion between two records is a straight line at constant speed (its kinematics), so the
 tracks, put in one frame and interpolated on a common clock, give every pair's distance at any instant.
 Also a planner that flies fixed targets, for scripted geometry (a swap, a crossing).

@@ -23,9 +23,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-from sim_vehicle import m, mavutil
 
 from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
+from bridge.simulated.peer import m, mavutil
 
 __all__ = ["Instances", "Observer", "px4_paths", "ardupilot_paths", "PX4_GCS_URL", "CMAC_HOME", "home_apart",
            "reported_closest"]

@@ -8,7 +8,6 @@ import pytest
 from lossy_relay import free_udp_port
 from peer_fleet import close_all
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import SimVehicle, endpoint_pair
 
 from bridge import errors
 from bridge.config import BridgeConfig, ProtocolConfig, VehicleEndpoint
@@ -16,6 +15,7 @@ from bridge.flight.fleet import Fleet, FleetError
 from bridge.geo import Home
 from bridge.missions.compare import compare_missions
 from bridge.missions.items import DEG_E7, MissionConfig, MissionItem, build_mission
+from bridge.simulated.peer import SimVehicle, endpoint_pair
 from uav_swarm.cli import main
 
 CMAC = Home(lat_deg=-35.363262, lon_deg=149.165237, alt_m=584.0)  # ArduPilot SITL's default home

@@ -13,16 +13,17 @@ import time
 
 import numpy as np
 from booting_copter import PREARM_TEXT, BootingCopter
-from flying_vehicle import AUTO, FAILSAFE_ON, RTL, launch_home
 from lossy_relay import free_tcp_port, free_udp_port
-from peer_fleet import bridge_toml, close_all
+from peer_fleet import bridge_toml, close_all, swift
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import endpoint_pair
 
 from bridge.flight.readiness import request_streams
 from bridge.geo import Home, ground_distance_m
 from bridge.link.mavlink import MavlinkLink
 from bridge.link.vehicle_state import VehicleStateTracker
+from bridge.simulated.ardupilot import AUTO, FAILSAFE_ON, RTL
+from bridge.simulated.fleet import launch_home
+from bridge.simulated.peer import endpoint_pair
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 from bridge.telemetry.schema import Presence, UavState
@@ -53,8 +54,9 @@ def _fleet(n: int, seed: int, options: dict[int, dict] | None = None) -> tuple[l
         transport = TRANSPORTS[i % len(TRANSPORTS)]
         port = free_tcp_port() if transport == "tcp" else free_udp_port()
         vehicle_url, gcs_url = endpoint_pair(transport, port)
-        options_i = (options or {}).get(i + 1, {})
-        prepared = {"home": launch_home(i), "params": FAILSAFE_ON}  # apart, as a real launch; failsafe set
+        options_i = dict((options or {}).get(i + 1, {}))
+        params = FAILSAFE_ON | swift("ardupilot", options_i.pop("speed_m_s", 12.0))  # failsafe set
+        prepared = {"home": launch_home(i), "params": params}  # apart, as a real launch
         vehicles.append(BootingCopter(vehicle_url, i + 1, **(_boot_times(rng) | prepared | options_i)))
         urls.append(gcs_url)
     return vehicles, urls
@@ -62,11 +64,12 @@ def _fleet(n: int, seed: int, options: dict[int, dict] | None = None) -> tuple[l
 
 
 
-def _restart(vehicles: list[BootingCopter], system_id: int, **options) -> BootingCopter:
+def _restart(vehicles: list[BootingCopter], system_id: int, speed_m_s: float = 12.0) -> BootingCopter:
     old = vehicles[system_id - 1]
     old.close()
+    params = FAILSAFE_ON | swift("ardupilot", speed_m_s)
     vehicles[system_id - 1] = BootingCopter(old.url, system_id, fix_after_s=3.0, home_after_s=5.5,
-                                            home=old.geo_home, params=FAILSAFE_ON, **options)
+                                            home=old.geo_home, params=params)
     return vehicles[system_id - 1]
 
 

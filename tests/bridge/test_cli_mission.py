@@ -4,9 +4,9 @@ import time
 import pytest
 from lossy_relay import free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import SimVehicle, endpoint_pair
 
 from bridge.missions.files import load_plan, load_wpl
+from bridge.simulated.peer import SimVehicle, endpoint_pair
 from uav_swarm.cli import main
 
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from lossy_relay import TO_GCS, TO_VEHICLE, LossyRelay, free_udp_port, message_id
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import SimVehicle
 
 from bridge.config import BridgeConfig, VehicleEndpoint
 from bridge.flight.fleet import Fleet
+from bridge.simulated.peer import SimVehicle
 
 N_VEHICLES = 10
 

@@ -4,13 +4,13 @@ from pathlib import Path
 import pytest
 from lossy_relay import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import TRANSPORTS, SimVehicle, endpoint_pair
 
 import typed_config
 from bridge import errors
 from bridge.config import BridgeConfig, ProtocolConfig, VehicleEndpoint
 from bridge.flight.fleet import Fleet, FleetError
 from bridge.geofence import GeofenceConfig
+from bridge.simulated.peer import TRANSPORTS, SimVehicle, endpoint_pair
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs" / "bridge"
 

@@ -1,6 +1,6 @@
 """``uav-swarm fly`` end to end: the planner flies test vehicles over real MAVLink sockets on loopback.
 
-Every vehicle is a :class:`FlyingVehicle` (pymavlink, its own socket, simple kinematics) and the
+Every vehicle is a simulated :class:`ArduCopter` (pymavlink, its own socket, a point mass) and the
 telemetry goes through a real Zenoh session to a subscriber connected over ``tcp/127.0.0.1``.
 """
 
@@ -11,11 +11,9 @@ import threading
 import time
 
 import pytest
-from flying_vehicle import AUTO, FAILSAFE_ON, GUIDED, LAND, RTL, FlyingVehicle, launch_home
 from lossy_relay import free_tcp_port, free_udp_port
-from peer_fleet import bridge_toml, close_all
+from peer_fleet import bridge_toml, close_all, swift
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import endpoint_pair
 
 from bridge.config import ProtocolConfig
 from bridge.errors import CommandRejectedError
@@ -23,6 +21,9 @@ from bridge.flight.guided import FlightConfig, FlightError, launch
 from bridge.geo import Home
 from bridge.link.mavlink import MavlinkLink
 from bridge.link.vehicle_state import VehicleStateTracker
+from bridge.simulated.ardupilot import AUTO, FAILSAFE_ON, GUIDED, LAND, RTL, ArduCopter
+from bridge.simulated.fleet import launch_home
+from bridge.simulated.peer import endpoint_pair
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 from bridge.telemetry.schema import Plan, Presence, Qos, UavState
@@ -42,8 +43,10 @@ def _vehicles(n: int, transports: tuple[str, ...] = ("udpin",),
         transport = transports[i % len(transports)]
         port = free_tcp_port() if transport == "tcp" else free_udp_port()
         vehicle_url, gcs_url = endpoint_pair(transport, port)
-        prepared = {"home": launch_home(i), "params": FAILSAFE_ON}  # apart, as a real launch; failsafe set
-        vehicles.append(FlyingVehicle(vehicle_url, i + 1, **(prepared | (options or {}).get(i + 1, {}))))
+        chosen = (options or {}).get(i + 1, {})
+        params = FAILSAFE_ON | swift("ardupilot", chosen.pop("speed_m_s", 12.0))  # failsafe set
+        prepared = {"home": launch_home(i), "params": params}  # apart, as a real launch
+        vehicles.append(ArduCopter(vehicle_url, i + 1, **(prepared | chosen)))
         urls.append(gcs_url)
     return vehicles, urls
 
@@ -80,8 +83,8 @@ def test_ten_vehicles_fly_with_one_lost_and_taken_back(tmp_path):
                 vehicles[sid - 1].close()  # killed in flight
             time.sleep(2 * LINK_TIMEOUT_S)  # silent twice the link timeout: lost however slow the machine
             for sid in (killed, killed_tcp):
-                vehicles[sid - 1] = FlyingVehicle(vehicles[sid - 1].url, sid, speed_m_s=25.0,
-                                                  home=launch_home(sid - 1), params=FAILSAFE_ON)
+                vehicles[sid - 1] = ArduCopter(vehicles[sid - 1].url, sid, home=launch_home(sid - 1),
+                                               params=FAILSAFE_ON | swift("ardupilot", 25.0))
             runner.join(timeout=300.0)  # bounded by the run itself (duration, ready and launch timeouts)
             assert not runner.is_alive()
             time.sleep(0.5)
@@ -151,16 +154,28 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
         "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 600.0,
         "publish_telemetry": False, "flight": {"ready_timeout_s": 2.0, "end_action": "land"}})
     stop = threading.Event()
+    caplog.set_level(logging.INFO)
+
+    def said(start: str) -> bool:
+        return any(r.getMessage().startswith(start) for r in list(caplog.records))
+
+    def pilot_then_stop() -> None:  # once fly has both airborne: a pilot takes vehicle 2, then a Ctrl-C
+        deadline = time.monotonic() + 120.0
+        while time.monotonic() < deadline and not all(said(f"vehicle {sid}: airborne") for sid in (1, 2)):
+            time.sleep(0.05)
+        time.sleep(1.0)
+        vehicles[1].armed = False
+        while time.monotonic() < deadline and not said("vehicle 2 disarmed in flight"):
+            time.sleep(0.05)
+        stop.set()  # as Ctrl-C or SIGTERM would
+
     try:
-        timer = threading.Timer(11.0, stop.set)  # as Ctrl-C or SIGTERM would
-        timer.start()
-        threading.Timer(9.0, lambda: setattr(vehicles[1], "armed", False)).start()
-        started = time.monotonic()
+        threading.Thread(target=pilot_then_stop, daemon=True).start()
         result = fly(config, tmp_path / "out", stop_event=stop)
-        assert time.monotonic() - started < 25.0
         statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
-        assert statuses == {1: "ended", 2: "landed", 3: "lost"}
-        assert "vehicle 3: no heartbeat" in caplog.text and "vehicle 2 disarmed in flight" in caplog.text
+        assert statuses == {1: "ended", 2: "landed", 3: "not found"}
+        assert "vehicle 3 not found: no heartbeat" in caplog.text
+        assert "vehicle 2 disarmed in flight" in caplog.text
         assert vehicles[0].custom_mode == LAND and not vehicles[1].armed
         assert vehicles[1].commands.count(mavlink.MAV_CMD_COMPONENT_ARM_DISARM) == 1  # never re-armed
         assert result.summary["duration_s"] < 600.0

@@ -16,17 +16,18 @@ from pathlib import Path
 
 import pytest
 from fly_measures import live_rows
-from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
-from flying_vehicle import GUIDED, FlyingVehicle, launch_home
 from lossy_relay import free_udp_port
-from peer_fleet import bridge_toml, close_all
+from peer_fleet import bridge_toml, close_all, swift
 from peer_tracks import FixedTargets, closest_approach
-from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
-from px4_vehicle import LOITER, Px4Vehicle, px4_mode
-from px4_vehicle import RTL as PX4_RTL
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import endpoint_pair
 
+from bridge.simulated.ardupilot import FAILSAFE_ON as ARDUPILOT_FAILSAFE
+from bridge.simulated.ardupilot import GUIDED, ArduCopter
+from bridge.simulated.fleet import launch_home
+from bridge.simulated.peer import endpoint_pair
+from bridge.simulated.px4 import FAILSAFE_ON as PX4_FAILSAFE
+from bridge.simulated.px4 import LOITER, Px4Copter, px4_mode
+from bridge.simulated.px4 import RTL as PX4_RTL
 from uav_swarm.cli import main
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
@@ -42,8 +43,9 @@ def _fleet(kind: str, homes: list, failsafe: bool = True, **options) -> tuple[li
     for sid, home in enumerate(homes, start=1):
         vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
         px4 = kind == "px4" or (kind == "mixed" and sid % 2 == 0)
-        cls = Px4Vehicle if px4 else FlyingVehicle
-        params = (PX4_FAILSAFE if px4 else ARDUPILOT_FAILSAFE) if failsafe else {}
+        cls = Px4Copter if px4 else ArduCopter
+        params = ((PX4_FAILSAFE if px4 else ARDUPILOT_FAILSAFE) if failsafe else {}) | swift(
+            "px4" if px4 else "ardupilot")
         vehicles.append(cls(vehicle_url, sid, home=home, params=params, **options))
         urls.append(gcs_url)
     return vehicles, urls
@@ -61,7 +63,7 @@ def _wait(condition, timeout_s: float) -> bool:
 
 
 def _in_rtl(vehicle) -> bool:
-    return (px4_mode(vehicle.custom_mode) == PX4_RTL if isinstance(vehicle, Px4Vehicle)
+    return (px4_mode(vehicle.custom_mode) == PX4_RTL if isinstance(vehicle, Px4Copter)
             else vehicle.custom_mode == 6)
 
 
@@ -94,7 +96,7 @@ def test_crossing_targets_keep_the_minimum_from_take_off_to_landing(tmp_path, ki
         assert reached_m <= 2.0, (sid, reached_m)  # the crossing was flown, not only held
     for vehicle in vehicles:
         assert _in_rtl(vehicle) and math.hypot(*vehicle.enu[:2]) < 1.0 and vehicle.enu[2] == 0.0
-    returns = sorted(v.param("RTL_RETURN_ALT") if isinstance(v, Px4Vehicle) else v.param("RTL_ALT") / 100
+    returns = sorted(v.param("RTL_RETURN_ALT") if isinstance(v, Px4Copter) else v.param("RTL_ALT") / 100
                      for v in vehicles)
     assert min(b - a for a, b in zip(returns, returns[1:], strict=False)) >= MIN_M  # returned in layers
 
@@ -115,8 +117,8 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
     process = _fly_process(bridge_toml(tmp_path / "bridge.toml", urls, FAST), tmp_path / "out")
     try:
         def flying() -> bool:
-            guided = [(LOITER if isinstance(v, Px4Vehicle) else GUIDED) for v in vehicles]
-            modes = [px4_mode(v.custom_mode) if isinstance(v, Px4Vehicle) else v.custom_mode
+            guided = [(LOITER if isinstance(v, Px4Copter) else GUIDED) for v in vehicles]
+            modes = [px4_mode(v.custom_mode) if isinstance(v, Px4Copter) else v.custom_mode
                      for v in vehicles]
             return all(v.armed and v.enu[2] > 9.0 and v.reposition_target is not None and mode == want
                        for v, mode, want in zip(vehicles, modes, guided, strict=True))

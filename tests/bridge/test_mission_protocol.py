@@ -3,7 +3,6 @@ import time
 import pytest
 from lossy_relay import free_tcp_port, free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import TRANSPORTS, SimVehicle, endpoint_pair
 
 from bridge import errors
 from bridge.config import ProtocolConfig
@@ -14,6 +13,7 @@ from bridge.link.mavlink import MavlinkLink
 from bridge.link.signing import SigningKey
 from bridge.missions.items import DEG_E7, MissionConfig, build_mission
 from bridge.missions.protocol import MissionClient
+from bridge.simulated.peer import TRANSPORTS, SimVehicle, endpoint_pair
 
 HOME = Home()
 FAST = ProtocolConfig(handshake_timeout_s=0.2, item_timeout_s=0.05, max_retries=2)

@@ -1,4 +1,4 @@
-"""PX4 as it really answers (:class:`Px4Vehicle`): guided flight, missions, the clear guard, mixed fleets.
+"""PX4 as it really answers (:class:`Px4Copter`): guided flight, missions, the clear guard, mixed fleets.
 
 Each vehicle is a pymavlink peer on its own loopback socket; PX4 peers send from their own port
 to the ground station's UDP port, as PX4's offboard link (UDP 14540 + instance) does.
@@ -14,15 +14,9 @@ from pathlib import Path
 
 import pytest
 from fly_measures import altitude_share, live_rows, settled_distance_m
-from flying_vehicle import AUTO, GUIDED, RTL, FlyingVehicle, launch_home
-from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
 from lossy_relay import free_udp_port
-from peer_fleet import bridge_toml, close_all
-from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
-from px4_vehicle import LAND, LOITER, MISSION, Px4Vehicle, px4_mode
-from px4_vehicle import RTL as PX4_RTL
+from peer_fleet import bridge_toml, close_all, swift
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import endpoint_pair
 
 from bridge import autopilots
 from bridge.autopilots import conventions_for, px4_custom_mode
@@ -33,6 +27,13 @@ from bridge.geofence import GeofenceConfig
 from bridge.link.mavlink import MavlinkLink
 from bridge.link.vehicle_state import VehicleStateTracker
 from bridge.missions.items import MissionConfig, build_mission
+from bridge.simulated.ardupilot import AUTO, GUIDED, RTL, ArduCopter
+from bridge.simulated.ardupilot import FAILSAFE_ON as ARDUPILOT_FAILSAFE
+from bridge.simulated.fleet import launch_home
+from bridge.simulated.peer import endpoint_pair
+from bridge.simulated.px4 import FAILSAFE_ON as PX4_FAILSAFE
+from bridge.simulated.px4 import LAND, LOITER, MISSION, Px4Copter, px4_mode
+from bridge.simulated.px4 import RTL as PX4_RTL
 from uav_swarm.cli import main
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
@@ -47,10 +48,11 @@ def _fleet(kinds: str, **options) -> tuple[list, list[str]]:
     vehicles, urls = [], []
     for sid, kind in enumerate(kinds, start=1):
         vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
-        cls = Px4Vehicle if kind == "p" else FlyingVehicle
+        cls = Px4Copter if kind == "p" else ArduCopter
         failsafe = PX4_FAILSAFE if kind == "p" else ARDUPILOT_FAILSAFE
-        prepared = {"home": launch_home(sid - 1), "params": failsafe}
-        vehicles.append(cls(vehicle_url, sid, speed_m_s=25.0, **(prepared | options)))
+        params = failsafe | swift("px4" if kind == "p" else "ardupilot", 25.0)
+        prepared = {"home": launch_home(sid - 1), "params": params}
+        vehicles.append(cls(vehicle_url, sid, **(prepared | options)))
         urls.append(gcs_url)
     return vehicles, urls
 
@@ -64,7 +66,7 @@ def _away(vehicle, x_m: float) -> float:
 def _fly(tmp_path: Path, urls: list[str], **overrides):
     config = load_fly_config(None, {
         "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 40.0,
-        "speedup": 4.0, "publish_telemetry": False,
+        "speedup": 4.0, "publish_telemetry": False, "uav": {"max_speed_m_s": 25.0},  # as fast as the peers
         "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         **overrides})
     return fly(config, tmp_path / "out")
@@ -123,7 +125,7 @@ def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_ret
     outcome: dict = {}
     killed = 2
     try:
-        runner = threading.Thread(target=lambda: outcome.update(result=_fly(tmp_path, urls, duration_s=60.0)))
+        runner = threading.Thread(target=lambda: outcome.update(result=_fly(tmp_path, urls, duration_s=80.0)))
         runner.start()
         deadline = time.monotonic() + 30.0
         while time.monotonic() < deadline and not all(v.enu[2] >= ALT_M - 0.5 for v in vehicles):
@@ -131,8 +133,8 @@ def test_three_px4_vehicles_hold_the_cruise_altitude_reach_their_targets_and_ret
         time.sleep(1.0)
         vehicles[killed - 1].close()
         time.sleep(2 * LINK_TIMEOUT_S)  # silent twice the link timeout: lost however slow the machine
-        vehicles[killed - 1] = Px4Vehicle(vehicles[killed - 1].url, killed, speed_m_s=25.0,
-                                          home=launch_home(killed - 1), params=PX4_FAILSAFE)
+        vehicles[killed - 1] = Px4Copter(vehicles[killed - 1].url, killed, home=launch_home(killed - 1),
+                                             params=PX4_FAILSAFE | swift("px4", 25.0))
         runner.join(timeout=300.0)  # bounded by the run itself
         assert not runner.is_alive()
         time.sleep(0.3)
@@ -165,7 +167,7 @@ def test_a_mixed_fleet_of_two_px4_and_two_ardupilot_flies_one_fly(tmp_path):
         sid = vehicle.system_id
         share, distance_m = altitude_share(rows[sid], ALT_M, 2.0), settled_distance_m(rows[sid])
         assert share >= 0.95 and distance_m <= 5.0, (sid, share, distance_m)
-        if isinstance(vehicle, Px4Vehicle):
+        if isinstance(vehicle, Px4Copter):
             assert px4_mode(vehicle.custom_mode) == PX4_RTL and LOITER in map(px4_mode, vehicle.modes)
             assert set(vehicle.reposition_frames) == {mavlink.MAV_FRAME_GLOBAL_INT}
         else:

@@ -1,6 +1,6 @@
 """``fly --ros2``: a rclpy node in another process steers two vehicles of a PX4 and ArduPilot fleet.
 
-The vehicles are the faithful test peers (:class:`Px4Vehicle`, :class:`FlyingVehicle`) over real MAVLink
+The vehicles are the faithful test peers (:class:`Px4Copter`, :class:`ArduCopter`) over real MAVLink
 on loopback; the operator is ``tests/ros2_peer.py`` in its own process and ROS domain.
 """
 
@@ -12,16 +12,17 @@ import threading
 
 import rclpy  # noqa: F401  (the ros2 extra: the test command installs it; missing, the tests fail)
 from fly_measures import live_rows
-from flying_vehicle import FAILSAFE_ON as ARDUPILOT_FAILSAFE
-from flying_vehicle import FlyingVehicle, launch_home
 from lossy_relay import free_udp_port
-from peer_fleet import bridge_toml
-from px4_vehicle import FAILSAFE_ON as PX4_FAILSAFE
-from px4_vehicle import Px4Vehicle
+from peer_fleet import bridge_toml, swift
 from ros2_run import domain_id, ros_env, start_peer
-from sim_vehicle import endpoint_pair
 
 from bridge.geo import Home
+from bridge.simulated.ardupilot import FAILSAFE_ON as ARDUPILOT_FAILSAFE
+from bridge.simulated.ardupilot import ArduCopter
+from bridge.simulated.fleet import launch_home
+from bridge.simulated.peer import endpoint_pair
+from bridge.simulated.px4 import FAILSAFE_ON as PX4_FAILSAFE
+from bridge.simulated.px4 import Px4Copter
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
 
@@ -34,9 +35,9 @@ def test_a_ros2_operator_flies_a_px4_and_an_ardupilot_vehicle_to_its_targets(tmp
     for sid, kind in enumerate("papa", start=1):  # UAV 0 and 2: PX4; UAV 1 and 3: ArduPilot
         vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
         failsafe = PX4_FAILSAFE if kind == "p" else ARDUPILOT_FAILSAFE  # set, as an operator would
-        prepared = {"home": launch_home(sid - 1), "params": failsafe}  # 10 m apart, as a real launch
-        vehicles.append((Px4Vehicle if kind == "p" else FlyingVehicle)(vehicle_url, sid, speed_m_s=25.0,
-                                                                      **prepared))
+        params = failsafe | swift("px4" if kind == "p" else "ardupilot", 25.0)
+        prepared = {"home": launch_home(sid - 1), "params": params}  # 10 m apart, as a real launch
+        vehicles.append((Px4Copter if kind == "p" else ArduCopter)(vehicle_url, sid, **prepared))
         urls.append(gcs_url)
     domain = domain_id()
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))

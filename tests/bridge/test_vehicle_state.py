@@ -3,7 +3,6 @@ import time
 import pytest
 from lossy_relay import free_udp_port
 from pymavlink.dialects.v20 import common as mavlink
-from sim_vehicle import SimVehicle, endpoint_pair
 
 from bridge.geo import Home, enu_to_geodetic
 from bridge.geofence import GeofenceConfig
@@ -11,6 +10,7 @@ from bridge.link.mavlink import MavlinkLink
 from bridge.link.vehicle_state import VehicleState, VehicleStateTracker
 from bridge.missions.items import MissionConfig, build_mission
 from bridge.missions.protocol import MissionClient
+from bridge.simulated.peer import SimVehicle, endpoint_pair
 
 HOME = Home()
 

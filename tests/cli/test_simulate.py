@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import socket
 import time
@@ -202,25 +201,16 @@ def test_telemetry_reaches_a_subscriber_on_loopback(tmp_path, tiny_checkpoint):
     assert qos and all(0.0 <= q.qos_s2 <= q.qos_s1 <= 1.0 for q in qos)
 
 
-@pytest.fixture()
-def sim_vehicle(monkeypatch):
-    """tests/bridge/sim_vehicle.py, a pymavlink vehicle serving the mission protocol on loopback.
+def test_final_missions_are_uploaded_to_the_configured_vehicles(tmp_path, tiny_checkpoint):
+    from bridge.simulated.peer import SimVehicle
 
-    Its folder goes on the path for the test, so the modules it imports beside it are found when
-    this file runs alone.
-    """
-    monkeypatch.syspath_prepend(str(Path(__file__).parents[1] / "bridge"))
-    return importlib.import_module("sim_vehicle")
-
-
-def test_final_missions_are_uploaded_to_the_configured_vehicles(tmp_path, tiny_checkpoint, sim_vehicle):
     ports = {7: free_udp_port(), 8: free_udp_port()}
     lines = ["[protocol]", "heartbeat_timeout_s = 5.0", ""]
     for sid, port in ports.items():
         lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "udpin:127.0.0.1:{port}"', ""]
     bridge = tmp_path / "bridge.toml"
     bridge.write_text("\n".join(lines), encoding="utf-8")
-    vehicles = [sim_vehicle.SimVehicle(f"udpout:127.0.0.1:{port}", sid, telemetry_period_s=0.2)
+    vehicles = [SimVehicle(f"udpout:127.0.0.1:{port}", sid, telemetry_period_s=0.2)
                 for sid, port in ports.items()]
     try:
         config = tiny(tiny_checkpoint, n_uavs=2, duration_s=1.0, gif=False, compare_expert=False,

@@ -31,6 +31,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "uav_swarm.cli.calibrate_mission",
     "uav_swarm.cli.simulate",
     "uav_swarm.cli.fly",
+    "uav_swarm.cli.vehicles",
     "uav_swarm.cli.place",
     "uav_swarm.cli.rl",
 )

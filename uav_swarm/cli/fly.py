@@ -15,23 +15,32 @@ At the end (``--duration-s`` of crowd time, Ctrl-C or SIGTERM) every vehicle is 
 Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json; ``--record flight.mcap``
 also records the flight for Foxglove, and ``--live 8765`` streams it to Foxglove while it flies.
 
+--simulated ardupilot (or px4) starts a simulated fleet of that autopilot in this process (the vehicles of
+``uav-swarm vehicles``, link-loss failsafe set to return home): --n-uavs of them (default 5) on loopback
+ports of their own, or the vehicles of --bridge-config when one is given.
+
 Examples:
+  uav-swarm fly --simulated ardupilot --out out/fly           # 5 simulated ArduCopters, nothing to install
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
   uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
 
-Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (outputs
-written), 2 bad configuration, checkpoint or telemetry endpoint (before anything is sent to a vehicle),
-or a pre-flight refusal (before any vehicle is armed; nothing written).
+Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (a vehicle
+never heard is "not found"; nothing written when none flew), 2 bad configuration, checkpoint or
+telemetry endpoint (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle
+is armed; nothing written).
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import signal
 import sys
+import tempfile
 import threading
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +48,8 @@ from uav_swarm.cli.conventions import config_flag, number
 from uav_swarm.cli.simulate import CHECKPOINT_HELP
 
 __all__ = ["register", "run"]
+
+logger = logging.getLogger(__name__)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -50,7 +61,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     cfg = "uav_swarm.runs.fly_config:FlyConfig."
     flight = "bridge.flight.guided:FlightConfig."
     config_flag(parser, "--bridge-config", cfg + "bridge_config",
-                help="bridge TOML: home, geofence, protocol and the vehicles (required here or in --config)")
+                help="bridge TOML: home, geofence, protocol and the vehicles (required here or in --config, "
+                     "unless --simulated)")
+    add("--simulated", choices=("ardupilot", "px4"),
+        help="fly a simulated fleet of this autopilot, started here (default: none, real vehicles)")
     add("--out", type=Path, default=Path("out/fly"), help="output folder")
     add("--config", type=Path, help="TOML of FlyConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry], [flight]); flags override it (default: none)")
@@ -103,21 +117,57 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Validate, fly until the end or a stop signal, print the outcome per vehicle."""
+    """Validate (and start the simulated fleet), then fly."""
+    from typed_config import ConfigError
+    from uav_swarm.runs.fly_config import load_fly_config
+    from uav_swarm.runs.live_view import live_view_option
+
+    with ExitStack() as stack:
+        try:
+            live = live_view_option(args.live, args.live_wait_s)
+            overrides = _overrides(args)
+            if args.simulated and args.bridge_config is None:
+                overrides["bridge_config"] = _fleet_config(stack, args.n_uavs or 5)
+            config = load_fly_config(args.config, overrides)
+            if args.simulated:
+                _start_fleet(stack, args.simulated, config.bridge_config, config.n_uavs)
+        except ConfigError as exc:
+            print(f"uav-swarm fly: {exc}", file=sys.stderr)
+            return 2
+        return _fly(args, config, live)
+
+
+def _fleet_config(stack: ExitStack, n: int) -> str:
+    """A bridge config for ``n`` simulated vehicles, in a folder removed after the flight."""
+    from bridge.simulated.fleet import fleet_bridge_config
+
+    path = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="uav-swarm-fleet-"))) / "bridge.toml"
+    path.write_text(fleet_bridge_config(n), encoding="utf-8")
+    return str(path)
+
+
+def _start_fleet(stack: ExitStack, autopilot: str, bridge_config: str, n_uavs: int) -> None:
+    """Simulated vehicles serving the bridge config's first ``n_uavs`` (0: all) endpoints."""
+    from bridge.config import BridgeConfig
+    from bridge.simulated.fleet import SimulatedFleet
+    from typed_config import ConfigError, load_toml
+
+    try:
+        fleet = SimulatedFleet(autopilot, load_toml(BridgeConfig, bridge_config), n=n_uavs or None)
+    except ValueError as exc:
+        raise ConfigError(f"--simulated {autopilot}: {exc}") from None
+    stack.enter_context(fleet)
+    logger.info("%d simulated %s vehicles on 127.0.0.1 (%s)", len(fleet.vehicles), autopilot, bridge_config)
+
+
+def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
+    """Fly until the end or a stop signal, print the outcome per vehicle."""
     from bridge.errors import BridgeError
     from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
     from uav_swarm.runs.fly import fly
-    from uav_swarm.runs.fly_config import load_fly_config
-    from uav_swarm.runs.live_view import live_view_option
 
-    try:
-        live = live_view_option(args.live, args.live_wait_s)
-        config = load_fly_config(args.config, _overrides(args))
-    except ConfigError as exc:
-        print(f"uav-swarm fly: {exc}", file=sys.stderr)
-        return 2
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:

@@ -51,11 +51,12 @@ logger = logging.getLogger(__name__)
 _RESEND_M = 0.5  # a target moved less than this is not sent again
 _HOME_M = 2.0  # a vehicle returning this close to its home (horizontally) is sent RTL
 _TICK_S = 0.02  # longest sleep of the loop (wall clock)
+_SILENT = ("not found", "lost")  # never heard, or silent since: taken back when heard
 
 
 @dataclass
 class _Vehicle:
-    """One vehicle of the flight; ``status``: waiting, launching, live, lost, landed, failed or ended."""
+    """A flight's vehicle; ``status``: waiting, launching, live, not found, lost, landed, failed, ended."""
 
     system_id: int
     uav_id: int
@@ -178,7 +179,7 @@ class Flight:
                    self.config.flight, self.bridge.protocol, cancel=self._stop, home_alt_m=home.home.alt_m,
                    takeoff_gate=self.safety.takeoff_gate(sid))
         except BridgeError as exc:
-            if vehicle.status == "lost" or self._stop.is_set():  # taken back when heard / the flight ends
+            if vehicle.status in _SILENT or self._stop.is_set():  # taken back when heard / the flight ends
                 return
             vehicle.status = "failed"
             logger.warning("vehicle %d not launched: %s: %s", vehicle.system_id, type(exc).__name__, exc)
@@ -233,9 +234,9 @@ class Flight:
             waiting = [v for v in self.vehicles if v.status == "waiting"]
             if waiting and time.monotonic() >= deadline_s:
                 for vehicle in waiting:
-                    vehicle.status, vehicle.lost_at_s = "lost", time.time()
-                    logger.warning("vehicle %d: no heartbeat within %.0f s; flying without it until heard",
-                                   vehicle.system_id, flight.ready_timeout_s)
+                    vehicle.status, vehicle.lost_at_s = "not found", time.time()
+                    logger.warning("vehicle %d not found: no heartbeat within %.0f s; flying without it "
+                                   "until heard", vehicle.system_id, flight.ready_timeout_s)
                     self._event("absent", vehicle)
                 waiting = []
             if not waiting and not any(v.status == "launching" for v in self.vehicles):
@@ -264,7 +265,7 @@ class Flight:
                 logger.warning("vehicle %d lost: no heartbeat for %.1f s; replanning without it",
                                vehicle.system_id, timeout_s)
                 self._event("lost", vehicle)
-            elif vehicle.status == "lost":
+            elif vehicle.status in _SILENT:
                 if state is not None and (state.heartbeat_time_s or 0.0) > vehicle.lost_at_s:
                     logger.warning("vehicle %d heard again: taking it back", vehicle.system_id)
                     self._event("heard_again", vehicle)
@@ -539,7 +540,7 @@ class Flight:
         from bridge.telemetry.schema import state_from_vehicle
 
         vehicle = self._by_sid.get(state.system_id)
-        if (not self.outputs.live or vehicle is None or vehicle.status in ("waiting", "lost")
+        if (not self.outputs.live or vehicle is None or vehicle.status in ("waiting", *_SILENT)
                 or state.position_time_s != state.updated_time_s):
             return
         payload = state_from_vehicle(state, vehicle.seq, uav_id=vehicle.uav_id, target_enu_m=vehicle.target_m)

@@ -138,7 +138,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         bridge.flight.preflight.PreflightError: Take-off positions closer than the minimum, or a vehicle
             without a link-loss failsafe (and no ``set_failsafe``): refused before any vehicle was armed,
             nothing written.
-        bridge.errors.BridgeError: No vehicle could be launched (outputs are written).
+        bridge.errors.BridgeError: No vehicle could be launched: nothing written when none flew at all
+            (no track), else the outputs of what flew.
     """
     from bridge.flight.fleet import Fleet
     from bridge.telemetry import SwarmPublisher
@@ -184,6 +185,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
             except BridgeError as exc:
                 error = exc
             summary |= flight.summary()
+    if error is not None and not track:
+        raise error  # nothing flew: nothing to write
     out_dir.mkdir(parents=True, exist_ok=True)
     files: list[Path] = []
     if trace is not None and trace.times_s.size:

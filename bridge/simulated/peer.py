@@ -1,42 +1,38 @@
-"""A small MAVLink vehicle written with pymavlink: the mission server side, for tests.
+"""The MAVLink side of a simulated vehicle: its link, parameters, mission server and home, in a thread.
 
-It sends HEARTBEAT, GLOBAL_POSITION_INT, SYS_STATUS, BATTERY_STATUS and
-MISSION_CURRENT, and serves the mission protocol (upload with re-requests after
-0.25 s, download, clear, set current) and COMMAND_INT ``MAV_CMD_DO_REPOSITION``.
-Faults on demand: never answer the mission protocol (``silent``), refuse an item
-with a ``MAV_MISSION_RESULT`` code, or use the legacy MISSION_REQUEST. It answers
-``MAV_CMD_REQUEST_MESSAGE`` for HOME_POSITION (COMMAND_LONG) with its home, the
-position it starts at.
+:class:`SimVehicle` sends HEARTBEAT, GLOBAL_POSITION_INT, SYS_STATUS, BATTERY_STATUS and
+MISSION_CURRENT, and serves the mission protocol (upload with re-requests after 0.25 s, download,
+clear, set current) and COMMAND_INT ``MAV_CMD_DO_REPOSITION``. It answers ``MAV_CMD_REQUEST_MESSAGE``
+for HOME_POSITION (COMMAND_LONG) with its home, the position it starts at. The flying autopilots
+(:mod:`bridge.simulated.ardupilot`, :mod:`bridge.simulated.px4`) build on it; alone it is a vehicle
+that holds where it is, for the mission protocol's tests.
 
-``personality="ardupilot"`` makes it answer as ArduPilot Copter does (independently of
-the bridge's own rules): for ``boot_no_space_s`` seconds from the first MISSION_COUNT (an upload
-right after boot, before the mission storage is ready; counted from that first upload so that the
-test does not depend on how fast the GCS connects) every MISSION_COUNT gets
-STATUSTEXT "Only 0 items are supported" and ``MAV_MISSION_NO_SPACE``; a mission larger
-than ``max_items`` gets the same with its real capacity; items are asked for with the
-legacy MISSION_REQUEST and stored as ArduPilot stores them (item 0 replaced by its own
-home in frame ``GLOBAL``, ``_INT`` frames de-INTed, items without a position in frame 0
-with no position, NaN parameters 0, ``NAV_WAYPOINT``'s acceptance radius and yaw 0,
-``NAV_LOITER_TIME``'s param3 its direction +-1, altitudes in centimetres);
-MISSION_CLEAR_ALL while armed in AUTO past item 0 is refused with ``MAV_MISSION_ERROR``,
-while a new upload then is accepted.
+Faults on demand: never answer the mission protocol (``silent``), refuse an item with a
+``MAV_MISSION_RESULT`` code, or use the legacy MISSION_REQUEST; a command link with latency and loss
+(``link``: :class:`~bridge.simulated.dynamics.Realism`'s ``command_latency_s`` and ``command_loss``,
+drawn from ``rng``): a lost COMMAND_LONG or COMMAND_INT gets no answer, the others are handled
+(and answered) that much later.
 
-It starts armed and holding in LOITER (``custom_mode``), not flying its mission: the bridge
-replaces and clears such a vehicle's mission; a test that sets AUTO (ArduPilot's mission mode)
-makes it a vehicle flying its mission.
+``personality="ardupilot"`` answers as ArduPilot Copter does: for ``boot_no_space_s`` seconds from the
+first MISSION_COUNT (an upload right after boot, before the mission storage is ready) every
+MISSION_COUNT gets STATUSTEXT "Only 0 items are supported" and ``MAV_MISSION_NO_SPACE``; a mission
+larger than ``max_items`` gets the same with its real capacity; items are asked for with the legacy
+MISSION_REQUEST and stored as AP_Mission stores them (:mod:`bridge.simulated.ardupilot_storage`);
+MISSION_CLEAR_ALL while armed in AUTO past item 0 is refused with ``MAV_MISSION_ERROR``, while a new
+upload then is accepted. Alone it starts armed and holding in LOITER (``custom_mode``).
 
 ``personality="px4"`` answers a MISSION_COUNT that arrives during an upload as PX4's
 MavlinkMissionManager does: before item 0 arrived it asks for item 0 again; after, it says
-"WPM: REJ. CMD: Busy" (STATUSTEXT) and ``MAV_MISSION_ERROR`` and goes on with the upload. It
-asks again for a missing item every 0.25 s for 5 s (PX4's retry and protocol timeouts). Any
-other personality starts the upload again on every MISSION_COUNT (as ArduPilot does for the
-same ground station) and gives up after 5 requests again (``request_retries``).
-``transfers_started`` counts the uploads the vehicle started.
+"WPM: REJ. CMD: Busy" (STATUSTEXT) and ``MAV_MISSION_ERROR`` and goes on with the upload. It asks
+again for a missing item every 0.25 s for 5 s (PX4's retry and protocol timeouts). Any other
+personality starts the upload again on every MISSION_COUNT (as ArduPilot does for the same ground
+station) and gives up after 5 requests again (``request_retries``). ``transfers_started`` counts the
+uploads the vehicle started.
 
-Parameters (``params``: name to value and ``MAV_PARAM_TYPE``) are served as the autopilots serve
-them: PARAM_REQUEST_READ by name or index and PARAM_SET are answered with PARAM_VALUE (a set's
-answer carries the new value), PARAM_REQUEST_LIST with every one; a name it does not have gets no
-answer. Integers travel cast to the float, or (``"px4"``) as their bytes in it, as PX4 sends them.
+Parameters (``params``: name to value and ``MAV_PARAM_TYPE``) are served as the autopilots serve them:
+PARAM_REQUEST_READ by name or index and PARAM_SET are answered with PARAM_VALUE (a set's answer
+carries the new value), PARAM_REQUEST_LIST with every one; a name it does not have gets no answer.
+Integers travel cast to the float, or (``"px4"``) as their bytes in it, as PX4 sends them.
 """
 
 from __future__ import annotations
@@ -45,15 +41,17 @@ import struct
 import threading
 import time
 
-from ardupilot_storage import stored_by_ardupilot
+import numpy as np
 
 from bridge.link.mavlink import use_mavlink2
 from bridge.missions.items import DEG_E7, MissionItem
+from bridge.simulated.ardupilot_storage import stored_by_ardupilot
+from bridge.simulated.dynamics import Realism
 
 mavutil = use_mavlink2()
 m = mavutil.mavlink
 
-__all__ = ["SimVehicle", "endpoint_pair", "TRANSPORTS"]
+__all__ = ["SimVehicle", "endpoint_pair", "TRANSPORTS", "m", "mavutil"]
 
 TRANSPORTS = ("udpin", "udpout", "tcp")
 PERSONALITIES = ("generic", "ardupilot", "px4")
@@ -91,6 +89,8 @@ class SimVehicle:
         request_retries: int | None = None,
         custom_mode: int = LOITER,
         params: dict[str, tuple[float, int]] | None = None,
+        link: Realism | None = None,
+        rng: np.random.Generator | None = None,
     ) -> None:
         if personality not in PERSONALITIES:
             raise ValueError(f"personality = {personality!r}: choose one of {PERSONALITIES}")
@@ -121,6 +121,9 @@ class SimVehicle:
         self.custom_mode = custom_mode
         self.params: dict[str, tuple[float, int]] = dict(params or {})
         self.param_sets: list[tuple[str, float]] = []
+        self.link = link or Realism()
+        self._link_rng = rng or np.random.default_rng(system_id)
+        self._delayed: list[tuple[float, object]] = []
         self._first_count_s: float | None = None
         self._rx: dict | None = None
         self._last_done_seq: int | None = None
@@ -132,6 +135,7 @@ class SimVehicle:
         self._thread.start()
 
     def close(self) -> None:
+        """Stop its thread and close its link."""
         self._stop.set()
         self._thread.join(timeout=2.0)
         self._conn.close()
@@ -153,12 +157,9 @@ class SimVehicle:
 
     def _request(self, seq: int) -> None:
         rx = self._rx
-        kwargs = {
-            "target_system": rx["gcs"][0],
-            "target_component": rx["gcs"][1],
-            "seq": seq,
-            "mission_type": m.MAV_MISSION_TYPE_MISSION,
-        }
+        assert rx is not None  # asked only during an upload
+        kwargs = {"target_system": rx["gcs"][0], "target_component": rx["gcs"][1], "seq": seq,
+                  "mission_type": m.MAV_MISSION_TYPE_MISSION}
         if self.legacy_requests:
             self._conn.mav.mission_request_send(**kwargs)
         else:
@@ -167,50 +168,23 @@ class SimVehicle:
 
     def _telemetry(self) -> None:
         mav = self._conn.mav
-        mav.heartbeat_send(
-            type=m.MAV_TYPE_QUADROTOR,
-            autopilot=self.autopilot,
-            base_mode=m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (self.armed and m.MAV_MODE_FLAG_SAFETY_ARMED),
-            custom_mode=self.custom_mode,
-            system_status=m.MAV_STATE_ACTIVE,
-        )
+        armed = m.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0
+        mav.heartbeat_send(type=m.MAV_TYPE_QUADROTOR, autopilot=self.autopilot,
+                           base_mode=m.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | armed,
+                           custom_mode=self.custom_mode, system_status=m.MAV_STATE_ACTIVE)
         mav.global_position_int_send(
-            time_boot_ms=int(time.monotonic() * 1000) % 2**32,
-            lat=round(self.lat_deg * DEG_E7),
-            lon=round(self.lon_deg * DEG_E7),
-            alt=round(self.alt_m * 1000),
-            relative_alt=round((self.alt_m - 488.0) * 1000),
-            vx=100,
-            vy=200,
-            vz=-50,
-            hdg=9000,
-        )
+            time_boot_ms=int(time.monotonic() * 1000) % 2**32, lat=round(self.lat_deg * DEG_E7),
+            lon=round(self.lon_deg * DEG_E7), alt=round(self.alt_m * 1000),
+            relative_alt=round((self.alt_m - self.home[2]) * 1000), vx=100, vy=200, vz=-50, hdg=9000)
         mav.sys_status_send(
-            onboard_control_sensors_present=0,
-            onboard_control_sensors_enabled=0,
-            onboard_control_sensors_health=0,
-            load=0,
-            voltage_battery=15800,
-            current_battery=-1,
-            battery_remaining=76,
-            drop_rate_comm=0,
-            errors_comm=0,
-            errors_count1=0,
-            errors_count2=0,
-            errors_count3=0,
-            errors_count4=0,
-        )
+            onboard_control_sensors_present=0, onboard_control_sensors_enabled=0,
+            onboard_control_sensors_health=0, load=0, voltage_battery=15800, current_battery=-1,
+            battery_remaining=76, drop_rate_comm=0, errors_comm=0, errors_count1=0, errors_count2=0,
+            errors_count3=0, errors_count4=0)
         mav.battery_status_send(
-            id=0,
-            battery_function=0,
-            type=0,
-            temperature=32767,
+            id=0, battery_function=0, type=0, temperature=32767,
             voltages=[4000, 4000, 4000, 3900] + [65535] * 6,
-            current_battery=-1,
-            current_consumed=-1,
-            energy_consumed=-1,
-            battery_remaining=75,
-        )
+            current_battery=-1, current_consumed=-1, energy_consumed=-1, battery_remaining=75)
         mav.mission_current_send(seq=self.current_seq, total=len(self.mission))
 
     # -- receiving -----------------------------------------------------------------------------
@@ -232,13 +206,24 @@ class SimVehicle:
             except OSError:
                 time.sleep(0.02)
                 continue
+            while self._delayed and self._delayed[0][0] <= time.monotonic():
+                self._dispatch(self._delayed.pop(0)[1])
             if msg is None or msg.get_type() == "BAD_DATA" or self.silent:
                 continue
             if getattr(msg, "target_system", self.system_id) not in (0, self.system_id):
                 continue
-            handler = getattr(self, "_on_" + msg.get_type().lower(), None)
-            if handler is not None:
-                handler(msg)
+            if msg.get_type() in ("COMMAND_LONG", "COMMAND_INT"):
+                if self._link_rng.random() < self.link.command_loss:
+                    continue  # lost on the way: no answer
+                if self.link.command_latency_s > 0.0:
+                    self._delayed.append((time.monotonic() + self.link.command_latency_s, msg))
+                    continue
+            self._dispatch(msg)
+
+    def _dispatch(self, msg) -> None:
+        handler = getattr(self, "_on_" + msg.get_type().lower(), None)
+        if handler is not None:
+            handler(msg)
 
     def _flying_mission(self) -> bool:
         return self.armed and self.custom_mode == AUTO and self.current_seq > 0

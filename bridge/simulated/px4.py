@@ -1,4 +1,4 @@
-"""A test vehicle that answers as PX4 v1.16 does (its SIH quadrotor), so CI proves PX4's conventions.
+"""A simulated PX4 quadrotor: it answers as PX4 v1.16 does (its SIH quadrotor seen over MAVLink).
 
 Written from PX4's sources (Commander, Navigator, the MAVLink receiver and mission manager at
 v1.16.0) and from what real PX4 SITL did, independently of the bridge's own table:
@@ -22,6 +22,13 @@ v1.16.0) and from what real PX4 SITL did, independently of the bridge's own tabl
   personality.
 - **Streams** GLOBAL_POSITION_INT, MISSION_CURRENT and HOME_POSITION without being asked (its
   offboard and GCS links do), and answers ``MAV_CMD_REQUEST_MESSAGE`` for HOME_POSITION.
+- **Flight** on :class:`~bridge.simulated.ardupilot.ArduCopter`'s point mass, with PX4's own limits
+  (its parameters, at PX4's defaults): the cruise speed ``MPC_XY_CRUISE`` (or a reposition's ground
+  speed, param1, when positive; or a mission's ``MAV_CMD_DO_CHANGE_SPEED``), never above
+  ``MPC_XY_VEL_MAX``; ``MPC_ACC_HOR`` for acceleration and braking; ``MPC_TKO_SPEED`` climbing in
+  AUTO.TAKEOFF, ``MPC_Z_V_AUTO_UP`` and ``MPC_Z_V_AUTO_DN`` otherwise; the smaller of
+  ``MPC_ACC_UP_MAX`` and ``MPC_ACC_DOWN_MAX`` vertically. ``MPC_JERK_AUTO`` is served at its default;
+  the point mass has no jerk limit.
 - **The end**: AUTO.RTL climbs to ``RTL_RETURN_ALT`` (metres above home; its altitude when higher),
   flies home at it and lands; AUTO.LAND lands where it is; on the ground "Landing detected" and
   disarmed.
@@ -36,26 +43,32 @@ from __future__ import annotations
 import math
 import time
 
-from flying_vehicle import FlyingVehicle
-from sim_vehicle import m
-
 from bridge.geo import Home, geodetic_to_enu
 from bridge.missions.items import DEG_E7
+from bridge.simulated.ardupilot import ArduCopter
+from bridge.simulated.dynamics import AutopilotLimits
+from bridge.simulated.peer import m
 
-__all__ = ["Px4Vehicle", "POSCTL", "TAKEOFF", "LOITER", "MISSION", "RTL", "LAND", "px4_mode", "FAILSAFE_ON"]
+__all__ = ["Px4Copter", "POSCTL", "TAKEOFF", "LOITER", "MISSION", "RTL", "LAND", "px4_mode", "PX4_PARAMS",
+           "FAILSAFE_ON"]
 
 POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND = (3, 0), (4, 2), (4, 3), (4, 4), (4, 5), (4, 6)
 _MODES = (POSCTL, TAKEOFF, LOITER, MISSION, RTL, LAND)
-_TAKEOFF_ALT_M = 2.5  # MIS_TAKEOFF_ALT's default, for a take-off without an altitude
 _HOME_PERIOD_S = 1.0
+_ARRIVED_M = 0.5
 _POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
 _INT32, _REAL32 = m.MAV_PARAM_TYPE_INT32, m.MAV_PARAM_TYPE_REAL32
-PX4_PARAMS = {"NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32),
-              "RTL_RETURN_ALT": (60.0, _REAL32), "GF_ACTION": (2.0, _INT32)}
-"""PX4 v1.16's defaults of the parameters ``fly`` reads (value, ``MAV_PARAM_TYPE``)."""
+PX4_PARAMS = {
+    "NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32), "RTL_RETURN_ALT": (60.0, _REAL32),
+    "GF_ACTION": (2.0, _INT32), "MIS_TAKEOFF_ALT": (2.5, _REAL32),
+    "MPC_XY_CRUISE": (5.0, _REAL32), "MPC_XY_VEL_MAX": (12.0, _REAL32), "MPC_ACC_HOR": (3.0, _REAL32),
+    "MPC_JERK_AUTO": (4.0, _REAL32), "MPC_TKO_SPEED": (1.5, _REAL32), "MPC_Z_V_AUTO_UP": (3.0, _REAL32),
+    "MPC_Z_V_AUTO_DN": (1.5, _REAL32), "MPC_ACC_UP_MAX": (4.0, _REAL32), "MPC_ACC_DOWN_MAX": (3.0, _REAL32)}
+"""PX4 v1.16's defaults of the parameters ``fly`` and its guard read (value, ``MAV_PARAM_TYPE``)."""
 _DLL_MODES = {1: LOITER, 2: RTL, 3: LAND}
 FAILSAFE_ON = {"NAV_DLL_ACT": 2.0}
 """PX4's data link loss action set to Return (``params`` of a vehicle an operator prepared)."""
+_SLOWEST = 0.1  # m/s or m/s^2: PX4 keeps its speeds and accelerations above a positive floor
 
 
 def px4_mode(custom_mode: int) -> tuple[int, int]:
@@ -67,20 +80,22 @@ def _custom_mode(mode: tuple[int, int]) -> int:
     return mode[0] << 16 | mode[1] << 24
 
 
-class Px4Vehicle(FlyingVehicle):
-    """A PX4 quadrotor at ``home`` (see the module docstring); :class:`FlyingVehicle`'s kinematics.
+class Px4Copter(ArduCopter):
+    """A PX4 quadrotor at ``home`` (see the module docstring); :class:`ArduCopter`'s point mass.
 
     Args:
         url: Its end of the link (PX4's offboard link sends to UDP 14540 + instance: ``udpout:``).
         system_id: Its MAVLink system id.
         home: Where it stands at start (its home).
-        **options: :class:`FlyingVehicle`'s (speeds, ``prearm_s``, ``position_period_s``).
+        **options: :class:`ArduCopter`'s (``realism``, ``rng``, ``prearm_s``, ``position_period_s``,
+            ``params``).
     """
 
     def __init__(self, url: str, system_id: int, *, home: Home | None = None, **options) -> None:
         self.mode = POSCTL
         self.texts: list[str] = []
         self.landed_in: list[tuple[int, int]] = []
+        self._cruise_m_s: float | None = None
         self._next_home_s = 0.0
         options.setdefault("stream_until_asked", False)
         super().__init__(url, system_id, home=home, autopilot=m.MAV_AUTOPILOT_PX4,
@@ -89,14 +104,23 @@ class Px4Vehicle(FlyingVehicle):
     def _default_params(self) -> dict[str, tuple[float, int]]:
         return dict(PX4_PARAMS)
 
+    def limits(self) -> AutopilotLimits:
+        """How it flies now: its ``MPC_*`` parameters and the speed it was last asked for."""
+        p = {name: max(_SLOWEST, self.param(name)) for name in PX4_PARAMS if name.startswith("MPC_")}
+        cruise_m_s = self._cruise_m_s if self._cruise_m_s is not None else p["MPC_XY_CRUISE"]
+        climb_m_s = p["MPC_TKO_SPEED"] if self.mode == TAKEOFF else p["MPC_Z_V_AUTO_UP"]
+        return AutopilotLimits(max_speed_m_s=min(cruise_m_s, p["MPC_XY_VEL_MAX"]),
+                               max_accel_m_s2=p["MPC_ACC_HOR"], climb_m_s=climb_m_s,
+                               descent_m_s=p["MPC_Z_V_AUTO_DN"],
+                               vertical_accel_m_s2=min(p["MPC_ACC_UP_MAX"], p["MPC_ACC_DOWN_MAX"]))
+
     def _watches(self, gcs_system_id: int) -> bool:
         return True  # any ground station's heartbeat keeps PX4's data link
 
     def _check_failsafe(self) -> None:
-        action = int(self.param("NAV_DLL_ACT"))
-        silent_s = None if self._gcs_heard_s is None else time.monotonic() - self._gcs_heard_s
+        action, silent_s = int(self.param("NAV_DLL_ACT")), self._silent_s()
         if (action not in _DLL_MODES or not self.armed or self.mode in (RTL, LAND) or silent_s is None
-                or silent_s < self.param("COM_DL_LOSS_T") or self.enu[2] <= 0.0 or self.failsafes):
+                or silent_s < self.param("COM_DL_LOSS_T") or self._setpoint()[2] <= 0.0 or self.failsafes):
             return
         self.failsafes.append(time.monotonic())
         self._say("Connection to ground station lost", m.MAV_SEVERITY_CRITICAL)
@@ -105,39 +129,42 @@ class Px4Vehicle(FlyingVehicle):
     def _rtl_alt_m(self) -> float:
         return self.param("RTL_RETURN_ALT")
 
+    def _returning(self) -> bool:
+        return self.mode == RTL
+
     # -- modes ---------------------------------------------------------------------------------
     def set_mode(self, mode: tuple[int, int]) -> None:
         """Switch to ``(main, sub)``, as a mode change on the vehicle does."""
         self.mode = mode
-        self.custom_mode = _custom_mode(mode)
-        self.modes.append(self.custom_mode)
+        self._switch(_custom_mode(mode))
 
     def _say(self, text: str, severity: int = m.MAV_SEVERITY_INFO) -> None:
         self.texts.append(text)
         self._conn.mav.statustext_send(severity=severity, text=text.encode())
 
-    # -- kinematics ----------------------------------------------------------------------------
+    # -- flight --------------------------------------------------------------------------------
     def _mission_target(self) -> tuple[float, float, float] | None:
         while 0 <= self.current_seq < len(self.mission):
             item = self.mission[self.current_seq]
             if item.command == m.MAV_CMD_NAV_TAKEOFF:
-                target = (self.enu[0], self.enu[1], item.z)
-            elif item.command in _POSITIONED:
-                home = self.geo_home
-                x, y, _ = geodetic_to_enu(home, item.x / DEG_E7, item.y / DEG_E7, home.alt_m)
+                x, y, _ = self._setpoint()
                 target = (x, y, item.z)
+            elif item.command in _POSITIONED:
+                target = self._item_enu(item)
             else:
+                if item.command == m.MAV_CMD_DO_CHANGE_SPEED and item.param2 > 0:
+                    self._cruise_m_s = item.param2
                 self.current_seq += 1
                 continue
             passing = item.command in (m.MAV_CMD_NAV_TAKEOFF, m.MAV_CMD_NAV_WAYPOINT)
-            if passing and math.dist(target, self.enu) < 0.5:
+            if passing and math.dist(target, self._setpoint()) < _ARRIVED_M:
                 self.reached_seq = self.current_seq
                 self.current_seq += 1
                 continue
             return target
         return None
 
-    def _goal(self) -> tuple[float, float, float] | None:
+    def _flight_goal(self) -> tuple[float, float, float] | None:
         if not self.armed:
             return None
         if self.mode in (TAKEOFF, LOITER):
@@ -147,33 +174,18 @@ class Px4Vehicle(FlyingVehicle):
         if self.mode == RTL:
             return self._rtl_goal()
         if self.mode == LAND:
-            return (self.enu[0], self.enu[1], 0.0)
+            x, y, _ = self._setpoint()
+            return (x, y, 0.0)
         return None
 
-    def _step(self) -> None:
-        now_s = time.monotonic()
-        dt_s, self._last_step_s = now_s - self._last_step_s, now_s
-        self._check_failsafe()
-        if self.mode != RTL:
-            self._return_alt_m = None
-        goal = self._goal()
-        if goal is None:
-            self.velocity = [0.0, 0.0, 0.0]
-            return
-        goal = (goal[0], goal[1], max(0.0, goal[2]))  # the ground stops it
-        dx, dy, dz = (g - p for g, p in zip(goal, self.enu, strict=True))
-        horizontal = math.hypot(dx, dy)
-        scale = min(1.0, self.speed_m_s * dt_s / horizontal) if horizontal > 0 else 0.0
-        climb = max(-self.climb_m_s * dt_s, min(self.climb_m_s * dt_s, dz))
-        step = (dx * scale, dy * scale, climb)
-        self.enu = [p + d for p, d in zip(self.enu, step, strict=True)]
-        self.velocity = [d / dt_s if dt_s > 0 else 0.0 for d in step]
-        if self.mode == TAKEOFF and self.target is not None and abs(self.target[2] - self.enu[2]) < 0.3:
+    def _after_step(self, goal: tuple[float, float, float] | None) -> None:
+        x, y, z = self._setpoint()
+        if self.mode == TAKEOFF and self.target is not None and abs(self.target[2] - z) < 0.3:
             self.set_mode(LOITER)  # take-off done: PX4 holds there
-        descended = self.enu[2] <= 0.01 and goal[2] == 0.0
-        if descended and (self.mode != RTL or math.hypot(dx, dy) < 0.5):
-            self.enu[2] = 0.0
-            self.armed = False
+        if not self.armed or goal is None or goal[2] != 0.0 or z > 0.01:
+            return
+        if self.mode != RTL or math.hypot(goal[0] - x, goal[1] - y) < _ARRIVED_M:
+            self._touch_down()
             self.landed_in.append(self.mode)
             self._say("Landing detected")
             self._say("Disarmed by landing")
@@ -203,8 +215,10 @@ class Px4Vehicle(FlyingVehicle):
             self.armed = msg.param1 == 1.0
             return m.MAV_RESULT_ACCEPTED
         if msg.command == m.MAV_CMD_NAV_TAKEOFF:
-            height_m = msg.param7 - self.geo_home.alt_m if math.isfinite(msg.param7) else _TAKEOFF_ALT_M
-            self.target = (self.enu[0], self.enu[1], height_m)
+            finite = math.isfinite(msg.param7)
+            height_m = msg.param7 - self.geo_home.alt_m if finite else self.param("MIS_TAKEOFF_ALT")
+            x, y, _ = self._setpoint()
+            self.target = (x, y, height_m)
             self.set_mode(TAKEOFF)
             return m.MAV_RESULT_ACCEPTED
         if msg.command in (m.MAV_CMD_NAV_RETURN_TO_LAUNCH, m.MAV_CMD_NAV_LAND):
@@ -225,6 +239,8 @@ class Px4Vehicle(FlyingVehicle):
             x, y, _ = geodetic_to_enu(self.geo_home, msg.x / DEG_E7, msg.y / DEG_E7, self.geo_home.alt_m)
             self.target = (x, y, msg.z - self.geo_home.alt_m)  # z above sea level, whatever the frame
             self.reposition_target = (msg.x, msg.y, msg.z)
+            asked = math.isfinite(msg.param1) and msg.param1 > 0  # the ground speed, else the default
+            self._cruise_m_s = msg.param1 if asked else None
         self.set_mode(LOITER)
         self._answer(msg, m.MAV_RESULT_ACCEPTED)
 

@@ -1,0 +1,93 @@
+"""``uav-swarm vehicles`` and ``fly --simulated``: a simulated fleet a user starts, flown by ``fly``."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from bridge.config import BridgeConfig
+from bridge.link.mavlink import MavlinkLink
+from typed_config import load_toml
+from uav_swarm.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--autopilot", "px4", "--param", "WPNAV_SPEED=500"], "WPNAV_SPEED is not among the px4 parameters"),
+    (["--autopilot", "ardupilot", "--param", "WPNAV_SPEED=fast"], "give NAME=VALUE with a number"),
+    (["--autopilot", "ardupilot", "--n", "11"], "argument --n: 11 is out of range"),
+    (["--autopilot", "ardupilot", "--command-loss", "1"], "argument --command-loss: 1 is out of range"),
+    (["--autopilot", "ardupilot", "--bridge-config", "{far}"], "endpoints on 127.0.0.1"),
+    (["--autopilot", "ardupilot", "--bridge-config", "{far}", "--n", "3"], "--n 3: "),
+], ids=["foreign-param", "bad-value", "too-many", "all-lost", "off-loopback", "more-than-configured"])
+def test_a_fleet_that_cannot_start_is_refused_in_one_line_nothing_written(tmp_path, capsys, argv, message):
+    far = tmp_path / "far.toml"
+    far.write_text('[[vehicles]]\nsystem_id = 1\nurl = "udpin:192.168.1.20:14550"\n')
+    argv = [a.replace("{far}", str(far)) for a in argv]
+    assert main(["vehicles", *argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert message in err[-1]
+    assert not (tmp_path / "out").exists()
+
+
+def test_vehicles_serve_their_bridge_config_until_ctrl_c(tmp_path):
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    argv = [sys.executable, "-m", "uav_swarm", "vehicles", "--autopilot", "ardupilot", "--n", "2",
+            "--out", str(tmp_path / "fleet")]
+    process = subprocess.Popen(argv, env=env, cwd=str(tmp_path), stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    config = tmp_path / "fleet" / "bridge.toml"
+    heard: set[int] = set()
+    try:
+        deadline = time.monotonic() + 120.0
+        while time.monotonic() < deadline and not config.exists() and process.poll() is None:
+            time.sleep(0.1)
+        bridge = load_toml(BridgeConfig, config)
+        links = [MavlinkLink(v.url) for v in bridge.vehicles]
+        for link in links:
+            link.add_listener(lambda msg: heard.add(msg.get_srcSystem()), {"HEARTBEAT"})
+        while time.monotonic() < deadline and heard != {1, 2}:
+            time.sleep(0.1)
+        for link in links:
+            link.close()
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=60)
+    assert heard == {1, 2}
+    assert process.returncode == 0, err
+    assert f"fly them: uav-swarm fly --bridge-config {config}" in out and "vehicles stopped" in out
+    assert [v.url.startswith("udpin:127.0.0.1:") for v in bridge.vehicles] == [True, True]
+
+
+@pytest.mark.parametrize("autopilot", ["px4", "ardupilot"])
+def test_fly_simulated_launches_its_own_fleet_flies_it_home_and_exits_0(tmp_path, capsys, autopilot):
+    out = tmp_path / "out"
+    argv = ["fly", "--simulated", autopilot, "--n-uavs", "2", "--duration-s", "10", "--speedup", "2",
+            "--no-telemetry", "--out", str(out)]
+    assert main(argv) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert [v["status"] for v in summary["vehicles"]] == ["ended", "ended"]
+    assert summary["separation"]["closest_m"] >= summary["separation"]["min_separation_m"]
+    assert any(e["event"] == "live" for e in summary["events"])
+    assert "closest pair" in capsys.readouterr().out
+
+
+def test_fly_against_vehicles_never_heard_says_not_found_and_writes_nothing(tmp_path, capsys):
+    from bridge.simulated.fleet import fleet_bridge_config
+
+    config = tmp_path / "bridge.toml"
+    config.write_text(fleet_bridge_config(2))  # nothing serves these ports
+    out = tmp_path / "out"
+    argv = ["fly", "--bridge-config", str(config), "--wait-ready-s", "1", "--no-telemetry", "--out", str(out)]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "vehicle 1: not found; vehicle 2: not found" in err and "lost" not in err
+    assert not out.exists()
