@@ -230,20 +230,23 @@ def _gaps(heads: np.ndarray, hss: np.ndarray, deps: np.ndarray, tails: np.ndarra
 
 
 @numba.njit(cache=True, nogil=True)
-def _blocking(p: np.ndarray, goal: np.ndarray, direct: np.ndarray, ds: np.ndarray, req: np.ndarray
-              ) -> np.ndarray:  # pragma: no cover - compiled
-    """Per UAV: how many direct flights pass within ``req`` of its position, less those of its target."""
+def _blocking(ids: np.ndarray, p: np.ndarray, goal: np.ndarray, direct: np.ndarray, ds: np.ndarray,
+              req: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """Per UAV of ``ids``: how many direct flights pass within ``req`` of its position, less of its target."""
     k = len(p)
     out = np.zeros(k, np.int64)
-    for j in range(k):
+    for j in ids:
         for o in range(k):
             if o == j or req[j, o] <= 0.0:
                 continue
-            here, there = np.inf, np.inf
+            here, there, need2 = False, False, req[j, o] * req[j, o]
             for n in range(ds[o] + 1):
-                here = min(here, math.hypot(direct[o, n, 0] - p[j, 0], direct[o, n, 1] - p[j, 1]))
-                there = min(there, math.hypot(direct[o, n, 0] - goal[j, 0], direct[o, n, 1] - goal[j, 1]))
-            out[j] += int(here < req[j, o]) - int(there < req[j, o])
+                x, y = direct[o, n, 0], direct[o, n, 1]
+                here = here or (x - p[j, 0]) ** 2 + (y - p[j, 1]) ** 2 < need2
+                there = there or (x - goal[j, 0]) ** 2 + (y - goal[j, 1]) ** 2 < need2
+                if here and there:
+                    break
+            out[j] += int(here) - int(there)
     return out
 
 
@@ -253,10 +256,10 @@ def plan_departures(p: np.ndarray, v: np.ndarray, goal: np.ndarray, req: np.ndar
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
     """``(holds (K, 2), departure steps (K,) (-1: direct), gaps (K, K), tracks (K, T + 1, 2))``.
 
-    UAVs whose direct flights keep ``req`` from every other direct flight leave at once; the others are
-    placed in order (those sitting on others' paths first, those whose targets lie on them last), then
-    once more with the stuck ones first; the pass with fewer stuck UAVs (then the lesser sum of
-    departures) is kept.
+    UAVs whose direct flights keep ``req`` from every other direct flight leave at once (pairs that start
+    or end closer than ``req`` are left to the report: no choice helps them); the others are placed in
+    order (those sitting on others' paths first, those whose targets lie on them last), then once more
+    with the stuck ones first; the pass with fewer stuck UAVs (then the lesser sum of departures) is kept.
     """
     k = len(p)
     direct, brake, btail = np.empty((k, cap + 1, 2)), np.empty((k, cap + 1, 2)), np.empty((k, cap + 1, 2))
@@ -268,9 +271,14 @@ def plan_departures(p: np.ndarray, v: np.ndarray, goal: np.ndarray, req: np.ndar
     deps = np.full(k, -1, np.int64)
     gaps = _gaps(direct, ds, deps, direct, np.zeros(k, np.int64), dbox, req, 0.0)
     conflicted = np.zeros(k, np.bool_)
+    search = req.copy()  # pairs that start or end under their distance: no choice helps, none is searched
     for i in range(k):
         for j in range(k):
-            if gaps[i, j] < req[i, j] - TOLERANCE_M:
+            start = math.hypot(p[i, 0] - p[j, 0], p[i, 1] - p[j, 1])
+            end = math.hypot(goal[i, 0] - goal[j, 0], goal[i, 1] - goal[j, 1])
+            if i != j and min(start, end) < req[i, j] - TOLERANCE_M:
+                search[i, j] = 0.0
+            elif gaps[i, j] < req[i, j] - TOLERANCE_M:
                 conflicted[i] = True
     holds = goal.copy()
     if not conflicted.any():
@@ -284,8 +292,8 @@ def plan_departures(p: np.ndarray, v: np.ndarray, goal: np.ndarray, req: np.ndar
             by = min(max(by + v[j, 1] / speed * stop, 0.0), uy)
         bs[j] = _fly(p[j, 0], p[j, 1], v[j, 0], v[j, 1], bx, by, dt, vmax, a, ux, uy, brake[j], bbox[j])
         bts[j] = _fly(bx, by, 0.0, 0.0, goal[j, 0], goal[j, 1], dt, vmax, a, ux, uy, btail[j], btbox[j])
-    blocking = _blocking(p, goal, direct, ds, req)
     ids = np.flatnonzero(conflicted)
+    blocking = _blocking(ids, p, goal, direct, ds, search)
     order = ids[np.argsort(-blocking[ids], kind="mergesort")]
     best_stuck, best_sum = k + 1, 0
     best = (holds, deps, direct, ds, direct, ds, dbox)
@@ -296,8 +304,9 @@ def plan_departures(p: np.ndarray, v: np.ndarray, goal: np.ndarray, req: np.ndar
         for j in range(k):
             if not conflicted[j]:
                 heads[j, :ds[j] + 1] = direct[j, :ds[j] + 1]
-        stuck = _schedule(order, ~conflicted, p, v, goal, req, direct, ds, dbox, brake, bs, bbox, btail, bts,
-                          btbox, dt, vmax, a, ux, uy, wait_steps, heads, hss, dps, tails, tss, boxes, hld)
+        stuck = _schedule(order, ~conflicted, p, v, goal, search, direct, ds, dbox, brake, bs, bbox, btail,
+                          bts, btbox, dt, vmax, a, ux, uy, wait_steps, heads, hss, dps, tails, tss, boxes,
+                          hld)
         total = int(np.maximum(dps, 0).sum())
         if len(stuck) < best_stuck or (len(stuck) == best_stuck and total < best_sum):
             best_stuck, best_sum = len(stuck), total
