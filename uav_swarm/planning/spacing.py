@@ -35,7 +35,8 @@ _RINGS = 40  # rings searched around a target: up to ten times the minimum away
 
 
 def separate_targets(targets_m: np.ndarray, min_gap_m: float, order: np.ndarray | None = None,
-                     upper_m: np.ndarray | None = None, *, field: str = "uav.min_separation_m") -> np.ndarray:
+                     upper_m: np.ndarray | None = None, *, keep: int = 0, field: str = "uav.min_separation_m"
+                     ) -> np.ndarray:
     """``(n, 2)`` targets at least ``min_gap_m`` apart, each moved as little as the search finds.
 
     Args:
@@ -44,6 +45,8 @@ def separate_targets(targets_m: np.ndarray, min_gap_m: float, order: np.ndarray 
         order: Priority (indices, first placed first; a target placed earlier never moves for a later one,
             unless the search fails and all move to the layout); default ``0 ... n-1``.
         upper_m: ``(2,)`` the area's upper corner; moved targets stay in ``[0, upper_m]`` (None: no area).
+        keep: The first ``keep`` targets of ``order`` never move, not even to the layout (they must be
+            ``min_gap_m`` apart already): reserved points, such as an operator's targets.
         field: The setting ``min_gap_m`` comes from, named when the fleet cannot keep it in the area.
 
     Returns:
@@ -77,8 +80,15 @@ def separate_targets(targets_m: np.ndarray, min_gap_m: float, order: np.ndarray 
         return out
     slots = fleet_slots_m(min_gap_m, float(upper_m[0]), float(upper_m[1]))
     wanted = np.array(targets_m, dtype=np.float64).reshape(-1, 2)
-    rows, cols = linear_sum_assignment(((wanted[:, None, :] - slots[None, :, :]) ** 2).sum(axis=-1))
-    out[rows] = slots[cols]
+    fixed, movable = order[:keep], order[keep:]
+    if keep:  # the layout's points clear of the reserved ones
+        slots = slots[np.linalg.norm(slots[:, None] - wanted[fixed][None], axis=-1).min(axis=1) >= min_gap_m]
+        if len(slots) < len(movable):
+            logger.warning("no room for %d targets %.1f m from the %d reserved ones: some stay closer",
+                           len(movable), min_gap_m, keep)
+            return out
+    rows, cols = linear_sum_assignment(((wanted[movable][:, None] - slots[None]) ** 2).sum(axis=-1))
+    out[movable[rows]] = slots[cols]
     return out
 
 
