@@ -10,9 +10,11 @@ replan starts in flight. Two kinds, interleaved:
 
 Each replan times :func:`uav_swarm.planning.transitions.plan_transition` and, on the same input in the same
 round, the reference: the transition planner of ``--reference`` (a git commit; default the one before the
-flown-kinematics planner), loaded from git into a temporary folder. Goal: <= 0.5 ms per replan.
+flown-kinematics planner), loaded from git into a temporary folder. Each is timed ``--repeats`` times in a
+row and the least time kept (what the code costs, not what other processes on a busy machine take from
+it; the single first timings are printed too). Goal: <= 0.5 ms per replan.
 
-Usage: python benchmarks/transitions_cost.py [--replans 300] [--seed 0] [--reference 5c0ace9]
+Usage: python benchmarks/transitions_cost.py [--replans 300] [--seed 0] [--reference 5c0ace9] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -95,6 +97,7 @@ def main() -> None:
     parser.add_argument("--replans", type=int, default=300, help="replans per kind (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--reference", default="5c0ace9", help="git commit of the reference planner")
+    parser.add_argument("--repeats", type=int, default=3, help="timings per replan, the least kept")
     args = parser.parse_args()
     print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, one thread; numpy {np.__version__}; "
           f"load average at start {os.getloadavg()}")
@@ -104,24 +107,29 @@ def main() -> None:
         reference.plan_transition(np.zeros((2, 2)), np.zeros((2, 2)), np.ones((2, 2)), CONFIG)
         print(f"10 UAVs in a {AREA_M[0]:g} x {AREA_M[1]:g} m area, minimum {CONFIG.min_separation_m:g} m, "
               f"{args.replans} replans per kind every {STEPS_PER_REPLAN * DT_S:g} s, in flight")
+        print(f"least of {args.repeats} timings per replan")
         print(f"{'kind':<9} {'now p50':>8} {'p95':>7} {'max':>7} {'reference p50':>13} {'p95':>7} "
               f"{'ratio':>6} {'holds':>6} {'unresolved':>10}")
         rng = np.random.default_rng(args.seed)
         targets = spread(rng, 10, np.zeros((0, 2)))
         p, v = targets.copy(), np.zeros_like(targets)
         times: dict[str, tuple[list[float], list[float], list[int]]] = {}
+        first: list[float] = []
         for replan in range(2 * args.replans):
             kind = ("follow", "reassign")[replan % 2]
             targets = next_targets(kind, rng, targets, p)
-            start = time.perf_counter()
-            transition = plan_transition(p, v, targets, CONFIG, step_s=DT_S, area_m=AREA_M)
-            now_ms = 1e3 * (time.perf_counter() - start)
-            start = time.perf_counter()
-            reference.plan_transition(p, v, targets, CONFIG, area_m=AREA_M)
-            ref_ms = 1e3 * (time.perf_counter() - start)
+            now_ms, ref_ms = [], []
+            for _ in range(args.repeats):
+                start = time.perf_counter()
+                transition = plan_transition(p, v, targets, CONFIG, step_s=DT_S, area_m=AREA_M)
+                now_ms.append(1e3 * (time.perf_counter() - start))
+                start = time.perf_counter()
+                reference.plan_transition(p, v, targets, CONFIG, area_m=AREA_M)
+                ref_ms.append(1e3 * (time.perf_counter() - start))
             now, ref, counts = times.setdefault(kind, ([], [], [0, 0]))
-            now.append(now_ms)
-            ref.append(ref_ms)
+            now.append(min(now_ms))
+            ref.append(min(ref_ms))
+            first.append(now_ms[0])
             counts[0] += int(transition.held.sum())
             counts[1] += len(transition.unresolved)
             for step in range(STEPS_PER_REPLAN):
@@ -132,8 +140,11 @@ def main() -> None:
                   f"{np.median(ref):>10.3f} ms {np.percentile(ref, 95):>7.3f} "
                   f"{np.median(ref) / np.median(now):>5.1f}x {counts[0]:>6} {counts[1]:>10}")
         every = times["follow"][0] + times["reassign"][0]
-        print(f"all replans: p50 {np.median(every):.3f} ms, p95 {np.percentile(every, 95):.3f} ms, mean "
-              f"{np.mean(every):.3f} ms (goal <= 0.5 ms per replan)")
+        over = float(np.mean(np.array(every) > 0.5))
+        print(f"all replans: p50 {np.median(every):.3f} ms, p95 {np.percentile(every, 95):.3f} ms, max "
+              f"{np.max(every):.3f} ms, mean {np.mean(every):.3f} ms; over 0.5 ms: {over:.1%} (goal 0.5 ms)")
+        print(f"single first timings: p50 {np.median(first):.3f} ms, p95 {np.percentile(first, 95):.3f} ms, "
+              f"max {np.max(first):.3f} ms")
     print(f"load average at end {os.getloadavg()}")
 
 
