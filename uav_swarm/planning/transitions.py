@@ -70,7 +70,8 @@ class Transition:
         closest_m: The predicted closest approach of any pair over the transition (3-D with layers).
         unresolved: ``(M, 2)`` pairs ``i < j`` predicted closer than their required distance.
         tracks_m: ``(K, T + 1, 2)`` the predicted flight: each UAV's position after ``0 ... T`` steps, until
-            the last one is at rest on its target.
+            the last one is at rest on its target (with fewer than two UAVs or no minimum, nothing is
+            predicted: the positions and the targets).
     """
 
     targets_m: np.ndarray
