@@ -14,6 +14,7 @@ Examples:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -170,6 +171,7 @@ def _points(spec: np.ndarray, width_m: float, height_m: float) -> np.ndarray:
     return out[:, ::-1].copy() if transposed else out
 
 
+@functools.lru_cache(maxsize=256)  # a pure function of three numbers, asked at every separation of targets
 def max_spread_m(n_uavs: int, width_m: float, height_m: float) -> float:
     """The largest minimum distance of ``n_uavs`` points this module lays out in ``width_m x height_m``.
 
