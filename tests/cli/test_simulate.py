@@ -286,7 +286,7 @@ def test_a_minimum_the_fleet_check_accepts_starts_and_flies_separated(tmp_path, 
     config = tmp_path / "wide.toml"  # 80 m in 200 m: 10 UAVs on 3-2-3-2 staggered lines fit (83.3 m)
     config.write_text("n_uavs = 10\nduration_s = 2.0\ngif = false\n[uav]\nmin_separation_m = 80.0\n",
                       encoding="utf-8")
-    argv = ["simulate", "--out", str(out), "--config", str(config), "--no-telemetry", "--no-expert", "--quiet"]
+    argv = ["simulate", "--out", str(out), "--config", str(config), "--no-telemetry", "--no-expert", "-q"]
     assert main(argv) == 0, capsys.readouterr().err
     separation = json.loads((out / "summary.json").read_text())["planners"]["learned"]["separation"]
     assert separation["closest_m"] >= 80.0
