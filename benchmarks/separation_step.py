@@ -28,8 +28,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from uav_swarm.planning.trajectory import warm_up  # noqa: E402
-from uav_swarm.planning.transitions import plan_transition  # noqa: E402
+from uav_swarm.planning.transitions import plan_transition, warm_up  # noqa: E402
 from uav_swarm.world.step_guard import guard_commands  # noqa: E402
 from uav_swarm.world.uav import UAVConfig, fly_step, waypoint_velocity  # noqa: E402
 

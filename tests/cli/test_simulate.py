@@ -267,6 +267,19 @@ def test_a_minimum_separation_the_fleet_cannot_keep_exits_2_naming_the_field(tmp
     config = tmp_path / "far.toml"
     config.write_text("n_uavs = 10\n[uav]\nmin_separation_m = 90.0\n", encoding="utf-8")
     assert main(["simulate", "--out", str(out), "--config", str(config), "--no-telemetry", "--quiet"]) == 2
+    err = capsys.readouterr().err
     assert ("uav.min_separation_m = 90 m cannot be kept by 10 UAVs in a 200 x 200 m area: allowed 0 <= "
-            "uav.min_separation_m <= 84.2") in capsys.readouterr().err
+            "uav.min_separation_m <= 83.3") in err
+    assert err.strip().count("\n") == 0  # one line, no traceback
     assert not out.exists()
+
+
+def test_a_minimum_the_fleet_check_accepts_starts_and_flies_separated(tmp_path, capsys):
+    out = tmp_path / "wide"
+    config = tmp_path / "wide.toml"  # 80 m in 200 m: 10 UAVs on 3-2-3-2 staggered lines fit (83.3 m)
+    config.write_text("n_uavs = 10\nduration_s = 2.0\ngif = false\n[uav]\nmin_separation_m = 80.0\n",
+                      encoding="utf-8")
+    argv = ["simulate", "--out", str(out), "--config", str(config), "--no-telemetry", "--no-expert", "-q"]
+    assert main(argv) == 0, capsys.readouterr().err
+    separation = json.loads((out / "summary.json").read_text())["planners"]["learned"]["separation"]
+    assert separation["closest_m"] >= 80.0

@@ -72,6 +72,20 @@ def test_the_projection_moves_only_what_it_must():
     assert np.linalg.norm(out[1] - targets[1]) < 5.0
 
 
+@pytest.mark.parametrize("side_m", [50.0, 40.0])
+def test_crowded_targets_are_separated_whenever_the_fleet_check_accepts_the_fleet(side_m):
+    rng = np.random.default_rng(14)
+    area = np.array([side_m, side_m])
+    for _ in range(25):  # 10 targets pulled onto one or two groups, 14 m apart, in a small square
+        groups = rng.uniform(0.0, side_m, (2, 2))
+        targets = np.clip(groups[rng.integers(0, 2, 10)] + rng.normal(0.0, 4.0, (10, 2)), 0.0, side_m)
+        out = separate_targets(targets, 14.0, rng.permutation(10), area)
+        assert pdist(out).min() >= 14.0 - 1e-9
+        assert np.all((out >= 0.0) & (out <= side_m))
+    with pytest.raises(ConfigError, match=r"uav.min_separation_m = 30 m cannot be kept by 10 UAVs"):
+        separate_targets(targets, 30.0, upper_m=area)
+
+
 def test_simulate_threads_the_uav_minimum_and_refuses_a_contradiction():
     assert SimulateConfig.from_dict({"uav": {"min_separation_m": 8.0}}).task.min_separation_m == 8.0
     with pytest.raises(ConfigError, match=r"task.min_separation_m = 7 differs from uav.min_separation_m = 5"):

@@ -52,3 +52,40 @@ def test_altitude_layers_let_targets_closer_horizontally():
     assert layered.offer(0, "map", 20.0, 20.0, 10.0) is None
     assert layered.offer(1, "map", 24.6, 20.0, 10.0) is None
     assert "allowed at least 4.47214 m" in layered.offer(1, "map", 24.0, 20.0, 10.0)
+
+
+def test_an_operator_target_stays_reserved_in_the_planner_s_targets():
+    targets = _targets()
+    assert targets.offer(0, "map", 20.0, 20.0, 10.0) is None
+    planned = np.array([[1.0, 1.0], [21.0, 20.0], [60.0, 60.0]])  # the plan puts UAV 1 1 m from it
+    flown = targets.apply_array(planned)
+    assert flown[0].tolist() == [20.0, 20.0] and flown[2].tolist() == [60.0, 60.0]
+    assert np.hypot(*(flown[1] - flown[0])) >= 6.0 - 1e-9
+    assert np.hypot(*(flown[1] - planned[1])) < 6.0  # moved the least it must
+    by_id = targets.apply({0: (1.0, 1.0), 2: (20.5, 19.0)})  # the flight loop's ids
+    assert by_id[0] == (20.0, 20.0) and np.hypot(by_id[2][0] - 20.0, by_id[2][1] - 20.0) >= 6.0 - 1e-9
+
+
+def test_every_plan_of_a_run_keeps_other_uavs_off_a_held_operator_target():
+    from uav_swarm.planning.planner import make_planner
+    from uav_swarm.runs.simulate import run_sequence
+    from uav_swarm.runs.simulate_config import SimulateConfig
+
+    small = {"warmup_min_s": 1.0, "warmup_max_s": 2.0,
+             "scenario": {"n_groups_min": 2, "n_groups_max": 3, "group_size_min": 35, "group_size_max": 45}}
+    config = SimulateConfig.from_dict({"duration_s": 4.0, "n_uavs": 3, "planner": "expert", "task": small})
+
+    def fly(steering=None):
+        planner = make_planner("expert", 3, config.task, config=config.planning, uav_config=config.uav)
+        return run_sequence(config, planner, "expert", steering=steering, frame_every=1)
+
+    wanted = fly().frames[0].targets_m[1]  # where the planner sends UAV 1 first
+    area = config.task.scenario
+    operator = OperatorTargets(width_m=area.width_m, height_m=area.height_m, uav=config.uav, n_uavs=3)
+    assert operator.offer(0, "map", float(wanted[0]), float(wanted[1]), 10.0) is None  # UAV 0 is sent there
+    frames = fly(operator).frames
+    assert len(frames) >= 30
+    for frame in frames:  # every step's flown targets, across every replan
+        assert np.array_equal(frame.targets_m[0], wanted)
+        others = np.hypot(*(frame.targets_m[1:] - wanted).T)
+        assert np.all(others >= config.uav.min_separation_m - 1e-9), (frame.time_s, others)

@@ -108,9 +108,9 @@ def test_stopping_distance_is_what_the_kinematics_fly():
 
 
 def test_fleet_that_cannot_fit_is_refused_naming_the_field():
-    with pytest.raises(ConfigError, match=r"uav.min_separation_m = 90 m .* 10 UAVs .* <= 84.2"):
+    with pytest.raises(ConfigError, match=r"uav.min_separation_m = 90 m .* 10 UAVs .* <= 83.3"):
         check_fleet_fits(10, 90.0, 200.0, 200.0)
-    check_fleet_fits(10, 84.0, 200.0, 200.0)
+    check_fleet_fits(10, 83.0, 200.0, 200.0)
     assert max_spread_m(4, 300.0, 10.0) == pytest.approx(100.0)  # four in a row
 
 

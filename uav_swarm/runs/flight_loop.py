@@ -314,12 +314,14 @@ class Flight:
 
     def _steered(self, live: list[tuple[_Vehicle, VehicleState]], targets: list[tuple[float, float, float]]
                  ) -> list[tuple[float, float, float]]:
-        """The planner's targets with the operator's in place (and told to the operator's validation)."""
+        """The planner's targets with the operator's in place and kept clear (told to the operator)."""
         if self.steering is None:
             return targets
-        self.steering.planned({v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)})
-        held = self.steering.held()
-        return [(*held[v.uav_id], self.safety.cruise_alt_m[v.system_id]) if v.uav_id in held else t
+        planned = {v.uav_id: (t[0], t[1]) for (v, _), t in zip(live, targets, strict=True)}
+        self.steering.planned(planned)
+        steered = self.steering.apply(planned)
+        cruise_m = self.safety.cruise_alt_m
+        return [t if steered[v.uav_id] == planned[v.uav_id] else (*steered[v.uav_id], cruise_m[v.system_id])
                 for (v, _), t in zip(live, targets, strict=True)]
 
     def _steer(self) -> None:

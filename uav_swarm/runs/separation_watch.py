@@ -32,8 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from uav_swarm.planning.trajectory import warm_up
-from uav_swarm.planning.transitions import Transition, plan_transition
+from uav_swarm.planning.transitions import Transition, plan_transition, warm_up
 from uav_swarm.world.separation import SeparationMonitor, pair_distances_m
 from uav_swarm.world.uav import UAVConfig
 
@@ -51,11 +50,13 @@ class SeparationWatch:
         n_uavs: Number of UAVs.
         area_m: ``(width, height)`` of the area: detours stay inside it (None: no border).
         keep_tracks: Keep every observed position (:attr:`tracks_m`), for a check after the run.
+        step_s: The env's step: transitions are planned on flights flown with it.
     """
 
     def __init__(self, config: UAVConfig, n_uavs: int, area_m: tuple[float, float] | None = None,
-                 keep_tracks: bool = True) -> None:
+                 keep_tracks: bool = True, step_s: float = 0.1) -> None:
         self.config = config
+        self.step_s = float(step_s)
         self._area_m = None if area_m is None else np.asarray(area_m, dtype=np.float64)
         self.altitudes_m = config.altitudes_m(n_uavs)
         """``(K,)`` each UAV's flight altitude (one value unless ``layer_step_m`` > 0)."""
@@ -66,7 +67,7 @@ class SeparationWatch:
         self.transition_holds = 0
         self.guard_holds = 0
         self.unresolved = 0
-        """Pairs a transition left predicted below the minimum (the env's step guard is their safety net)."""
+        """Pairs a transition left predicted under their required distance (the step guard's to hold)."""
         self._keep = keep_tracks
         warm_up()  # the transition's compiled kernels, loaded now rather than at the first replan
         self._tracks: list[np.ndarray] = []
@@ -76,7 +77,7 @@ class SeparationWatch:
                targets_m: np.ndarray) -> None:
         """Plan the transition from the UAVs' state at ``time_s`` to the new ``targets_m``."""
         self._transition = plan_transition(positions_m, velocities_m_s, targets_m, self.config, self._layers,
-                                           area_m=self._area_m)
+                                           step_s=self.step_s, area_m=self._area_m)
         self._replan_s = float(time_s)
         self.transition_holds += int(np.count_nonzero(self._transition.held))
         self.unresolved += len(self._transition.unresolved)

@@ -151,7 +151,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     distance_m = 0.0
     result = None
     area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
-    watch = SeparationWatch(config.uav, config.n_uavs, area_m)  # transitions between plans, closest approach
+    watch = SeparationWatch(config.uav, config.n_uavs, area_m, step_s=env.dt_s)  # transitions, closest pair
     steered = 0  # the operator targets' version the transition was planned for
     for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=None if progress else True,
                      leave=False):

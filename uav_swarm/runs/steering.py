@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.world.separation import required_distances_m
 
 if TYPE_CHECKING:
@@ -102,20 +103,29 @@ class OperatorTargets:
             return dict(self._held)
 
     def apply(self, targets_m: Mapping[int, XY]) -> dict[int, XY]:
-        """``targets_m`` (by UAV id) with the operator's targets in place of the planner's."""
-        held = self.held()
-        return {uav_id: held.get(uav_id, xy) for uav_id, xy in targets_m.items()}
+        """``targets_m`` (by UAV id) with the operator's targets in place of the planner's.
+
+        The operator's targets stay reserved: another UAV's target closer than ``min_separation_m`` to one
+        is moved the least distance that keeps it (:func:`uav_swarm.planning.spacing.separate_targets`,
+        the operator's targets placed first and never moved).
+        """
+        ids = list(targets_m)
+        held = {uav_id: xy for uav_id, xy in self.held().items() if uav_id in targets_m}
+        if not held:
+            return dict(targets_m)
+        out = np.array([held.get(uav_id, targets_m[uav_id]) for uav_id in ids], dtype=np.float64)
+        first = [ids.index(uav_id) for uav_id in sorted(held)]
+        order = np.array(first + [k for k in range(len(ids)) if k not in first], dtype=np.int64)
+        out = separate_targets(out, self.min_separation_m, order, np.array([self.width_m, self.height_m]),
+                               keep=len(held))
+        return {uav_id: (float(x), float(y)) for uav_id, (x, y) in zip(ids, out, strict=True)}
 
     def apply_array(self, targets_m: np.ndarray) -> np.ndarray:
-        """``(n, 2)`` targets of UAVs ``0 .. n - 1`` with the operator's in place (a copy if any is held)."""
-        held = self.held()
-        if not held:
+        """``(n, 2)`` targets of UAVs ``0 .. n - 1`` by :meth:`apply` (a copy if any is held)."""
+        if not any(uav_id < len(targets_m) for uav_id in self.held()):
             return targets_m
-        out = np.array(targets_m, dtype=np.float64)
-        for uav_id, xy in held.items():
-            if uav_id < len(out):
-                out[uav_id] = xy
-        return out
+        steered = self.apply({k: (float(x), float(y)) for k, (x, y) in enumerate(np.asarray(targets_m))})
+        return np.array([steered[k] for k in range(len(targets_m))], dtype=np.float64)
 
     def _check(self, uav_id: int, frame_id: str, x_m: float, y_m: float, z_m: float) -> str | None:
         if not 0 <= uav_id < self.n_uavs:

@@ -14,6 +14,7 @@ Examples:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -24,13 +25,9 @@ from typed_config import ConfigError
 
 __all__ = [
     "ClosestPair", "SeparationMonitor", "check_fleet_fits", "closest_distances_m", "closest_pair",
-    "draw_apart_m", "max_spread_m", "pair_distances_m", "required_distances_m", "separation_penalty",
+    "draw_apart_m", "fleet_slots_m", "max_spread_m", "pair_distances_m", "required_distances_m",
+    "separation_penalty",
 ]
-
-# Best known largest minimum distance of n points in a unit square (n = 2 ... 10; Schaer, Croft et al.).
-_UNIT_SQUARE_SPREAD = (math.sqrt(2.0), 1.035276180, 1.0, 0.707106781, 0.600925213, 0.535898384,
-                       0.517638090, 0.5, 0.421279543)
-
 
 def pair_distances_m(positions_m: np.ndarray, altitudes_m: np.ndarray | None = None) -> np.ndarray:
     """(..., K, K) distances between UAVs (3-D with altitudes); the diagonal is ``inf``.
@@ -120,33 +117,108 @@ def required_distances_m(min_separation_m: float, altitudes_m: np.ndarray | None
     return required
 
 
-def max_spread_m(n_uavs: int, width_m: float, height_m: float) -> float:
-    """The largest minimum distance this module can give ``n_uavs`` points in a ``width_m x height_m`` area.
+def _layouts(width_m: float, height_m: float, rows: np.ndarray, cols: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """``(gap (L,), capacity (L,))`` of the layouts ``(kind, rows, cols)`` (kind 0: grid, 1: staggered).
 
-    The best of: the best known spread in a square of the shorter side, and square grids of ``r x c``
-    points (a construction, so the figure is always reachable; the true optimum of a long rectangle may be
-    a little larger). ``inf`` for fewer than two UAVs.
+    A *grid* puts ``cols`` points evenly from ``0`` to ``width_m`` (one column: the middle) on ``rows``
+    lines evenly from ``0`` to ``height_m``; a *staggered* layout alternates lines of ``cols`` points and
+    lines of ``cols - 1`` points set in the middle of the gaps (a hexagonal packing stretched to the area).
+    """
+    r, c = rows.astype(np.float64), cols.astype(np.float64)
+    with np.errstate(divide="ignore"):
+        dx = np.where(c > 1, width_m / np.maximum(c - 1, 1), np.inf)
+        dy = np.where(r > 1, height_m / np.maximum(r - 1, 1), np.inf)
+    grid = np.minimum(dx, dy)
+    staggered = np.minimum(np.minimum(dx, np.hypot(dx / 2, dy)), np.where(r > 2, 2 * dy, np.inf))
+    staggered = np.where((r > 1) & (c > 1), staggered, 0.0)
+    capacity = (rows + 1) // 2 * cols + rows // 2 * (cols - 1)
+    return np.concatenate([grid, staggered]), np.concatenate([rows * cols, capacity])
+
+
+def _candidates(width_m: float, height_m: float, max_rows: int, max_cols: int
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every layout of up to ``max_rows x max_cols``, both ways round: ``(spec (L, 4), gap, capacity)``.
+
+    ``spec`` rows are ``(kind, rows, cols, transposed)``.
+    """
+    rows, cols = (a.ravel() for a in np.meshgrid(np.arange(1, max_rows + 1), np.arange(1, max_cols + 1)))
+    specs, gaps, caps = [], [], []
+    for transposed, (w, h) in enumerate([(width_m, height_m), (height_m, width_m)]):
+        gap, cap = _layouts(w, h, rows, cols)
+        kind = np.repeat([0, 1], len(rows))
+        specs.append(np.stack([kind, np.tile(rows, 2), np.tile(cols, 2), np.full(2 * len(rows), transposed)],
+                              axis=1))
+        gaps.append(gap)
+        caps.append(cap)
+    return np.concatenate(specs), np.concatenate(gaps), np.concatenate(caps)
+
+
+def _points(spec: np.ndarray, width_m: float, height_m: float) -> np.ndarray:
+    """``(capacity, 2)`` the points of one layout ``(kind, rows, cols, transposed)``."""
+    kind, rows, cols, transposed = (int(x) for x in spec)
+    w, h = (height_m, width_m) if transposed else (width_m, height_m)
+    ys = np.linspace(0.0, h, rows) if rows > 1 else np.array([h / 2])
+    points = []
+    for line, y in enumerate(ys):
+        if kind == 1 and line % 2:
+            dx = w / (cols - 1)
+            xs = dx / 2 + dx * np.arange(cols - 1)
+        else:
+            xs = np.linspace(0.0, w, cols) if cols > 1 else np.array([w / 2])
+        points.append(np.stack([xs, np.full(len(xs), y)], axis=1))
+    out = np.concatenate(points)
+    return out[:, ::-1].copy() if transposed else out
+
+
+@functools.lru_cache(maxsize=256)  # a pure function of three numbers, asked at every separation of targets
+def max_spread_m(n_uavs: int, width_m: float, height_m: float) -> float:
+    """The largest minimum distance of ``n_uavs`` points this module lays out in ``width_m x height_m``.
+
+    The best of grids and staggered (hexagonal) layouts stretched to the area, both ways round, and for two
+    UAVs the diagonal: a construction, so every fleet it accepts can be started
+    (:func:`draw_apart_m`) and every set of targets separated
+    (:func:`uav_swarm.planning.spacing.separate_targets`). ``inf`` for fewer than two UAVs.
 
     Examples:
-        >>> round(max_spread_m(10, 200.0, 200.0), 1)  # 10 points in a 200 m square
-        84.3
+        >>> round(max_spread_m(10, 200.0, 200.0), 1)  # 10 points in a 200 m square: 3-2-3-2 staggered
+        83.3
+        >>> max_spread_m(10, 12.0, 12.0)  # 10 UAVs 5 m apart fit in a 12 m square
+        5.0
     """
     if n_uavs < 2:
         return math.inf
-    best = math.hypot(width_m, height_m) if n_uavs == 2 else 0.0
-    if n_uavs <= len(_UNIT_SQUARE_SPREAD) + 1:
-        best = max(best, min(width_m, height_m) * _UNIT_SQUARE_SPREAD[n_uavs - 2])
-    for cols in range(1, n_uavs + 1):
-        rows = -(-n_uavs // cols)
-        gap_x = width_m / (cols - 1) if cols > 1 else math.inf
-        gap_y = height_m / (rows - 1) if rows > 1 else math.inf
-        best = max(best, min(gap_x, gap_y))
-    return best
+    _, gaps, caps = _candidates(width_m, height_m, n_uavs, n_uavs)
+    best = float(gaps[caps >= n_uavs].max())
+    return max(best, math.hypot(width_m, height_m)) if n_uavs == 2 else best
+
+
+def fleet_slots_m(min_separation_m: float, width_m: float, height_m: float) -> np.ndarray:
+    """``(S, 2)`` the most points of one layout of :func:`max_spread_m` at least ``min_separation_m`` apart.
+
+    A fleet of ``n`` UAVs fits (:func:`check_fleet_fits`) exactly when ``S >= n``.
+
+    Examples:
+        >>> len(fleet_slots_m(5.0, 12.0, 12.0))  # 3-2-3-2 points, 5 m apart
+        10
+    """
+    if min_separation_m <= 0:
+        raise ValueError(f"min_separation_m = {min_separation_m:g}: allowed > 0")
+    max_rows = max(2, int(2.0 * max(width_m, height_m) / min_separation_m) + 1)
+    specs, gaps, caps = _candidates(width_m, height_m, max_rows, max_rows)
+    caps = np.where(gaps >= min_separation_m, caps, 0)
+    best = int(np.argmax(caps))
+    if caps[best] < 2 and math.hypot(width_m, height_m) >= min_separation_m:  # two UAVs: the diagonal
+        return np.array([[0.0, 0.0], [width_m, height_m]])
+    return _points(specs[best], width_m, height_m) if caps[best] else np.zeros((0, 2))
 
 
 def check_fleet_fits(n_uavs: int, min_separation_m: float, width_m: float, height_m: float, *,
                      field: str = "uav.min_separation_m") -> None:
     """Refuse a minimum separation the fleet cannot keep in its area, naming ``field``.
+
+    The one rule of the fleet check, the env's start positions (:func:`draw_apart_m`) and the separation
+    of targets (:func:`uav_swarm.planning.spacing.separate_targets`): :func:`max_spread_m`.
 
     Raises:
         ConfigError: ``min_separation_m`` exceeds :func:`max_spread_m` for the fleet and area.
@@ -157,7 +229,7 @@ def check_fleet_fits(n_uavs: int, min_separation_m: float, width_m: float, heigh
         ... except ConfigError as error:
         ...     print(error)
         uav.min_separation_m = 90 m cannot be kept by 10 UAVs in a 200 x 200 m area: allowed 0 <= \
-uav.min_separation_m <= 84.2
+uav.min_separation_m <= 83.3
     """
     spread = max_spread_m(n_uavs, width_m, height_m)
     if min_separation_m > spread:
@@ -171,10 +243,12 @@ def draw_apart_m(rng: np.random.Generator, n_uavs: int, area_m: np.ndarray, requ
     """(K, 2) uniform positions in ``[0, area_m]``, redrawn one UAV at a time until pairs keep ``required_m``.
 
     The first draw is ``rng.uniform(0, area_m, (K, 2))``; only a UAV closer than ``required_m`` (K, K) to an
-    earlier one is drawn again, so a draw that already keeps its distances costs nothing more.
+    earlier one is drawn again, so a draw that already keeps its distances costs nothing more. When
+    ``max_tries`` draws do not find them (the fleet barely fits), the UAVs take ``K`` points of
+    :func:`fleet_slots_m` drawn at random.
 
     Raises:
-        ValueError: No such positions were found in ``max_tries`` draws (the minimum barely fits).
+        ConfigError: The fleet does not fit (:func:`check_fleet_fits` at the largest required distance).
 
     Examples:
         >>> p = draw_apart_m(np.random.default_rng(0), 10, np.array([30.0, 30.0]), np.full((10, 10), 5.0))
@@ -182,14 +256,16 @@ def draw_apart_m(rng: np.random.Generator, n_uavs: int, area_m: np.ndarray, requ
         True
     """
     area = np.asarray(area_m, dtype=np.float64)
+    need = float(np.max(required_m, initial=0.0))
+    check_fleet_fits(n_uavs, need, float(area[0]), float(area[1]))
     positions = rng.uniform(0.0, area, size=(n_uavs, 2))
     tries = 0
     for uav in range(1, n_uavs):
         while np.any(np.linalg.norm(positions[:uav] - positions[uav], axis=1) < required_m[uav, :uav]):
             tries += 1
             if tries > max_tries:
-                raise ValueError(f"no start positions {required_m.max():g} m apart for {n_uavs} UAVs "
-                                 f"in {max_tries} draws")
+                slots = fleet_slots_m(need, float(area[0]), float(area[1]))
+                return slots[rng.choice(len(slots), n_uavs, replace=False)]
             positions[uav] = rng.uniform(0.0, area)
     return positions
 
