@@ -33,8 +33,12 @@ import math
 
 import numpy as np
 
-from uav_swarm.world.guard.reach import (braking_paths, path_distances_m, segment_distances_m,
-                                         stopping_distance_m)
+from uav_swarm.world.guard.reach import (
+    braking_paths,
+    path_distances_m,
+    segment_distances_m,
+    stopping_distance_m,
+)
 from uav_swarm.world.separation import pair_distances_m, required_distances_m
 from uav_swarm.world.uav import UAVConfig, fly_step
 

@@ -127,12 +127,16 @@ class FleetGuard:
 
     # -- what comes back -----------------------------------------------------------------------
     def measure(self, i: int, position_m: np.ndarray, velocity_m_s: np.ndarray, stamp_s: float,
-                now_s: float) -> str | None:
-        """A measurement of vehicle ``i``, true at ``stamp_s``; the kind of bound it breaks, if any."""
+                now_s: float, received_s: float | None = None) -> str | None:
+        """A measurement of vehicle ``i``, true at ``stamp_s``; the kind of bound it breaks, if any.
+
+        ``received_s`` is when it arrived, where only that is known (``stamp_s`` then its lower bound:
+        received less the largest age); its age is judged from it.
+        """
         hold = self._hold[i]
         if hold is None:
             return None
-        if now_s - stamp_s > hold.bounds.position_age_s:
+        if now_s - (stamp_s if received_s is None else received_s) > hold.bounds.position_age_s:
             if i not in self._stale:
                 self._stale.add(i)
                 self.events.append((now_s, i, "position_stale"))
