@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from uav_swarm.runs.guard_trial import NAMED_TRIALS as CASES
+from uav_swarm.runs.guard_trial import WORST_BOUNDS as WORST
 from uav_swarm.runs.guard_trial import Trial, fly_trial, random_trial
 
 MIN_M = 5.0
@@ -24,29 +26,6 @@ def test_random_flights_keep_the_minimum_and_reach_their_goals():
     assert reached / goals >= 0.95, (reached, goals)
 
 
-_TURN = Trial(n_uavs=2, speed_m_s=12.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
-              area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (70.0, 112.0)),
-              script=((0.0, 0, (190.0, 100.0)), (6.0, 0, (20.0, 170.0))))
-_CROSS = Trial(n_uavs=2, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
-               area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (100.0, 0.0)),
-               script=((0.0, 0, (200.0, 100.0)), (0.0, 1, (100.0, 200.0))))
-_OVERSHOOT = Trial(n_uavs=3, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
-                   area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (100.0, 100.0), (100.0, 50.0)),
-                   script=((0.0, 0, (93.0, 100.0)), (3.0, 2, (100.0, 160.0)), (5.0, 0, (180.0, 100.0))))
-CASES = {
-    "turn-at-12-m-s-beside-a-hover": _TURN,
-    "crossing-at-15-m-s": _CROSS,
-    "held-with-overshoot": _OVERSHOOT,
-}
-WORST = {
-    "braking-2.5": {"accel_m_s2": 2.5},
-    "braking-2": {"accel_m_s2": 2.0},
-    "positions-1-s-old": {"age_s": 1.0},
-    "round-trip-1.5-s": {"latency_s": 1.5},
-    "all-at-once": {"accel_m_s2": 2.0, "age_s": 1.0, "latency_s": 1.5, "loss": 0.2, "rate_hz": 5.0},
-}
-
-
 @pytest.mark.parametrize("worst", list(WORST))
 @pytest.mark.parametrize("case", list(CASES))
 def test_named_cases_keep_the_minimum_and_arrive(case, worst):
@@ -59,7 +38,7 @@ def test_named_cases_keep_the_minimum_and_arrive(case, worst):
 
 def test_braking_weaker_than_stated_is_detected():
     """Outside the bounds (it brakes at 1.5 m/s^2, the guard is told 5): the vehicle leaves its disc, reported."""
-    result = fly_trial(Trial(**{**_TURN.__dict__, "accel_m_s2": 1.5, "stated_accel_m_s2": 5.0}))
+    result = fly_trial(Trial(**{**CASES['turn-at-12-m-s-beside-a-hover'].__dict__, "accel_m_s2": 1.5, "stated_accel_m_s2": 5.0}))
     assert result.breaches >= 1, result
     assert result.events["outside_bounds"] == result.breaches
 

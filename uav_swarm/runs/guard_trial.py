@@ -31,7 +31,7 @@ from bridge.simulated.dynamics import AutopilotLimits, PointMassCopter, Realism
 from uav_swarm.world.guard import Bounds, FleetGuard
 from uav_swarm.world.separation import draw_apart_m, max_spread_m
 
-__all__ = ["Trial", "TrialResult", "fly_trial", "random_trial"]
+__all__ = ["NAMED_TRIALS", "Trial", "TrialResult", "WORST_BOUNDS", "fly_trial", "random_trial"]
 
 _DT_S = 0.05  # the judge's step (20 Hz) and the integration step
 _GUARD_EVERY = 2  # a guard decision every 2 steps (10 Hz)
@@ -212,6 +212,32 @@ def fly_trial(trial: Trial) -> TrialResult:
     for _, _, kind in guard.events:
         kinds[kind] = kinds.get(kind, 0) + 1
     return TrialResult(closest, trial.area_m, reachable, reached, kinds.get("outside_bounds", 0), holds, kinds)
+
+
+_TURN = Trial(n_uavs=2, speed_m_s=12.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
+              area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (70.0, 112.0)),
+              script=((0.0, 0, (190.0, 100.0)), (6.0, 0, (20.0, 170.0))))
+_CROSS = Trial(n_uavs=2, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
+               area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (100.0, 0.0)),
+               script=((0.0, 0, (200.0, 100.0)), (0.0, 1, (100.0, 200.0))))
+_OVERSHOOT = Trial(n_uavs=3, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
+                   area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (100.0, 100.0), (100.0, 50.0)),
+                   script=((0.0, 0, (93.0, 100.0)), (3.0, 2, (100.0, 160.0)), (5.0, 0, (180.0, 100.0))))
+NAMED_TRIALS: dict[str, Trial] = {
+    "turn-at-12-m-s-beside-a-hover": _TURN,
+    "crossing-at-15-m-s": _CROSS,
+    "held-with-overshoot": _OVERSHOOT,
+}
+"""Scripted flights (goals by time) that brought the earlier guard under the minimum."""
+WORST_BOUNDS: dict[str, dict[str, float]] = {
+    "braking-2.5": {"accel_m_s2": 2.5},
+    "braking-2": {"accel_m_s2": 2.0},
+    "positions-1-s-old": {"age_s": 1.0},
+    "round-trip-1.5-s": {"latency_s": 1.5},
+    "all-at-once": {"accel_m_s2": 2.0, "age_s": 1.0, "latency_s": 1.5, "loss": 0.2, "rate_hz": 5.0},
+}
+"""The named worst cases: a turn at 12 m/s beside a hovering vehicle, a crossing at 15 m/s, a vehicle
+held on its way with overshoot; each flown with the worst bounds of :data:`WORST_BOUNDS`."""
 
 
 def random_trial(rng: np.random.Generator, seed: int, duration_s: float = 60.0) -> Trial:
