@@ -88,15 +88,17 @@ class FlightGuard:
         min_separation_m: The minimum distance between two vehicles (``[uav] min_separation_m``).
         n_vehicles: Rows of the flight.
         altitudes_m: (n,) cruise altitudes (layers), or None for one altitude.
+        area_m: (width, height) of the area a step round another vehicle stays in (None: anywhere).
     """
 
     def __init__(self, config: GuardConfig, min_separation_m: float, n_vehicles: int,
-                 altitudes_m: np.ndarray | None = None) -> None:
+                 altitudes_m: np.ndarray | None = None, area_m: tuple[float, float] | None = None) -> None:
         self.config = config
         self.need_m = min_separation_m + config.margin_m
         required = required_distances_m(min_separation_m, altitudes_m, n_vehicles)
         required = np.where(required > 0, required + config.margin_m, 0.0)
-        self.fleet = FleetGuard(required, detour_after_s=config.sidestep_after_s, detour_m=self.need_m)
+        self.fleet = FleetGuard(required, detour_after_s=config.sidestep_after_s, detour_m=self.need_m,
+                                area_m=area_m)
         self._bounds = [self._stated() for _ in range(n_vehicles)]
         self.limits: dict[int, HorizontalLimits] = {}
         self.states: dict[int, str] = {}

@@ -81,7 +81,8 @@ class FlightSafety:
         self.homes_m: dict[int, tuple[float, float]] = {}
         self.reports: dict[int, PreflightReport] = {}
         layers = config.uav.altitudes_m(n) if config.uav.layer_step_m > 0 else None
-        self.guard = FlightGuard(config.guard, config.uav.min_separation_m, n, layers)
+        area = (config.task.scenario.width_m, config.task.scenario.height_m)
+        self.guard = FlightGuard(config.guard, config.uav.min_separation_m, n, layers, area)
         self._seen_events = 0
         self.guard_events: dict[str, int] = {"position_stale": 0, "command_unacknowledged": 0,
                                              "outside_bounds": 0}

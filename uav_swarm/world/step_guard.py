@@ -29,10 +29,9 @@ Examples:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from uav_swarm.world.guard.kernels import decide_world
 from uav_swarm.world.guard.reach import (
     braking_paths,
     path_distances_m,
@@ -44,7 +43,6 @@ from uav_swarm.world.uav import UAVConfig, fly_step
 
 __all__ = ["braking_paths", "guard_commands", "path_distances_m", "stopping_distance_m"]
 
-_TURNS_RAD = (0.0, math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2)  # the command, then around
 
 
 def guard_commands(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_m_s: np.ndarray, dt_s: float,
@@ -123,26 +121,10 @@ def _paths(p: np.ndarray, p_next: np.ndarray, v_next: np.ndarray, dt_s: float, c
 
 def _sequential(p: np.ndarray, v: np.ndarray, wanted: np.ndarray, current: np.ndarray, threshold: np.ndarray,
                 dt_s: float, config: UAVConfig, area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Decide UAV by UAV (priority = index) for the worlds where some command conflicts."""
-    n_worlds, k = p.shape[:2]
-    turns = np.array([[[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]] for t in _TURNS_RAD])
-    options = np.einsum("tij,bkj->bkti", turns, wanted)  # (B, K, T, 2): the command and its turns
-    options = np.concatenate([options, np.zeros((n_worlds, k, 1, 2))], axis=2)  # braking, always last
-    decided = current.copy()  # (B, K, 4, 2): decided paths, current braking paths for the undecided
-    safe = np.zeros_like(wanted)
-    held = np.zeros((n_worlds, k), dtype=bool)
-    rows = np.arange(n_worlds)
-    for uav in range(k):
-        here = np.repeat(p[:, uav:uav + 1], options.shape[2], axis=1)
-        p_next, v_next = fly_step(here, np.repeat(v[:, uav:uav + 1], options.shape[2], axis=1),
-                                  options[:, uav], dt_s, config, area)
-        paths = _paths(here, p_next, v_next, dt_s, config, area)  # (B, T + 1, 4, 2)
-        gaps = path_distances_m(paths, decided)  # (B, T + 1, K)
-        ok = (gaps >= threshold[:, uav][:, None, :]) | (np.arange(k) == uav)
-        ok = ok.all(axis=-1)
-        ok[:, -1] = True
-        choice = np.argmax(ok, axis=1)  # the first option that keeps every gap
-        safe[:, uav] = options[rows, uav, choice]
-        held[:, uav] = choice > 0
-        decided[:, uav] = paths[rows, choice]
+    """Decide UAV by UAV (priority = index) for the worlds where some command conflicts (compiled)."""
+    safe, held = np.zeros_like(wanted), np.zeros(wanted.shape[:2], dtype=bool)
+    for world in range(p.shape[0]):
+        safe[world], held[world] = decide_world(p[world], v[world], wanted[world], current[world],
+                                                threshold[world], dt_s, config.max_accel_m_s2,
+                                                config.max_speed_m_s, area)
     return safe, held

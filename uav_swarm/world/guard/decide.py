@@ -33,7 +33,8 @@ _DETOURS_RAD = (math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2, 3 * math.p
 _ARRIVED_M = 1e-3
 
 
-def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float) -> np.ndarray:
+def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
+            area_m: np.ndarray | None = None) -> np.ndarray:
     """(M, 2) points offered to one vehicle, best first (module docstring)."""
     way = goal - centre
     length = float(np.hypot(*way))
@@ -46,13 +47,14 @@ def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float)
         for turn in _DETOURS_RAD:
             c, s = math.cos(turn), math.sin(turn)
             turned = np.array([c * unit[0] - s * unit[1], s * unit[0] + c * unit[1]])
-            offers += [centre + turned * step for step in (detour_m, detour_m / 2, detour_m / 4)]
+            turns = [centre + turned * step for step in (detour_m, detour_m / 2, detour_m / 4)]
+            offers += [q for q in turns if area_m is None or bool(np.all((q >= 0.0) & (q <= area_m)))]
     return np.asarray(offers)
 
 
 def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarray, may_send: np.ndarray,
-                  required_m: np.ndarray, detour: np.ndarray, detour_m: float = 5.0
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  required_m: np.ndarray, detour: np.ndarray, detour_m: float = 5.0,
+                  area_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each vehicle's next point, in priority order (module docstring).
 
     Args:
@@ -64,6 +66,7 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
             plus the margin).
         detour: (K,) whether it may also be offered steps turned away from its way.
         detour_m: Length of the longest turned step, metres.
+        area_m: (2,) the area's upper corner: turned steps stay in ``[0, area_m]`` (None: anywhere).
 
     Returns:
         ``points`` (K, 2) the point to send (NaN: none), ``radii`` (K,) the certified radii after, and
@@ -83,7 +86,7 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
         goal = goals_m[i]
         if not may_send[i] or not np.all(np.isfinite(goal)) or not math.isfinite(radii[i]):
             continue
-        offers = _offers(centres[i], goal, bool(detour[i]), detour_m)
+        offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m)
         if offers.shape[0] == 0:
             continue
         grown = radii[i] + np.hypot(*(offers - centres[i]).T)  # (M,)

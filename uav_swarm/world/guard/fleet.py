@@ -70,12 +70,15 @@ class FleetGuard:
             layers; :func:`uav_swarm.world.separation.required_distances_m`), the margin included.
         detour_after_s: A vehicle held this long may also step round what blocks it, seconds.
         detour_m: The longest such step, metres (default: the largest required distance).
+        area_m: (width, height) the steps round stay in, from the origin (None: anywhere).
     """
 
-    def __init__(self, required_m: np.ndarray, detour_after_s: float = 2.0, detour_m: float | None = None) -> None:
+    def __init__(self, required_m: np.ndarray, detour_after_s: float = 2.0, detour_m: float | None = None,
+                 area_m: tuple[float, float] | None = None) -> None:
         self.required_m = np.array(required_m, dtype=np.float64)
         k = self.required_m.shape[0]
         self.detour_after_s = float(detour_after_s)
+        self.area_m = None if area_m is None else np.asarray(area_m, dtype=np.float64)
         self.detour_m = float(detour_m if detour_m is not None else max(float(self.required_m.max()), 1.0))
         self._hold: list[Commitment | None] = [None] * k
         self._obstacle: dict[int, tuple[np.ndarray, float]] = {}
@@ -194,7 +197,7 @@ class FleetGuard:
         detour = np.array([now_s - self._held_since.get(i, now_s) >= self.detour_after_s for i in range(k)])
         required = np.where(present[:, None] & present[None], self.required_m, -np.inf)
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required, detour,
-                                            self.detour_m)
+                                            self.detour_m, self.area_m)
         decisions = []
         for i in range(k):
             decisions.append(self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s))
