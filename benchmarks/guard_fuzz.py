@@ -25,8 +25,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from uav_swarm.runs.guard_trial import (  # noqa: E402
-    NAMED_TRIALS, WORST_BOUNDS, Trial, TrialResult, fly_trial, random_trial)
+from uav_swarm.runs.guard_trial import NAMED_TRIALS, WORST_BOUNDS, Trial, TrialResult, fly_trial, random_trial  # noqa: E402
 
 
 def _summary(name: str, results: list[TrialResult], seconds: float) -> None:

@@ -1,4 +1,4 @@
-"""A vehicle's own horizontal limits, read from its parameters: the speed, acceleration and jerk it flies with.
+"""A vehicle's own horizontal limits, read from its parameters: the speed, acceleration and jerk it flies.
 
 - **ArduPilot** (Copter): ``WPNAV_SPEED`` (cm/s), ``WPNAV_ACCEL`` (cm/s^2, its acceleration and its
   braking in guided and auto flight) and the position controller's ``PSC_JERK_XY`` (m/s^3);
@@ -59,7 +59,8 @@ def read_horizontal_limits(link: MavlinkLink, system_id: int, conventions: Conve
         raise ParamError(system_id, "horizontal limits", f"no known limit parameters for {conventions.name}")
     values = []
     for name, factor in names:
-        value = read_param(link, system_id, name, bytewise=conventions.param_bytewise, protocol=protocol).value
+        value = read_param(link, system_id, name, bytewise=conventions.param_bytewise,
+                           protocol=protocol).value
         if not value > 0:
             raise ParamError(system_id, name, f"reads {value:g}; a positive limit is needed")
         values.append(value * factor)

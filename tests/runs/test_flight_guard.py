@@ -1,4 +1,4 @@
-"""The flight guard's adapter: the vehicles' own limits, late positions, unacknowledged points, broken bounds."""
+"""The flight guard's adapter: the vehicles' own limits, late positions, unanswered points, broken bounds."""
 
 from __future__ import annotations
 
@@ -15,7 +15,8 @@ from uav_swarm.runs.fly_config import FlyConfig
 
 def _rows(positions, goals, stamp_s=0.0, velocities=None):
     velocities = velocities or [(0.0, 0.0)] * len(positions)
-    return [(i, p, v, stamp_s, g, True) for i, (p, v, g) in enumerate(zip(positions, velocities, goals, strict=True))]
+    return [(i, p, v, stamp_s, g, True)
+            for i, (p, v, g) in enumerate(zip(positions, velocities, goals, strict=True))]
 
 
 def test_each_vehicle_is_planned_with_the_smaller_of_its_own_and_the_stated_limits():
@@ -74,6 +75,7 @@ def test_guard_settings_out_of_range_and_removed_keys_are_refused():
 
 def test_a_climbing_vehicle_is_an_obstacle_the_others_keep_off():
     guard = FlightGuard(GuardConfig(margin_m=0.0), min_separation_m=5.0, n_vehicles=2)
-    rows = [(0, (0.0, 0.0), (0.0, 0.0), 0.0, (30.0, 0.0), True), (1, (30.0, 0.0), (0.0, 0.0), 0.0, None, False)]
+    rows = [(0, (0.0, 0.0), (0.0, 0.0), 0.0, (30.0, 0.0), True),
+            (1, (30.0, 0.0), (0.0, 0.0), 0.0, None, False)]
     decision = guard.decide(rows, now_s=0.1)[0]
     assert decision.point_m is not None and np.hypot(*np.subtract(decision.point_m, (30.0, 0.0))) >= 5.0

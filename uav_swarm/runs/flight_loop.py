@@ -364,9 +364,11 @@ class Flight:
             if decision.point_m is None or vehicle.status != "live":
                 continue
             point = (*decision.point_m, self.safety.cruise_alt_m[sid])
-            vehicle.guard_job = self._pool.submit(self._send_point, vehicle, point, decision.seq, decision.state)
+            vehicle.guard_job = self._pool.submit(self._send_point, vehicle, point, decision.seq,
+                                                  decision.state)
 
-    def _send_point(self, vehicle: _Vehicle, target: tuple[float, float, float], seq: int, state: str) -> None:
+    def _send_point(self, vehicle: _Vehicle, target: tuple[float, float, float], seq: int,
+                    state: str) -> None:
         """Send one guard point (one copy) and tell the guard whether it was acknowledged in its bound."""
         sid = vehicle.system_id
         guard = self.config.guard

@@ -14,8 +14,8 @@
   outside its certified disc) an event ``guard_<kind>`` and counted, and the separation record
   (:class:`uav_swarm.world.separation.SeparationMonitor`, 3-D distances of the measured positions of the
   armed vehicles);
-- before arming, each vehicle's horizontal limits are read (:func:`bridge.flight.limits.read_horizontal_limits`)
-  and the guard plans it with the smaller of those and ``[guard]``'s; one whose limits cannot be read is
+- before arming, each vehicle's horizontal limits are read
+  (:func:`bridge.flight.limits.read_horizontal_limits`) and the guard plans it with the smaller of those and ``[guard]``'s; one whose limits cannot be read is
   refused unless ``[guard] stated_limits``.
 """
 

@@ -141,7 +141,8 @@ def fly_trial(trial: Trial) -> TrialResult:
     if trial.starts_m:
         starts = np.asarray(trial.starts_m, dtype=np.float64)
     else:
-        starts, scale = _starts(rng, trial, need + 2.0 * bounds.position_error_m + 4.0 * bounds.tracking_error_m + 1.0)
+        gap_m = need + 2.0 * bounds.position_error_m + 4.0 * bounds.tracking_error_m + 1.0
+        starts, scale = _starts(rng, trial, gap_m)
         trial = replace(trial, area_m=(trial.area_m[0] * scale, trial.area_m[1] * scale))
     limits = AutopilotLimits(trial.speed_m_s, trial.accel_m_s2, climb_m_s=3.0, descent_m_s=1.5)
     copters = [PointMassCopter(np.array([*starts[i], _ALT_M]), limits, _realism(trial), rng.spawn(1)[0])
@@ -172,17 +173,18 @@ def fly_trial(trial: Trial) -> TrialResult:
     for step in range(steps + 1):
         now_s = step * _DT_S
         while script and script[0][0] <= now_s + 1e-9:
-            _, i, goal = script.pop(0)
-            close_goal(i, now_s) if counted else None
-            goals[i], goal_since[i], goal_start[i] = goal, now_s, copters[i].position_m[:2]
+            _, i, scripted = script.pop(0)
+            if counted:
+                close_goal(i, now_s)
+            goals[i], goal_since[i], goal_start[i] = scripted, now_s, copters[i].position_m[:2]
             goal_reached[i] = False
             counted += 1
-        for i in np.flatnonzero(next_goal_s <= now_s + 1e-9):
-            others = np.delete(goals, i, axis=0)
-            goal = _draw_goal(rng, trial, others)
-            if goal is not None:
+        for due_uav in np.flatnonzero(next_goal_s <= now_s + 1e-9):
+            i = int(due_uav)
+            drawn = _draw_goal(rng, trial, np.delete(goals, i, axis=0))
+            if drawn is not None:
                 close_goal(i, now_s)
-                goals[i], goal_since[i], goal_start[i] = goal, now_s, copters[i].position_m[:2]
+                goals[i], goal_since[i], goal_start[i] = drawn, now_s, copters[i].position_m[:2]
                 goal_reached[i] = False
                 counted += 1
             next_goal_s[i] = now_s + rng.uniform(*trial.goal_every_s)
@@ -211,7 +213,8 @@ def fly_trial(trial: Trial) -> TrialResult:
     kinds: dict[str, int] = {}
     for _, _, kind in guard.events:
         kinds[kind] = kinds.get(kind, 0) + 1
-    return TrialResult(closest, trial.area_m, reachable, reached, kinds.get("outside_bounds", 0), holds, kinds)
+    return TrialResult(closest, trial.area_m, reachable, reached, kinds.get("outside_bounds", 0), holds,
+                       kinds)
 
 
 _TURN = Trial(n_uavs=2, speed_m_s=12.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
@@ -241,9 +244,10 @@ held on its way with overshoot; each flown with the worst bounds of :data:`WORST
 
 
 def random_trial(rng: np.random.Generator, seed: int, duration_s: float = 60.0) -> Trial:
-    """A trial drawn within the guard's tested bounds: 2-10 vehicles, 5-20 m/s, braking 2-5 m/s^2,
-    command latency up to 1.5 s (5 % of commands lost), positions up to 1 s old, square areas from the
-    tightest the fleet check accepts for 6 m between starts (the minimum and a metre) up to 200 m.
+    """A trial drawn within the guard's tested bounds.
+
+    2-10 vehicles, 5-20 m/s, braking 2-5 m/s^2, command latency up to 1.5 s (5 % of commands lost),
+    positions up to 1 s old, square areas from the tightest the fleet check accepts for 6 m between starts (the minimum and a metre) up to 200 m.
     """
     n = int(rng.integers(2, 11))
     tightest = 6.0 / max_spread_m(n, 1.0, 1.0)  # the fleet check's limit for 6 m between starts

@@ -15,7 +15,7 @@ Examples:
     >>> centres = np.array([[0.0, 0.0], [20.0, 0.0]])
     >>> points, radii, blockers = choose_points(centres, np.zeros(2), np.array([[40.0, 0.0], [20.0, 0.0]]),
     ...                                         np.ones(2, bool), np.full((2, 2), 5.0), np.zeros(2, bool))
-    >>> points[0].tolist(), float(radii[0]), int(blockers[0])  # 4 m: its disc reaches 8 m, 12 m from the other
+    >>> points[0].tolist(), float(radii[0]), int(blockers[0])  # 4 m on: its disc reaches 12 m from the other
     ([4.0, 0.0], 4.0, 1)
 """
 

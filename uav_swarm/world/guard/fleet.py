@@ -83,6 +83,7 @@ class FleetGuard:
         self._hold: list[Commitment | None] = [None] * k
         self._obstacle: dict[int, tuple[np.ndarray, float]] = {}
         self._held_since: dict[int, float] = {}
+        self._via: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # a point round a blocker, then the goal
         self._stale: set[int] = set()
         self._outside: dict[int, np.ndarray] = {}
         self.events: list[tuple[float, int, str]] = []
@@ -90,7 +91,8 @@ class FleetGuard:
         outside_bounds)."""
 
     # -- vehicles ------------------------------------------------------------------------------
-    def join(self, i: int, point_m: np.ndarray, bounds: Bounds, now_s: float, radius_m: float = math.inf) -> None:
+    def join(self, i: int, point_m: np.ndarray, bounds: Bounds, now_s: float,
+             radius_m: float = math.inf) -> None:
         """Take vehicle ``i`` under the guard, flying to ``point_m`` (where it hovers) with its bounds."""
         self._hold[i] = Commitment(point_m, bounds, now_s, radius_m)
         self._obstacle.pop(i, None)
@@ -101,6 +103,7 @@ class FleetGuard:
         self._hold[i] = None
         self._obstacle.pop(i, None)
         self._held_since.pop(i, None)
+        self._via.pop(i, None)
         self._stale.discard(i)
         self._outside.pop(i, None)
 
@@ -148,7 +151,8 @@ class FleetGuard:
         if hold.measure(position_m, velocity_m_s, stamp_s):
             slow = Bounds(**{**hold.bounds.__dict__, "accel_m_s2": hold.bounds.accel_m_s2 / 2})
             p = np.asarray(position_m, dtype=np.float64)
-            hold.radius_m = max(hold.radius_m, float(slow.radius_m(p - hold.centre_m, np.hypot(*velocity_m_s))))
+            needed = float(slow.radius_m(p - hold.centre_m, np.hypot(*velocity_m_s)))
+            hold.radius_m = max(hold.radius_m, needed)
             self._outside[i] = p
             self.events.append((now_s, i, "outside_bounds"))
             return "outside_bounds"
@@ -190,18 +194,44 @@ class FleetGuard:
         goals = np.array(goals_m, dtype=np.float64).reshape(k, 2).copy()
         steered = np.array([h is not None for h in self._hold])
         may = np.array([h is not None and h.may_send(now_s) for h in self._hold])
-        blocked = np.zeros(k, bool)
         for i in list(self._stale) + list(self._outside):
-            may[i], blocked[i] = False, True
+            may[i] = False
         goals[~steered] = np.nan
+        finals = goals.copy()
+        for i, (via, final) in list(self._via.items()):
+            if (not steered[i] or not np.all(np.isfinite(goals[i])) or not np.allclose(final, goals[i])
+                    or float(np.hypot(*(self.centre_m(i) - via))) <= 0.5):
+                del self._via[i]  # reached, or its goal changed
+            else:
+                goals[i] = via
         detour = np.array([now_s - self._held_since.get(i, now_s) >= self.detour_after_s for i in range(k)])
         required = np.where(present[:, None] & present[None], self.required_m, -np.inf)
-        points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required, detour,
-                                            self.detour_m, self.area_m)
+        points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
+                                            detour, self.detour_m, self.area_m)
         decisions = []
         for i in range(k):
             decisions.append(self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s))
+            if (decisions[-1].state == "held" and blockers[i] >= 0 and i not in self._via
+                    and now_s - self._held_since.get(i, now_s) >= self.detour_after_s):
+                self._go_round(i, int(blockers[i]), finals[i], now_s)
         return decisions
+
+    def _go_round(self, i: int, blocker: int, goal: np.ndarray, now_s: float) -> None:
+        """Send a vehicle held by ``blocker`` for long by a point beside it, with room to pass at every step."""
+        here, there = self.centre_m(i), self.centre_m(blocker)
+        way = goal - here
+        length = float(np.hypot(*way))
+        if length < 1e-9 or not math.isfinite(self.radius_m(blocker)):
+            return
+        across = np.array([-way[1], way[0]]) / length
+        reach = self.required_m[i, blocker] + self.radius_m(blocker) + self.detour_m
+        points = [there + side * reach * across for side in (1.0, -1.0)]
+        if self.area_m is not None:
+            points = [q for q in points if bool(np.all((q >= 0.0) & (q <= self.area_m)))]
+        if points:
+            best = min(points, key=lambda q: float(np.hypot(*(q - here)) + np.hypot(*(goal - q))))
+            self._via[i] = (best, goal.copy())
+            self._held_since[i] = now_s
 
     def _decision(self, i: int, point: np.ndarray, blocker: int, goal: np.ndarray, may: bool,
                   now_s: float) -> Decision:
