@@ -19,6 +19,13 @@ def _rows(positions, goals, stamp_s=0.0, velocities=None):
             for i, (p, v, g) in enumerate(zip(positions, velocities, goals, strict=True))]
 
 
+def _joined(guard, rows, now_s):
+    """The first decision: each vehicle is sent the point it hovers at; acknowledged at once."""
+    for (row, *_), decision in zip(rows, guard.decide(rows, now_s), strict=True):
+        assert decision.state == "on"
+        guard.acknowledged(row, decision.seq, now_s)
+
+
 def test_each_vehicle_is_planned_with_the_smaller_of_its_own_and_the_stated_limits():
     guard = FlightGuard(GuardConfig(accel_m_s2=3.0, jerk_m_s3=0.0), min_separation_m=5.0, n_vehicles=2)
     soft = guard.set_limits(0, HorizontalLimits(10.0, 2.5, 5.0, "WPNAV_SPEED, WPNAV_ACCEL, PSC_JERK_XY"))
@@ -31,6 +38,7 @@ def test_each_vehicle_is_planned_with_the_smaller_of_its_own_and_the_stated_limi
 def test_a_late_position_holds_the_vehicle_and_is_reported():
     guard = FlightGuard(GuardConfig(position_age_s=1.0), min_separation_m=5.0, n_vehicles=2)
     positions, goals = [(0.0, 0.0), (50.0, 0.0)], [(0.0, 30.0), (50.0, 30.0)]
+    _joined(guard, _rows(positions, goals, stamp_s=9.4), now_s=9.9)
     fresh = guard.decide(_rows(positions, goals, stamp_s=9.5), now_s=10.0)
     assert [d.state for d in fresh] == ["free", "free"]
     late = guard.decide([(0, (0.0, 1.0), (0.0, 1.0), 10.9, (0.0, 30.0), True),
@@ -41,7 +49,9 @@ def test_a_late_position_holds_the_vehicle_and_is_reported():
 
 def test_an_unacknowledged_point_stays_possible_and_is_reported():
     guard = FlightGuard(GuardConfig(command_delay_s=1.0), min_separation_m=5.0, n_vehicles=2)
-    first = guard.decide(_rows([(0.0, 0.0), (60.0, 0.0)], [(20.0, 0.0), (60.0, 0.0)]), now_s=0.1)
+    rows = _rows([(0.0, 0.0), (60.0, 0.0)], [(20.0, 0.0), (60.0, 0.0)])
+    _joined(guard, rows, now_s=0.05)
+    first = guard.decide(rows, now_s=0.1)
     assert first[0].point_m == (20.0, 0.0)
     guard.unacknowledged(0, first[0].seq, now_s=1.1)
     assert guard.fleet.centre_m(0).tolist() == [20.0, 0.0]  # it may have arrived: the disc still covers it
@@ -51,6 +61,7 @@ def test_an_unacknowledged_point_stays_possible_and_is_reported():
 def test_a_vehicle_outside_its_disc_is_stopped_and_reported():
     guard = FlightGuard(GuardConfig(), min_separation_m=5.0, n_vehicles=2)
     rows = _rows([(0.0, 0.0), (60.0, 0.0)], [(10.0, 0.0), (60.0, 0.0)])
+    _joined(guard, rows, now_s=0.05)
     decision = guard.decide(rows, now_s=0.1)[0]
     guard.acknowledged(0, decision.seq, now_s=0.2)
     # it was sent 10 m and is found 25 m away at speed: braking weaker than stated
@@ -62,7 +73,9 @@ def test_a_vehicle_outside_its_disc_is_stopped_and_reported():
 
 def test_the_certified_discs_keep_the_minimum_in_a_head_on_swap():
     guard = FlightGuard(GuardConfig(margin_m=1.0), min_separation_m=5.0, n_vehicles=2)
-    guard.decide(_rows([(0.0, 0.0), (40.0, 0.0)], [(40.0, 0.0), (0.0, 0.0)]), now_s=0.1)
+    rows = _rows([(0.0, 0.0), (40.0, 0.0)], [(40.0, 0.0), (0.0, 0.0)])
+    _joined(guard, rows, now_s=0.05)
+    assert [d.state for d in guard.decide(rows, now_s=0.1)] == ["free", "free"]
     assert guard.gap_m(0, 1) >= 6.0
 
 
@@ -77,5 +90,6 @@ def test_a_climbing_vehicle_is_an_obstacle_the_others_keep_off():
     guard = FlightGuard(GuardConfig(margin_m=0.0), min_separation_m=5.0, n_vehicles=2)
     rows = [(0, (0.0, 0.0), (0.0, 0.0), 0.0, (30.0, 0.0), True),
             (1, (30.0, 0.0), (0.0, 0.0), 0.0, None, False)]
+    guard.acknowledged(0, guard.decide(rows, now_s=0.05)[0].seq, now_s=0.05)
     decision = guard.decide(rows, now_s=0.1)[0]
     assert decision.point_m is not None and np.hypot(*np.subtract(decision.point_m, (30.0, 0.0))) >= 5.0

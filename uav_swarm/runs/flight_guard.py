@@ -19,7 +19,9 @@ Examples:
     >>> guard = FlightGuard(GuardConfig(), min_separation_m=5.0, n_vehicles=2)
     >>> rows = [(0, (0.0, 0.0), (0.0, 0.0), 0.0, (40.0, 0.0), True),
     ...         (1, (40.0, 0.0), (0.0, 0.0), 0.0, (0.0, 0.0), True)]  # a head-on swap
-    >>> [d.state for d in guard.decide(rows, now_s=0.1)]
+    >>> [d.state for d in guard.decide(rows, now_s=0.1)]  # first, the points where they hover
+    ['on', 'on']
+    >>> [d.state for d in guard.decide(rows, now_s=1.2)]  # no answer within command_delay_s: may go on
     ['free', 'free']
     >>> bool(guard.gap_m(0, 1) >= 5.0)  # the certified discs keep the minimum
     True
@@ -67,10 +69,10 @@ class GuardConfig(Config):
     position_age_s: float = param(1.0, gt=0.0, le=10.0,
                                   doc="a measured position is at most this old (the vehicle's lag and the "
                                       "link); older: reported, the vehicle held, seconds")
-    position_error_m: float = param(1.0, ge=0.0, le=50.0, doc="largest error of a measured position, metres")
+    position_error_m: float = param(0.5, ge=0.0, le=50.0, doc="largest error of a measured position, metres")
     velocity_error_m_s: float = param(0.5, ge=0.0, le=20.0,
                                       doc="largest error of a measured velocity, m/s")
-    tracking_error_m: float = param(1.0, ge=0.0, le=50.0,
+    tracking_error_m: float = param(0.5, ge=0.0, le=50.0,
                                     doc="largest distance between a vehicle and its autopilot's set point "
                                         "(wind, gusts), metres")
     sidestep_after_s: float = param(2.0, ge=0.0, le=60.0,

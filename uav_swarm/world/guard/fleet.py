@@ -23,7 +23,10 @@ Examples:
     >>> bounds = Bounds(accel_m_s2=2.5, command_delay_s=0.5)
     >>> for i, x in enumerate((0.0, 40.0)):
     ...     guard.join(i, np.array([x, 0.0]), bounds, now_s=0.0, radius_m=0.0)
-    >>> [(d.state, d.point_m) for d in guard.decide(np.array([[40.0, 0.0], [0.0, 0.0]]), now_s=0.0)]  # a swap
+    >>> goals = np.array([[40.0, 0.0], [0.0, 0.0]])  # a head-on swap
+    >>> [(d.state, d.point_m) for d in guard.decide(goals, now_s=0.0)]  # first, the points they hover at
+    [('on', (0.0, 0.0)), ('on', (40.0, 0.0))]
+    >>> [(d.state, d.point_m) for d in guard.decide(goals, now_s=0.5)]
     [('free', (16.0, 0.0)), ('free', (39.0, 0.0))]
     >>> guard.radius_m(0), guard.radius_m(1)  # 16 + 1 + 5 <= 39 - 16: the discs keep 5 m
     (16.0, 1.0)
@@ -84,6 +87,7 @@ class FleetGuard:
         self._obstacle: dict[int, tuple[np.ndarray, float]] = {}
         self._held_since: dict[int, float] = {}
         self._via: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # a point round a blocker, then the goal
+        self._joining: set[int] = set()  # joined, its join point not sent yet
         self._stale: set[int] = set()
         self._outside: dict[int, np.ndarray] = {}
         self.events: list[tuple[float, int, str]] = []
@@ -93,8 +97,12 @@ class FleetGuard:
     # -- vehicles ------------------------------------------------------------------------------
     def join(self, i: int, point_m: np.ndarray, bounds: Bounds, now_s: float,
              radius_m: float = math.inf) -> None:
-        """Take vehicle ``i`` under the guard, flying to ``point_m`` (where it hovers) with its bounds."""
+        """Take vehicle ``i`` under the guard, hovering at ``point_m``, with its bounds.
+
+        Its first decision sends it ``point_m`` (state ``"on"``), so that every point it flies to was sent.
+        """
         self._hold[i] = Commitment(point_m, bounds, now_s, radius_m)
+        self._joining.add(i)
         self._obstacle.pop(i, None)
         self._held_since.pop(i, None)
 
@@ -104,6 +112,7 @@ class FleetGuard:
         self._obstacle.pop(i, None)
         self._held_since.pop(i, None)
         self._via.pop(i, None)
+        self._joining.discard(i)
         self._stale.discard(i)
         self._outside.pop(i, None)
 
@@ -243,6 +252,10 @@ class FleetGuard:
             return Decision("outside", (float(stop[0]), float(stop[1])), seq=self.sent(i, stop, now_s))
         if i in self._stale:
             return Decision("stale")
+        if i in self._joining and math.isfinite(hold.radius_m):
+            self._joining.discard(i)
+            here = hold.centre_m  # its first command: the point it joined at, so its chain starts sent
+            return Decision("on", (float(here[0]), float(here[1])), seq=self.sent(i, here, now_s))
         if np.all(np.isfinite(point)):
             self._held_since.pop(i, None)
             seq = self.sent(i, point, now_s)
