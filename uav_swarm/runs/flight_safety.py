@@ -15,8 +15,8 @@
   (:class:`uav_swarm.world.separation.SeparationMonitor`, 3-D distances of the measured positions of the
   armed vehicles);
 - before arming, each vehicle's horizontal limits are read
-  (:func:`bridge.flight.limits.read_horizontal_limits`) and the guard plans it with the smaller of those and ``[guard]``'s; one whose limits cannot be read is
-  refused unless ``[guard] stated_limits``.
+  (:func:`bridge.flight.limits.read_horizontal_limits`) and the guard plans it with the smaller of
+  those and ``[guard]``'s; one whose limits cannot be read is refused unless ``[guard] stated_limits``.
 """
 
 from __future__ import annotations

@@ -247,7 +247,8 @@ def random_trial(rng: np.random.Generator, seed: int, duration_s: float = 60.0) 
     """A trial drawn within the guard's tested bounds.
 
     2-10 vehicles, 5-20 m/s, braking 2-5 m/s^2, command latency up to 1.5 s (5 % of commands lost),
-    positions up to 1 s old, square areas from the tightest the fleet check accepts for 6 m between starts (the minimum and a metre) up to 200 m.
+    positions up to 1 s old, square areas from the tightest the fleet check accepts for 6 m between
+    starts (the minimum and a metre) up to 200 m.
     """
     n = int(rng.integers(2, 11))
     tightest = 6.0 / max_spread_m(n, 1.0, 1.0)  # the fleet check's limit for 6 m between starts

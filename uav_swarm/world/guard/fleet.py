@@ -226,7 +226,7 @@ class FleetGuard:
         return decisions
 
     def _go_round(self, i: int, blocker: int, goal: np.ndarray, now_s: float) -> None:
-        """Send a vehicle held by ``blocker`` for long by a point beside it, with room to pass at every step."""
+        """Send a vehicle held long by ``blocker`` by a point beside it, with room to pass at each step."""
         here, there = self.centre_m(i), self.centre_m(blocker)
         way = goal - here
         length = float(np.hypot(*way))
