@@ -205,3 +205,28 @@ def test_take_off_closer_than_the_minimum_and_a_negative_layer_step_are_refused_
         assert not out.exists()
     finally:
         close_all(vehicles)
+
+
+def test_a_vehicle_whose_limits_cannot_be_read_is_refused_before_arming_unless_stated(tmp_path, capsys):
+    """Its PSC_JERK_XY unanswered: refused in one line naming it (exit 2, nothing armed); flown with
+    ``[guard] stated_limits``; a vehicle that answers is planned with the smaller of its own and [guard]'s."""
+    vehicles, urls = _fleet("mixed", [launch_home(0), launch_home(1)])
+    del vehicles[0].params["PSC_JERK_XY"]  # an autopilot that stays silent for it
+    toml = tmp_path / "bridge.toml"
+    bridge_toml(toml, urls, FAST)
+    argv = ["fly", "--bridge-config", str(toml), "--out", str(tmp_path / "out"), "--duration-s", "4",
+            "--speedup", "2", "--no-telemetry"]
+    try:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "vehicle 1" in err and "PSC_JERK_XY" in err and "stated_limits" in err
+        assert all(mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in v.commands for v in vehicles)
+        assert not (tmp_path / "out").exists()
+        config = load_fly_config(None, {"bridge_config": str(toml), "duration_s": 4.0, "speedup": 2.0,
+                                        "publish_telemetry": False, "guard": {"stated_limits": True}})
+        result = fly(config, tmp_path / "out", planner=FixedTargets([(0.0, 0.0), (20.0, 0.0)]))
+    finally:
+        close_all(vehicles)
+    events = {e["event"] for e in result.summary["events"] if e.get("system_id") == 1}
+    assert "guard_limits_stated" in events
+    assert result.summary["guard_limits"]["2"]["accel_m_s2"] == 10.0  # the swift PX4's MPC_ACC_HOR

@@ -29,7 +29,7 @@ def test_random_flights_keep_the_minimum_and_reach_their_goals():
 
 
 _JAMMED = pytest.mark.xfail(strict=True, reason="liveness gap: two vehicles jammed against a parked one "
-                                                "do not get round it in 40 s (the minimum is kept)")
+                                                "do not get round it in 60 s (the minimum is kept)")
 
 
 @pytest.mark.parametrize("worst", list(WORST))

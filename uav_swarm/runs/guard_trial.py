@@ -217,13 +217,13 @@ def fly_trial(trial: Trial) -> TrialResult:
                        kinds)
 
 
-_TURN = Trial(n_uavs=2, speed_m_s=12.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
+_TURN = Trial(n_uavs=2, speed_m_s=12.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=60.0,
               area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (70.0, 112.0)),
               script=((0.0, 0, (190.0, 100.0)), (6.0, 0, (20.0, 170.0))))
-_CROSS = Trial(n_uavs=2, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
+_CROSS = Trial(n_uavs=2, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=60.0,
                area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (100.0, 0.0)),
                script=((0.0, 0, (200.0, 100.0)), (0.0, 1, (100.0, 200.0))))
-_OVERSHOOT = Trial(n_uavs=3, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=40.0,
+_OVERSHOOT = Trial(n_uavs=3, speed_m_s=15.0, accel_m_s2=2.5, latency_s=0.4, age_s=0.2, duration_s=60.0,
                    area_m=(200.0, 200.0), starts_m=((0.0, 100.0), (100.0, 100.0), (100.0, 50.0)),
                    script=((0.0, 0, (93.0, 100.0)), (3.0, 2, (100.0, 160.0)), (5.0, 0, (180.0, 100.0))))
 NAMED_TRIALS: dict[str, Trial] = {
