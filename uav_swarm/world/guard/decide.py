@@ -27,8 +27,9 @@ import numpy as np
 
 __all__ = ["choose_points", "STEPS_M"]
 
-STEPS_M = (256.0, 128.0, 64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
-"""The steps offered on the way to a goal after the whole way, metres (each half the one before)."""
+STEPS_M = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
+"""The steps offered on the way to a goal, metres (each half the one before); the whole way first when
+shorter than the first: a vehicle is never committed further ahead, so a new goal can turn it soon."""
 _DETOURS_RAD = (math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2, 3 * math.pi / 4, -3 * math.pi / 4)
 _ARRIVED_M = 1e-3
 
@@ -41,7 +42,8 @@ def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
     if length <= _ARRIVED_M:
         return np.zeros((0, 2))
     unit = way / length
-    steps = [length, *[s for s in STEPS_M if s < length]]
+    steps = [length] if length < STEPS_M[0] else []
+    steps += [s for s in STEPS_M if s < length]
     offers = [centre + unit * s for s in steps]
     if detour:
         for turn in _DETOURS_RAD:

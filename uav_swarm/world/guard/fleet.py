@@ -261,6 +261,9 @@ class FleetGuard:
             seq = self.sent(i, point, now_s)
             return Decision("free", (float(point[0]), float(point[1])), blocker, seq)
         arrived = not np.all(np.isfinite(goal)) or float(np.hypot(*(goal - hold.centre_m))) <= 1e-3
+        if arrived and may and len(hold.chain) > 1:  # its newest point was never acknowledged: again
+            here = hold.centre_m
+            return Decision("on", (float(here[0]), float(here[1])), seq=self.sent(i, here, now_s))
         if arrived or not may or not math.isfinite(hold.radius_m):
             return Decision("on" if not arrived else "idle")
         self._held_since.setdefault(i, now_s)
