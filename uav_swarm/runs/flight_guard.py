@@ -21,7 +21,7 @@ Examples:
     ...         (1, (40.0, 0.0), (0.0, 0.0), 0.0, (0.0, 0.0), True)]  # a head-on swap
     >>> [d.state for d in guard.decide(rows, now_s=0.1)]  # first, the points where they hover
     ['on', 'on']
-    >>> later = [(i, p, v, 1.1, goal, steer) for i, p, v, _, goal, steer in rows]  # positions received at 1.1 s
+    >>> later = [(i, p, v, 1.1, goal, steer) for i, p, v, _, goal, steer in rows]  # received at 1.1 s
     >>> [d.state for d in guard.decide(later, now_s=1.2)]  # no answer within command_delay_s: may go on
     ['free', 'free']
     >>> bool(guard.gap_m(0, 1) >= 5.0)  # the certified discs keep the minimum
