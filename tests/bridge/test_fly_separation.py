@@ -77,7 +77,7 @@ def test_crossing_targets_keep_the_minimum_from_take_off_to_landing(tmp_path, ki
     targets = [((n - 1 - i) * spacing_m, 0.0) for i in range(n)]
     vehicles, urls = _fleet(kind, homes)
     config = load_fly_config(None, {
-        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 90.0,
+        "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 160.0,
         "speedup": 2.0, "publish_telemetry": False, "flight": {"ready_timeout_s": 10.0},
         "guard": {"accel_m_s2": 10.0}})  # the swift peers brake at 10 m/s^2 and report it
     try:
