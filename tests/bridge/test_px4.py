@@ -66,8 +66,9 @@ def _away(vehicle, x_m: float) -> float:
 def _fly(tmp_path: Path, urls: list[str], **overrides):
     config = load_fly_config(None, {
         "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "duration_s": 40.0,
-        "speedup": 4.0, "publish_telemetry": False,
+        "speedup": 2.0, "publish_telemetry": False,  # the guard's certified steps take their time
         "flight": {"link_timeout_s": LINK_TIMEOUT_S, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
+        "guard": {"accel_m_s2": 10.0},  # the swift peers brake at 10 m/s^2 and report it
         **overrides})
     return fly(config, tmp_path / "out")
 
