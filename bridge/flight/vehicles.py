@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
 from bridge.autopilots import Conventions, conventions_for
-from bridge.config import BridgeConfig
+from bridge.config import BridgeConfig, ProtocolConfig
 from bridge.errors import BridgeError, VehicleUnreachableError
 from bridge.flight.commands import reposition
 from bridge.flight.readiness import request_message, wait_ready
@@ -266,11 +266,13 @@ class FleetVehicles:
             raise FleetError(operation, errors, results)
         return results
 
-    def reposition(self, system_id: int, x_m: float, y_m: float, z_m: float, speed_m_s: float = -1.0) -> None:
+    def reposition(self, system_id: int, x_m: float, y_m: float, z_m: float, speed_m_s: float = -1.0,
+                   protocol: ProtocolConfig | None = None) -> None:
         """Guided replanning: send one vehicle to an ENU point now (``MAV_CMD_DO_REPOSITION``).
 
         ``z_m`` is the height above the vehicle's own home; the altitude frame is its autopilot's
-        (:func:`~bridge.flight.commands.reposition`).
+        (:func:`~bridge.flight.commands.reposition`). ``protocol`` replaces the config's timing for this
+        command (a separation guard sends one copy and bounds its answer).
         """
         reposition(
             self.link(system_id),
@@ -281,7 +283,7 @@ class FleetVehicles:
             y_m,
             z_m,
             speed_m_s=speed_m_s,
-            protocol=self.config.protocol,
+            protocol=protocol or self.config.protocol,
             conventions=self.conventions(system_id),
             home_alt_m=self.home_alt_m(system_id),
         )

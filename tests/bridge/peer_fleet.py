@@ -8,14 +8,15 @@ from pathlib import Path
 
 def swift(kind: str, speed_m_s: float = 12.0) -> dict[str, float]:
     """Parameters of a swift test vehicle (``kind``: ``"ardupilot"`` or ``"px4"``): ``speed_m_s``, climb and
-    descent 8 m/s, accelerations 10 m/s^2, so that flights stay short and brake harder than the
-    separation guard assumes (``[uav] max_accel_m_s2``, 5 m/s^2)."""
+    descent 8 m/s, accelerations 10 m/s^2 and no jerk limit to speak of (100 m/s^3: the simulated vehicles
+    have none), so that flights stay short."""
     if kind == "px4":
         return {"MPC_XY_CRUISE": speed_m_s, "MPC_XY_VEL_MAX": max(speed_m_s, 12.0), "MPC_ACC_HOR": 10.0,
+                "MPC_JERK_AUTO": 100.0,
                 "MPC_TKO_SPEED": 8.0, "MPC_Z_V_AUTO_UP": 8.0, "MPC_Z_V_AUTO_DN": 8.0, "MPC_ACC_UP_MAX": 10.0,
                 "MPC_ACC_DOWN_MAX": 10.0}
     return {"WPNAV_SPEED": speed_m_s * 100, "WPNAV_ACCEL": 1000.0, "WPNAV_SPEED_UP": 800.0,
-            "WPNAV_SPEED_DN": 800.0, "WPNAV_ACCEL_Z": 1000.0}
+            "WPNAV_SPEED_DN": 800.0, "WPNAV_ACCEL_Z": 1000.0, "PSC_JERK_XY": 100.0}
 
 
 def bridge_toml(path: Path, urls: list[str], protocol: Mapping[str, float]) -> Path:

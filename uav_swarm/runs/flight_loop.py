@@ -48,7 +48,6 @@ __all__ = ["Flight"]
 
 logger = logging.getLogger(__name__)
 
-_RESEND_M = 0.5  # a target moved less than this is not sent again
 _HOME_M = 2.0  # a vehicle returning this close to its home (horizontally) is sent RTL
 _TICK_S = 0.02  # longest sleep of the loop (wall clock)
 _SILENT = ("not found", "lost")  # never heard, or silent since: taken back when heard
@@ -62,14 +61,13 @@ class _Vehicle:
     uav_id: int
     status: str = "waiting"
     target_m: tuple[float, float, float] | None = None
-    sent_m: tuple[float, float, float] | None = None
     seq: int = 0
     in_auto: bool = False
     lost_at_s: float = 0.0
     job: Future | None = None
+    guard_job: Future | None = None
     command_failures: int = 0
     launches: int = 0
-    sent_state: str = ""
 
 
 class Flight:
@@ -158,7 +156,6 @@ class Flight:
         vehicle.status = "launching"
         vehicle.launches += 1
         vehicle.in_auto = False
-        vehicle.sent_m = None
         vehicle.job = self._pool.submit(self._launch_one, vehicle, home)
 
     def _ready(self, vehicle: _Vehicle) -> ReportedHome:
@@ -347,8 +344,13 @@ class Flight:
             self._guard_tick()
 
     def _guard_tick(self) -> None:
-        """The guard's decisions on the measured positions; a changed point is sent to its vehicle."""
-        flying = []
+        """The guard's decisions on the measured positions; each point it gives is sent to its vehicle.
+
+        A guard point goes out at once on its own job (one copy, answered within ``[guard]
+        command_delay_s``), never behind another command to that vehicle: while one is being sent the
+        vehicle is ``busy`` and the guard sends it nothing new (it keeps flying to a point it can stop at).
+        """
+        flying, busy = [], []
         for vehicle in self.vehicles:
             state = self._state(vehicle)
             if state is None or state.x_m is None:
@@ -357,32 +359,37 @@ class Flight:
             if vehicle.status in ("live", "launching") or returning:
                 goal = vehicle.target_m[:2] if vehicle.status == "live" and vehicle.target_m else None
                 flying.append((vehicle.system_id, state, goal, vehicle.status == "live"))
-        for sid, decision in self.safety.decide(flying, self._clock_s, time.monotonic()):
+            if vehicle.guard_job is not None and not vehicle.guard_job.done():
+                busy.append(vehicle.system_id)
+        for sid, decision in self.safety.decide(flying, self._clock_s, time.time(), busy):
             vehicle = self._by_sid[sid]
             if decision.point_m is None or vehicle.status != "live":
                 continue
             point = (*decision.point_m, self.safety.cruise_alt_m[sid])
-            same = (vehicle.sent_m is not None and vehicle.sent_state == decision.state
-                    and np.hypot(point[0] - vehicle.sent_m[0], point[1] - vehicle.sent_m[1]) <= _RESEND_M)
-            if not same and (vehicle.job is None or vehicle.job.done()):
-                vehicle.job = self._pool.submit(self._send_target, vehicle, point, decision.state)
+            vehicle.guard_job = self._pool.submit(self._send_point, vehicle, point, decision.seq,
+                                                  decision.state)
 
-    def _send_target(self, vehicle: _Vehicle, target: tuple[float, float, float],
-                     state: str = "free") -> None:
+    def _send_point(self, vehicle: _Vehicle, target: tuple[float, float, float], seq: int,
+                    state: str) -> None:
+        """Send one guard point (one copy) and tell the guard whether it was acknowledged in its bound."""
         sid = vehicle.system_id
+        guard = self.config.guard
+        protocol = self.bridge.protocol.replace(max_retries=0, handshake_timeout_s=guard.command_delay_s)
         try:
-            if self.config.mode == "guided" or state != "free":  # a hold is a guided reposition
-                self.fleet.reposition(sid, *target, speed_m_s=self.config.uav.max_speed_m_s)  # the planner's
+            if self.config.mode == "guided" or state != "free":  # a stop is a guided reposition
+                self.fleet.reposition(sid, *target, speed_m_s=self.config.uav.max_speed_m_s,  # the planner's
+                                      protocol=protocol)
                 vehicle.in_auto = False
             else:
                 self._fly_mission(vehicle, target)
         except BridgeError as exc:
             vehicle.command_failures += 1
-            logger.warning("vehicle %d: target (%.1f, %.1f, %.1f) not sent: %s: %s", sid, *target,
+            self.safety.unacknowledged(sid, seq, time.time())
+            logger.warning("vehicle %d: point (%.1f, %.1f, %.1f) not acknowledged: %s: %s", sid, *target,
                            type(exc).__name__, exc)
             self._event("command_failed", vehicle, f"{type(exc).__name__}: {exc}")
             return
-        vehicle.sent_m, vehicle.sent_state = target, state
+        self.safety.acknowledged(sid, seq, time.time())
 
     def _fly_mission(self, vehicle: _Vehicle, target: tuple[float, float, float]) -> None:
         from pymavlink.dialects.v20.common import MAV_CMD_NAV_WAYPOINT as NAV_WAYPOINT
@@ -491,7 +498,7 @@ class Flight:
         """
         action = self.config.flight.end_action
         self._stop.set()
-        wait([v.job for v in self.vehicles if v.job is not None])
+        wait([job for v in self.vehicles for job in (v.job, v.guard_job) if job is not None])
         if self._refused:  # refused before any vehicle was armed: nothing to end
             return
         if action == "rtl":
@@ -529,7 +536,8 @@ class Flight:
                 state, home = self._state(vehicle), homes[vehicle.system_id]
                 over = (state is not None and state.x_m is not None and state.y_m is not None
                         and np.hypot(state.x_m - home[0], state.y_m - home[1]) <= _HOME_M)
-                if over and (vehicle.job is None or vehicle.job.done()):
+                idle = all(job is None or job.done() for job in (vehicle.job, vehicle.guard_job))
+                if over and idle:  # its RTL after its last guard point, never before
                     vehicle.status = "ending"
                     vehicle.job = self._pool.submit(self._end_one, vehicle, "rtl")
             time.sleep(_TICK_S)

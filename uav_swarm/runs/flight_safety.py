@@ -9,9 +9,14 @@
   the others' take-off positions);
 - :meth:`FlightSafety.takeoff_gate`: its turn to arm and climb;
 - :meth:`FlightSafety.decide` (``[guard] rate_hz`` times a second): the guard's decision for every
-  airborne vehicle on its measured position (:mod:`uav_swarm.runs.flight_guard`), each new hold an
-  event, and the separation record (:class:`uav_swarm.world.separation.SeparationMonitor`, 3-D
-  distances of the measured positions of the armed vehicles).
+  airborne vehicle on its measured position and the time it was true (:mod:`uav_swarm.runs.flight_guard`),
+  each new hold an event, each bound found broken (a stale position, a point not acknowledged, a vehicle
+  outside its certified disc) an event ``guard_<kind>`` and counted, and the separation record
+  (:class:`uav_swarm.world.separation.SeparationMonitor`, 3-D distances of the measured positions of the
+  armed vehicles);
+- before arming, each vehicle's horizontal limits are read
+  (:func:`bridge.flight.limits.read_horizontal_limits`) and the guard plans it with the smaller of
+  those and ``[guard]``'s; one whose limits cannot be read is refused unless ``[guard] stated_limits``.
 """
 
 from __future__ import annotations
@@ -23,6 +28,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from bridge.flight.limits import read_horizontal_limits
+from bridge.flight.params import ParamError
 from bridge.flight.preflight import PreflightError, PreflightReport, preflight
 from bridge.flight.vehicles import FleetError
 from bridge.geo import geodetic_to_enu
@@ -73,14 +80,17 @@ class FlightSafety:
         self._slots = dict(zip(ids, grid_slots_m(config.launch, n), strict=True))
         self.homes_m: dict[int, tuple[float, float]] = {}
         self.reports: dict[int, PreflightReport] = {}
+        layers = config.uav.altitudes_m(n) if config.uav.layer_step_m > 0 else None
         area = (config.task.scenario.width_m, config.task.scenario.height_m)
-        self.guard = FlightGuard(config.guard, config.uav, area)
+        self.guard = FlightGuard(config.guard, config.uav.min_separation_m, n, layers, area)
+        self._seen_events = 0
+        self.guard_events: dict[str, int] = {"position_stale": 0, "command_unacknowledged": 0,
+                                             "outside_bounds": 0}
         self.monitor = SeparationMonitor(config.uav.min_separation_m)
         self._gate = TakeoffGate(cancel, self._column_clear)
         self._airborne: dict[int, tuple[float, float]] = {}
         self._lock = threading.Lock()
         self._held: set[int] = set()
-        self._index: dict[int, int] = {}
 
     # -- before arming --------------------------------------------------------------------------
     def home_m(self, reported: ReportedHome) -> tuple[float, float]:
@@ -125,7 +135,29 @@ class FlightSafety:
         self.reports[system_id] = report
         if report.failsafe_set:
             self._event("failsafe_set", system_id, report.failsafe)
+        self._read_limits(system_id)
         return report
+
+    def _read_limits(self, system_id: int) -> None:
+        """The vehicle's own horizontal limits into the guard; refused when unreadable and not stated."""
+        guard = self.config.guard
+        try:
+            limits = read_horizontal_limits(self.fleet.link(system_id), system_id,
+                                            self.fleet.conventions(system_id), self.bridge.protocol)
+        except ParamError as exc:
+            if not guard.stated_limits:
+                raise PreflightError(system_id, f"its horizontal limits cannot be read ({exc}); state them "
+                                                f"with [guard] stated_limits = true (accel_m_s2 = "
+                                                f"{guard.accel_m_s2:g}) or fix the link; nothing was armed"
+                                     ) from None
+            self._event("guard_limits_stated", system_id, f"{exc}; flown with [guard] accel_m_s2 = "
+                                                          f"{guard.accel_m_s2:g}")
+            self.guard.set_limits(self._uav_of[system_id], None)
+            return
+        bounds = self.guard.set_limits(self._uav_of[system_id], limits)
+        self._event("guard_limits", system_id, f"{limits.source}: {limits.speed_m_s:g} m/s, "
+                                               f"{limits.accel_m_s2:g} m/s^2, {limits.jerk_m_s3:g} m/s^3; "
+                                               f"planned with {bounds.accel_m_s2:g} m/s^2")
 
     # -- take-off -------------------------------------------------------------------------------
     def takeoff_gate(self, system_id: int) -> Callable[[], AbstractContextManager[None]]:
@@ -143,14 +175,15 @@ class FlightSafety:
 
     # -- in flight ------------------------------------------------------------------------------
     def decide(self, flying: Sequence[tuple[int, VehicleState, tuple[float, float] | None, bool]],
-               clock_s: float, now_s: float) -> list[tuple[int, GuardDecision]]:
+               clock_s: float, now_s: float, busy: Sequence[int] = ()) -> list[tuple[int, GuardDecision]]:
         """The guard's decision for each vehicle in ``flying``, and one separation sample.
 
         Args:
             flying: ``(system_id, state, goal, steerable)`` of each vehicle with a position; ``goal``
-                its planned (x, y) or None, ``steerable`` False while it climbs.
+                its planned (x, y) or None, ``steerable`` False while it climbs or lands.
             clock_s: The flight's clock (crowd time), for the separation record.
-            now_s: A monotonic clock, seconds.
+            now_s: Unix time (the clock of the positions' receipt times), seconds.
+            busy: System ids whose previous guard command is still being sent.
         """
         armed = [(sid, s) for sid, s, _, _ in flying if s.armed]
         with self._lock:
@@ -160,22 +193,18 @@ class FlightSafety:
             self.monitor.observe(clock_s, positions, [self._uav_of[sid] for sid, _ in armed])
         if not flying:
             return []
-        p = np.array([(s.x_m, s.y_m) for _, s, _, _ in flying], dtype=np.float64)
-        v = np.array([(s.vx_m_s or 0.0, s.vy_m_s or 0.0) for _, s, _, _ in flying], dtype=np.float64)
-        index = {sid: i for i, (sid, _, _, _) in enumerate(flying)}
-        if index != self._index:  # the guard remembers vehicles by row
-            for i in range(len(flying)):
-                self.guard.forget(i)
-            self._index = index
-        decisions = self.guard.decide(p, v, [goal for _, _, goal, _ in flying],
-                                      [steer for _, _, _, steer in flying], now_s)
+        measured = [(self._uav_of[sid], (float(s.x_m or 0.0), float(s.y_m or 0.0)),
+                     (float(s.vx_m_s or 0.0), float(s.vy_m_s or 0.0)),
+                     float(s.position_time_s or 0.0), goal, steer) for sid, s, goal, steer in flying]
+        decisions = self.guard.decide(measured, now_s, [self._uav_of[sid] for sid in busy])
+        self._report_events()
         out = []
         for (sid, _, _, _), decision in zip(flying, decisions, strict=True):
-            held = decision.state == "held"
+            held = decision.state in ("held", "stale", "outside")
             if held and sid not in self._held:
                 self.monitor.count_holds(1)
-                blocker = flying[decision.blocker][0] if decision.blocker >= 0 else None
-                detail = f"held for vehicle {blocker}" if blocker is not None else "held"
+                blocker = self._sid_of(decision.blocker) if decision.blocker >= 0 else None
+                detail = f"{decision.state} for vehicle {blocker}" if blocker is not None else decision.state
                 logger.info("vehicle %d: %s (separation guard)", sid, detail)
                 self._event("guard_hold", sid, detail)
             if held:
@@ -185,9 +214,34 @@ class FlightSafety:
             out.append((sid, decision))
         return out
 
+    def _sid_of(self, row: int) -> int | None:
+        return next((sid for sid, k in self._uav_of.items() if k == row), None)
+
+    def _report_events(self) -> None:
+        """Each bound the guard found broken since the last decision: an event, a warning and a count."""
+        events = self.guard.fleet.events
+        for _, row, kind in events[self._seen_events:]:
+            sid = self._sid_of(row)
+            self.guard_events[kind] = self.guard_events.get(kind, 0) + 1
+            logger.warning("vehicle %s: %s (separation guard: outside its stated bounds)", sid, kind)
+            self._event(f"guard_{kind}", sid if sid is not None else -1, kind)
+        self._seen_events = len(events)
+
+    def acknowledged(self, system_id: int, seq: int, now_s: float) -> None:
+        """A guard point was acknowledged (Unix time)."""
+        self.guard.acknowledged(self._uav_of[system_id], seq, now_s)
+
+    def unacknowledged(self, system_id: int, seq: int, now_s: float) -> None:
+        """A guard point got no acknowledgement within ``[guard] command_delay_s``."""
+        self.guard.unacknowledged(self._uav_of[system_id], seq, now_s)
+        self._report_events()
+
     def summary(self) -> dict[str, Any]:
         """The separation record, the launch positions and the pre-flight reports, for ``summary.json``."""
-        return {"separation": self.monitor.summary(),
+        separation = self.monitor.summary() | {"guard_events": dict(self.guard_events)}
+        limits = {str(sid): self.guard.limits[k].to_dict() for sid, k in sorted(self._uav_of.items())
+                  if k in self.guard.limits}
+        return {"separation": separation, "guard_limits": limits,
                 "launch": {str(sid): {"x_m": round(x, 2), "y_m": round(y, 2),
                                       "return_alt_m": self.return_alt_m.get(sid)}
                            for sid, (x, y) in sorted(self.homes_m.items())},

@@ -29,92 +29,20 @@ Examples:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from uav_swarm.world.guard.kernels import decide_world
+from uav_swarm.world.guard.reach import (
+    braking_paths,
+    path_distances_m,
+    segment_distances_m,
+    stopping_distance_m,
+)
 from uav_swarm.world.separation import pair_distances_m, required_distances_m
 from uav_swarm.world.uav import UAVConfig, fly_step
 
 __all__ = ["braking_paths", "guard_commands", "path_distances_m", "stopping_distance_m"]
 
-_TURNS_RAD = (0.0, math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2)  # the command, then around
-
-
-def stopping_distance_m(speed_m_s: np.ndarray, max_accel_m_s2: float, dt_s: float) -> np.ndarray:
-    """Distance flown while braking at ``max_accel_m_s2`` in steps of ``dt_s`` (the kinematics of fly_step).
-
-    After step ``j`` the speed is ``s - j a dt`` (while positive) and the UAV moves that times ``dt``.
-
-    Examples:
-        >>> float(stopping_distance_m(np.array(10.0), 5.0, 0.1))  # about v^2 / 2a = 10 m
-        9.5
-    """
-    step = max_accel_m_s2 * dt_s
-    steps = np.floor(np.asarray(speed_m_s, dtype=np.float64) / step)
-    return dt_s * (steps * speed_m_s - step * steps * (steps + 1.0) / 2.0)
-
-
-def braking_paths(positions_m: np.ndarray, velocities_m_s: np.ndarray, dt_s: float, config: UAVConfig,
-                  upper_m: np.ndarray | None = None) -> np.ndarray:
-    """(..., K, 3, 2) polyline each UAV flies if it brakes from now on: start, wall hit (or end), end.
-
-    The ray of the stopping distance, clamped to the area ``[0, upper_m]`` as fly_step clamps (a UAV that
-    meets a wall slides along it, never beyond the clamped end).
-    """
-    p = np.asarray(positions_m, dtype=np.float64)
-    v = np.asarray(velocities_m_s, dtype=np.float64)
-    speed = np.hypot(v[..., 0], v[..., 1])
-    reach = stopping_distance_m(speed, config.max_accel_m_s2, dt_s)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = np.where(speed[..., None] > 1e-12, v / speed[..., None], 0.0)
-    end = p + unit * reach[..., None]
-    if upper_m is None:
-        return np.stack([p, end, end], axis=-2)
-    upper = np.asarray(upper_m, dtype=np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        to_wall = np.where(unit > 0, (upper - p) / unit, np.where(unit < 0, -p / unit, np.inf))
-    hit = np.minimum(to_wall.min(axis=-1), reach)
-    wall = p + unit * hit[..., None]
-    return np.stack([p, wall, np.clip(end, 0.0, upper)], axis=-2)
-
-
-def path_distances_m(paths_a: np.ndarray, paths_b: np.ndarray) -> np.ndarray:
-    """(..., A, B) least distance between polylines ``paths_a`` (..., A, P, 2) and ``paths_b`` (..., B, Q, 2).
-
-    Examples:
-        >>> a = np.array([[[0.0, 0.0], [10.0, 0.0]]])
-        >>> b = np.array([[[5.0, 3.0], [5.0, 9.0]], [[5.0, -1.0], [5.0, 1.0]]])
-        >>> path_distances_m(a, b).tolist()
-        [[3.0, 0.0]]
-    """
-    a0, a1 = paths_a[..., :, None, :-1, None, :], paths_a[..., :, None, 1:, None, :]
-    b0, b1 = paths_b[..., None, :, None, :-1, :], paths_b[..., None, :, None, 1:, :]
-    return _segment_distances(a0, a1, b0, b1).min(axis=(-2, -1))
-
-
-def _segment_distances(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
-    """Least distance between segments [a0, a1] and [b0, b1] (broadcast, last axis x/y)."""
-    d = np.minimum(np.minimum(_point_segment(a0, b0, b1), _point_segment(a1, b0, b1)),
-                   np.minimum(_point_segment(b0, a0, a1), _point_segment(b1, a0, a1)))
-    crossing = ((_orientation(a0, a1, b0) * _orientation(a0, a1, b1) < 0)
-                & (_orientation(b0, b1, a0) * _orientation(b0, b1, a1) < 0))
-    return np.where(crossing, 0.0, d)
-
-
-def _point_segment(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    along = end - start
-    length2 = np.einsum("...c,...c->...", along, along)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(length2 > 0, np.einsum("...c,...c->...", point - start, along) / length2, 0.0)
-    nearest = start + np.clip(t, 0.0, 1.0)[..., None] * along
-    gap = point - nearest
-    return np.sqrt(np.einsum("...c,...c->...", gap, gap))
-
-
-def _orientation(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    ab, ac = b - a, c - a
-    return ab[..., 0] * ac[..., 1] - ab[..., 1] * ac[..., 0]
 
 
 def guard_commands(positions_m: np.ndarray, velocities_m_s: np.ndarray, command_m_s: np.ndarray, dt_s: float,
@@ -181,7 +109,7 @@ def _pair_gaps(paths_a: np.ndarray, paths_b: np.ndarray, world: np.ndarray, firs
                second: np.ndarray) -> np.ndarray:
     """(M,) least distance between ``paths_a[world, first]`` and ``paths_b[world, second]`` (polylines)."""
     a, b = paths_a[world, first], paths_b[world, second]  # (M, P, 2)
-    gaps = _segment_distances(a[:, :-1, None], a[:, 1:, None], b[:, None, :-1], b[:, None, 1:])
+    gaps = segment_distances_m(a[:, :-1, None], a[:, 1:, None], b[:, None, :-1], b[:, None, 1:])
     return gaps.min(axis=(-2, -1))
 
 
@@ -193,26 +121,10 @@ def _paths(p: np.ndarray, p_next: np.ndarray, v_next: np.ndarray, dt_s: float, c
 
 def _sequential(p: np.ndarray, v: np.ndarray, wanted: np.ndarray, current: np.ndarray, threshold: np.ndarray,
                 dt_s: float, config: UAVConfig, area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Decide UAV by UAV (priority = index) for the worlds where some command conflicts."""
-    n_worlds, k = p.shape[:2]
-    turns = np.array([[[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]] for t in _TURNS_RAD])
-    options = np.einsum("tij,bkj->bkti", turns, wanted)  # (B, K, T, 2): the command and its turns
-    options = np.concatenate([options, np.zeros((n_worlds, k, 1, 2))], axis=2)  # braking, always last
-    decided = current.copy()  # (B, K, 4, 2): decided paths, current braking paths for the undecided
-    safe = np.zeros_like(wanted)
-    held = np.zeros((n_worlds, k), dtype=bool)
-    rows = np.arange(n_worlds)
-    for uav in range(k):
-        here = np.repeat(p[:, uav:uav + 1], options.shape[2], axis=1)
-        p_next, v_next = fly_step(here, np.repeat(v[:, uav:uav + 1], options.shape[2], axis=1),
-                                  options[:, uav], dt_s, config, area)
-        paths = _paths(here, p_next, v_next, dt_s, config, area)  # (B, T + 1, 4, 2)
-        gaps = path_distances_m(paths, decided)  # (B, T + 1, K)
-        ok = (gaps >= threshold[:, uav][:, None, :]) | (np.arange(k) == uav)
-        ok = ok.all(axis=-1)
-        ok[:, -1] = True
-        choice = np.argmax(ok, axis=1)  # the first option that keeps every gap
-        safe[:, uav] = options[rows, uav, choice]
-        held[:, uav] = choice > 0
-        decided[:, uav] = paths[rows, choice]
+    """Decide UAV by UAV (priority = index) for the worlds where some command conflicts (compiled)."""
+    safe, held = np.zeros_like(wanted), np.zeros(wanted.shape[:2], dtype=bool)
+    for world in range(p.shape[0]):
+        safe[world], held[world] = decide_world(p[world], v[world], wanted[world], current[world],
+                                                threshold[world], dt_s, config.max_accel_m_s2,
+                                                config.max_speed_m_s, area)
     return safe, held

@@ -1,0 +1,76 @@
+"""The separation guard: one rule that keeps every pair of vehicles at least the minimum apart, and its proof.
+
+**The rule** (both models). Vehicles are decided one after the other (their order is their priority). A
+vehicle's new command is accepted only if, after it, its *fallback set* (everywhere it can be from now on
+if it is given nothing more) keeps the required distance from the fallback set of every other vehicle:
+the new set of one decided before it, the current set of one not decided yet (which is where that one
+stays if it is given nothing). A refused vehicle is offered other commands (turned round what blocks
+it, shorter steps) and otherwise keeps what it has. If every pair of fallback sets is apart when the
+vehicles start, it stays so after every decision (each accepted set was checked against every set that
+can still be in force), and every vehicle is always inside its fallback set: no pair ever comes closer
+than the minimum. Two reachable-set models fill that in:
+
+- **The env** (:mod:`uav_swarm.world.step_guard`, zero delay, exact states): the kinematics are
+  :func:`uav_swarm.world.uav.fly_step` and a command acts at once, so the fallback set is the braking
+  path (this step, then braking at ``max_accel_m_s2``), exact; :mod:`uav_swarm.world.guard.kernels`
+  decides a world in compiled loops.
+- **A real autopilot, late and measured with errors** (:class:`FleetGuard`, fed by ``fly``): the
+  fallback set is a certified disc (:mod:`uav_swarm.world.guard.holds`), proved below.
+
+**The bounds** (each vehicle's :class:`Bounds`; ``fly`` reads ``a`` and ``j`` from the vehicle and takes the
+smaller of those and its ``[guard]`` settings):
+
+(B1) Its autopilot flies a point ``c`` with a stopping controller whose acceleration, braking and
+     turning included, is at most ``a``: it wants the speed ``min(v_max, sqrt(2 a d))`` toward ``c``
+     (``d`` the distance) and changes its velocity toward that at its limit (ArduCopter's and PX4's
+     position controllers, :class:`bridge.simulated.dynamics.PointMassCopter`); a jerk limit ``j``
+     delays the braking by at most ``a / j`` (its run-on ``|v| a / j``).
+(B2) The true position is within ``e_t`` of the controller's set point (wind, gusts); a measured
+     position within ``e_p`` of the truth, a measured velocity within ``e_v``.
+(B3) Commands to a vehicle take effect in the order they are sent: a new point is sent only once the
+     previous one is acknowledged or ``command_delay_s`` has passed since it was sent (a command takes
+     effect, and its acknowledgement is back, within ``command_delay_s``; one not back may or may not
+     have arrived).
+(B4) A measurement used was true no earlier than the time given with it.
+
+**Lemma (energy).** Under (B1), for a vehicle flying to ``c``, ``E = |x - c| + |v|^2 / (2 a)`` never grows.
+*Proof.* Write ``r`` for the unit vector from ``c`` to ``x``, ``u_r = v . r`` and ``w = -s r`` the wanted
+velocity (``s = min(v_max, sqrt(2 a d))``, ``d = |x - c|``). While the velocity equals ``w``, ``|x - c|``
+falls at ``s`` and ``|v|^2 / (2 a)`` is constant (at ``v_max``) or equals ``d`` (on ``sqrt(2 a d)``):
+``dE/dt`` is ``-s`` or ``-2 s``. Otherwise the acceleration is ``a (w - v) / |w - v|`` and
+``dE/dt = u_r + v . (w - v) / |w - v| = u_r - (s u_r + |v|^2) / |w - v|`` with
+``|w - v|^2 = s^2 + 2 s u_r + |v|^2``. For ``u_r >= 0`` squaring gives
+``u_r^2 |w - v|^2 <= (s u_r + |v|^2)^2``
+(term by term, as ``u_r <= |v|``); for ``u_r = -q < 0`` it holds outright when ``s q <= |v|^2`` and, when
+``s q > |v|^2``, squaring leaves ``|v|^2 (|v|^2 - q^2) <= 2 s q (|v|^2 - q^2)``, true as ``2 s q > |v|^2``.
+So ``dE/dt <= 0``, and the vehicle never gets further than ``E`` from ``c``. (The discrete controller of
+:class:`~bridge.simulated.dynamics.PointMassCopter` was checked in 1,500 random states: ``E`` never grew.)
+A controller that plans with more acceleration than ``a`` keeps its own, smaller ``E``; one that brakes
+more weakly than it plans is outside (B1).
+
+**The certified disc.** Let the vehicle's chain be the points it may fly to: the last one known in effect
+and those sent after it, ``c_0, ..., c_n``. Switching from ``c_i`` to ``c_{i+1}`` raises ``E`` by at most
+``|c_i - c_{i+1}|`` (triangle inequality), so, by (B3) and the lemma, whatever arrives when, the vehicle
+stays within ``R = max_i (E_i + |c_i - c_{i+1}| + ... + |c_{n-1} - c_n|)`` of ``c_n``, with ``E_i`` its energy
+towards ``c_i`` at any instant the chain held. From a measurement, (B2) and (B4) bound ``E_i`` by
+``|x_m - c_i| + e_p + e_t + (|v_m| + e_v)^2 / (2 a) + (|v_m| + e_v) a / j``, and the true position lies
+``e_t`` further: :meth:`Commitment.fresh_radius_m`. Sending a new point ``c`` moves the disc onto it with
+radius ``R + |c_n - c|``, which contains the old disc; a hold sends nothing. Hence the **invariant**: each
+vehicle is inside its disc at all times, however late or lost its commands and its positions are, and a
+pair whose discs keep ``d`` keeps ``d``. The rule above keeps the discs apart.
+
+**Outside the bounds** nothing is promised; what can be seen is reported and answered
+(:class:`FleetGuard`): a position older than ``position_age_s`` (the vehicle is sent nothing new: its
+disc needs no measurement), a point not acknowledged within ``command_delay_s`` (kept as possible), a
+vehicle measured outside its disc (weaker braking, stronger wind, larger errors: stopped where it is,
+its disc widened at half the acceleration, the others kept off it).
+
+Anchors: buffered Voronoi cells (Zhou et al. 2017: each robot stays in a cell shrunk by its safety
+radius), ORCA (reciprocal velocity obstacles with stated bounds), Skybrush's show validation (minimum
+distance, speed and acceleration checked on every plan); ideas only.
+"""
+
+from uav_swarm.world.guard.fleet import Bounds, Decision, FleetGuard
+from uav_swarm.world.guard.holds import Commitment
+
+__all__ = ["Bounds", "Commitment", "Decision", "FleetGuard"]

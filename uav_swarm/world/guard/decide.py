@@ -1,0 +1,103 @@
+"""The guard's decision: which vehicle gets which next point, so that every certified disc keeps the minimum.
+
+:func:`choose_points` decides one vehicle after the other (their order is their priority). A vehicle
+that may be sent a point (:meth:`~uav_swarm.world.guard.holds.Commitment.may_send`) and has a goal
+elsewhere is offered points on the way from its current point to its goal, the whole way first, then
+shorter steps; a vehicle held for ``detour_after_s`` is also offered steps turned away from that way
+(it goes round what blocks it). The first point whose certified disc (centre the point, radius
+``radius + step``) keeps the required distance to the disc of every other vehicle is chosen: to the
+new disc of a vehicle decided before it, to the current disc of one not decided yet (which it keeps
+if it is sent nothing: that is its hold). A pair already closer than that (a start inside it, a bound
+broken) may only keep or widen its gap. No point passes: the vehicle is **held**: it is sent nothing
+and keeps flying to the point it has, inside its disc.
+
+Examples:
+    >>> centres = np.array([[0.0, 0.0], [20.0, 0.0]])
+    >>> points, radii, blockers = choose_points(centres, np.zeros(2), np.array([[40.0, 0.0], [20.0, 0.0]]),
+    ...                                         np.ones(2, bool), np.full((2, 2), 5.0), np.zeros(2, bool))
+    >>> points[0].tolist(), float(radii[0]), int(blockers[0])  # 4 m on: its disc reaches 12 m from the other
+    ([4.0, 0.0], 4.0, 1)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["choose_points", "STEPS_M"]
+
+STEPS_M = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
+"""The steps offered on the way to a goal, metres (each half the one before); the whole way first when
+shorter than the first: a vehicle is never committed further ahead, so a new goal can turn it soon."""
+_DETOURS_RAD = (math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2, 3 * math.pi / 4, -3 * math.pi / 4)
+_ARRIVED_M = 1e-3
+
+
+def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
+            area_m: np.ndarray | None = None) -> np.ndarray:
+    """(M, 2) points offered to one vehicle, best first (module docstring)."""
+    way = goal - centre
+    length = float(np.hypot(*way))
+    if length <= _ARRIVED_M:
+        return np.zeros((0, 2))
+    unit = way / length
+    steps = [length] if length < STEPS_M[0] else []
+    steps += [s for s in STEPS_M if s < length]
+    offers = [centre + unit * s for s in steps]
+    if detour:
+        for turn in _DETOURS_RAD:
+            c, s = math.cos(turn), math.sin(turn)
+            turned = np.array([c * unit[0] - s * unit[1], s * unit[0] + c * unit[1]])
+            turns = [centre + turned * step for step in (detour_m, detour_m / 2, detour_m / 4)]
+            offers += [q for q in turns if area_m is None or bool(np.all((q >= 0.0) & (q <= area_m)))]
+    return np.asarray(offers)
+
+
+def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarray, may_send: np.ndarray,
+                  required_m: np.ndarray, detour: np.ndarray, detour_m: float = 5.0,
+                  area_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each vehicle's next point, in priority order (module docstring).
+
+    Args:
+        centres_m: (K, 2) each certified disc's centre (the newest point sent).
+        radii_m: (K,) their radii (``inf``: unknown, a vehicle never measured).
+        goals_m: (K, 2) where each wants to go (NaN: nowhere; it keeps its point).
+        may_send: (K,) whether a new point may be sent to it now.
+        required_m: (K, K) distance each pair's discs must keep (the minimum, per altitude layers,
+            plus the margin).
+        detour: (K,) whether it may also be offered steps turned away from its way.
+        detour_m: Length of the longest turned step, metres.
+        area_m: (2,) the area's upper corner: turned steps stay in ``[0, area_m]`` (None: anywhere).
+
+    Returns:
+        ``points`` (K, 2) the point to send (NaN: none), ``radii`` (K,) the certified radii after, and
+        ``blockers`` (K,) the vehicle whose disc refused its first offer (-1: none).
+    """
+    centres = np.array(centres_m, dtype=np.float64)
+    radii = np.array(radii_m, dtype=np.float64)
+    k = centres.shape[0]
+    points = np.full((k, 2), np.nan)
+    blockers = np.full(k, -1)
+    if k == 0:
+        return points, radii, blockers
+    gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
+    threshold = np.minimum(required_m, gaps - 1e-9)  # a pair inside may only keep or widen its gap
+    others = ~np.eye(k, dtype=bool)
+    for i in range(k):
+        goal = goals_m[i]
+        if not may_send[i] or not np.all(np.isfinite(goal)) or not math.isfinite(radii[i]):
+            continue
+        offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m)
+        if offers.shape[0] == 0:
+            continue
+        grown = radii[i] + np.hypot(*(offers - centres[i]).T)  # (M,)
+        apart = np.hypot(*(offers[:, None] - centres[None]).transpose(2, 0, 1)) - grown[:, None] - radii[None]
+        ok = (apart >= threshold[i][None]) | ~others[i][None]  # (M, K)
+        fine = ok.all(axis=1)
+        if not fine[0]:
+            blockers[i] = int(np.argmin(np.where(others[i], apart[0] - threshold[i], np.inf)))
+        if fine.any():
+            m = int(np.argmax(fine))
+            points[i], radii[i], centres[i] = offers[m], grown[m], offers[m]
+    return points, radii, blockers
