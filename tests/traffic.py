@@ -1,9 +1,11 @@
 """What a process sent, as strace saw it: every connect and send of it and all its threads.
 
 :func:`strace_prefix` runs a command under ``strace -f``; :func:`destinations` lists the IP addresses it
-connected or sent to; :func:`off_loopback` lists the calls that reached beyond this machine or asked a
-resolver, a DNS query whatever the resolver's address (port 53, also on 127.0.0.53, whose local
-resolver forwards the query; the nscd socket; systemd-resolved's socket).
+connected or sent to; :func:`off_loopback` lists the calls that reached beyond this machine or reached a
+name resolver, a DNS query whatever the resolver's address: port 53 (also 127.0.0.53, whose local
+resolver forwards the query), the nscd socket, systemd-resolved's socket. A connect that failed (no nscd
+running: ``= -1 ENOENT``) sent nothing; the C library then reads its files (``/etc/hosts``,
+``/etc/passwd``: Fast DDS looks its user up) and asks DNS only for a name they do not hold.
 """
 
 from __future__ import annotations
@@ -50,7 +52,8 @@ def off_loopback(trace: Path) -> list[str]:
         addresses = {a or b for a, b in _ADDRESS.findall(line)}
         remote = any(not ipaddress.ip_address(a).is_loopback for a in addresses)
         dns = "53" in _PORT.findall(line)
-        resolver = any(k in path for path in _UNIX_PATH.findall(line) for k in _RESOLVER_SOCKETS)
+        resolver = " = -1 " not in line and any(k in path for path in _UNIX_PATH.findall(line)
+                                                 for k in _RESOLVER_SOCKETS)
         if remote or dns or resolver:
             found.append(line)
     return found

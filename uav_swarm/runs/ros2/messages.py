@@ -28,8 +28,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from bridge.telemetry.schema import Plan, Qos
 
-__all__ = ["MAP_FRAME", "stamp", "pose_stamped", "nav_sat_fix", "plan_poses", "plan_info", "qos_status",
-           "operator_status", "static_scene", "swarm_markers", "crowd_cloud", "uav_frame"]
+__all__ = ["MAP_FRAME", "stamp", "pose_stamped", "nav_sat_fix", "swarm_poses", "plan_poses", "plan_info",
+           "qos_status", "operator_status", "static_scene", "swarm_markers", "crowd_cloud", "uav_frame"]
 
 MAP_FRAME = "map"
 """The run's fixed frame: East-North-Up metres from the home (REP 103 / 105)."""
@@ -76,6 +76,18 @@ def nav_sat_fix(at: Time, uav_id: int, lat_deg: float, lon_deg: float, alt_m: fl
                      status=NavSatStatus(status=NavSatStatus.STATUS_FIX, service=NavSatStatus.SERVICE_GPS),
                      latitude=float(lat_deg), longitude=float(lon_deg), altitude=float(alt_m),
                      position_covariance_type=NavSatFix.COVARIANCE_TYPE_UNKNOWN)
+
+
+def swarm_poses(at: Time, positions_m: Sequence[Vec3 | None]) -> PoseArray:
+    """The swarm in one message: pose ``i`` at ``positions_m[i]`` (UAV ``i``; a missing one at NaN).
+
+    Examples:
+        >>> poses = swarm_poses(stamp(0.5), [(1.0, 2.0, 10.0), (3.0, 4.0, 12.0)])
+        >>> [(p.position.x, p.position.z) for p in poses.poses], poses.header.frame_id
+        ([(1.0, 10.0), (3.0, 12.0)], 'map')
+    """
+    nan = (float("nan"),) * 3
+    return PoseArray(header=_header(at), poses=[_pose(nan if p is None else p) for p in positions_m])
 
 
 def plan_poses(at: Time, plan: Plan) -> PoseArray:
