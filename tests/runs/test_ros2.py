@@ -92,6 +92,10 @@ def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves
         for k, (_, _, x, y, z) in enumerate(poses):  # the very numbers Zenoh carried
             assert (x, y, z) == states[uav_id, k].position_enu_m
     assert got["clock"] == sorted(got["clock"]) and got["clock"][-1] == n_steps * DT_NS
+    # the swarm in one message a step: pose i is UAV i's, the same as its own topic's
+    assert [stamp_ns for stamp_ns, _, _ in got["swarm"]] == [(k + 1) * DT_NS for k in range(n_steps)]
+    for k, (_, frame, positions) in enumerate(got["swarm"]):
+        assert frame == "map" and positions == [got["poses"][str(i)][k][2:] for i in range(n_uavs)]
 
     # the plans: over ROS 2, Zenoh and in the recording, the same targets
     zenoh_plans = {p.seq: p for p in zenoh if isinstance(p, Plan)}
@@ -118,6 +122,17 @@ def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves
             assert float(values[key]) == getattr(zenoh_qos[seq], key)
             assert float(values[key]) == pytest.approx(float(rows[seq + 1][key]), abs=1e-6)
         assert values["association"] == "paper (no admission control)"
+
+    # the radio per UAV only (one status each): its users add up to the served ones, their rates to the mean's
+    assert got["radio"], "no radio message arrived"
+    qos_by_stamp = {status["stamp_ns"]: status["values"] for status in got["qos"]}
+    for radio in got["radio"]:
+        assert [s["name"] for s in radio] == [f"uav_{i}/radio" for i in range(n_uavs)]
+        figures = qos_by_stamp[radio[0]["stamp_ns"]]
+        n_users = int(figures["n_users"])
+        assert sum(int(s["values"]["users"]) for s in radio) == round(float(figures["qos_s1"]) * n_users)
+        assert sum(float(s["values"]["throughput_mbps"]) for s in radio) == pytest.approx(
+            float(figures["mean_throughput_mbps"]) * n_users)
 
     # the crowd: one point per user, served exactly where the QoS says (S1 is the served share)
     assert got["crowd"], "no PointCloud2 arrived"
@@ -279,7 +294,7 @@ def test_ros2_topics_lists_a_runs_topics_with_their_types_and_counts(tmp_path):
                 for kind in ("pose", "target", "operator_target")}
     diagnostics, markers = "diagnostic_msgs/msg/DiagnosticArray", "visualization_msgs/msg/MarkerArray"
     expected |= {"poses": "geometry_msgs/msg/PoseArray", "plan": "geometry_msgs/msg/PoseArray",
-                 "plan/info": diagnostics, "qos": diagnostics,
+                 "plan/info": diagnostics, "qos": diagnostics, "radio": diagnostics,
                  "markers": markers, "crowd": "sensor_msgs/msg/PointCloud2", "scene": markers,
                  "operator/status": diagnostics}
     listed = {topic: kind for topic, (kind, _) in table.items()}

@@ -187,7 +187,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                                                    paper_radio).qos_s2
         if outputs.active and step % config.telemetry_every == 0:
             states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard)
-            outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
+            outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered,
+                         association=cov.association, throughput_mbps=cov.throughput_mbps)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
             frames.append(Frame(
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),

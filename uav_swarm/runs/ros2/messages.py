@@ -29,7 +29,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from bridge.telemetry.schema import Plan, Qos
 
 __all__ = ["MAP_FRAME", "stamp", "pose_stamped", "nav_sat_fix", "swarm_poses", "plan_poses", "plan_info",
-           "qos_status", "operator_status", "static_scene", "swarm_markers", "crowd_cloud", "uav_frame"]
+           "qos_status", "radio_per_uav", "operator_status", "static_scene", "swarm_markers", "crowd_cloud",
+           "uav_frame"]
 
 MAP_FRAME = "map"
 """The run's fixed frame: East-North-Up metres from the home (REP 103 / 105)."""
@@ -118,6 +119,23 @@ def qos_status(at: Time, qos: Qos, association: str) -> DiagnosticArray:
               "association": association}
     status = _status("qos", DiagnosticStatus.OK, association, values)
     return DiagnosticArray(header=_header(at), status=[status])
+
+
+def radio_per_uav(at: Time, users: Sequence[int], throughput_mbps: Sequence[float]) -> DiagnosticArray:
+    """The radio as each UAV serves it: one status ``uav_<id>/radio`` per UAV, nothing per user.
+
+    Values: ``users`` (stations associated with the UAV) and ``throughput_mbps`` (their total).
+
+    Examples:
+        >>> radio = radio_per_uav(stamp(0.1), [3, 0], [60.0, 0.0])
+        >>> [(s.name, [(v.key, v.value) for v in s.values]) for s in radio.status]
+        [('uav_0/radio', [('users', '3'), ('throughput_mbps', '60.0')]), ('uav_1/radio', [('users', '0'), \
+('throughput_mbps', '0.0')])]
+    """
+    statuses = [_status(f"uav_{uav_id}/radio", DiagnosticStatus.OK, "",
+                        {"users": int(n), "throughput_mbps": repr(float(mbps))})
+                for uav_id, (n, mbps) in enumerate(zip(users, throughput_mbps, strict=True))]
+    return DiagnosticArray(header=_header(at), status=statuses)
 
 
 def operator_status(at: Time, uav_id: int, accepted: bool, message: str, target_m: Vec3 | None

@@ -11,6 +11,8 @@ Topics, under the run's namespace (``/uav_swarm/<swarm>`` unless ``[ros2] namesp
 - ``uav_<id>/target`` (``geometry_msgs/PoseStamped``), reliable, transient local: its current target;
 - ``plan`` (``geometry_msgs/PoseArray``) and ``plan/info`` (``diagnostic_msgs/DiagnosticArray``), reliable;
 - ``qos`` (``diagnostic_msgs/DiagnosticArray``), reliable;
+- ``radio`` (``diagnostic_msgs/DiagnosticArray``), reliable: per UAV, its users and their throughput, while
+  subscribed (a run's per-user radio figures reach ROS 2 only as these per-UAV aggregates);
 - ``markers`` (``visualization_msgs/MarkerArray``): the UAVs, their coverage and separation circles;
 - ``crowd`` (``sensor_msgs/PointCloud2``): the people, field ``served``;
 - ``scene`` (``visualization_msgs/MarkerArray``), reliable, transient local: the area and the obstacles;
@@ -161,6 +163,7 @@ class RunNode:
         pub["plan"] = node.create_publisher(PoseArray, "plan", RELIABLE_QOS)
         pub["plan/info"] = node.create_publisher(DiagnosticArray, "plan/info", RELIABLE_QOS)
         pub["qos"] = node.create_publisher(DiagnosticArray, "qos", RELIABLE_QOS)
+        pub["radio"] = node.create_publisher(DiagnosticArray, "radio", MARKER_QOS)
         pub["markers"] = node.create_publisher(MarkerArray, "markers", MARKER_QOS)
         pub["crowd"] = node.create_publisher(PointCloud2, "crowd", MARKER_QOS)
         pub["scene"] = node.create_publisher(MarkerArray, "scene", LATCHED_QOS)
@@ -270,10 +273,13 @@ class RunNode:
         self._pub["qos"].publish(msg.qos_status(self._stamp(time_s, qos.stamp_s), qos, self.association))
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
-             covered: np.ndarray, *, with_states: bool = True) -> None:
+             covered: np.ndarray, *, with_states: bool = True, association: np.ndarray | None = None,
+             throughput_mbps: np.ndarray | None = None) -> None:
         """One published step: ``/clock``, the states (``with_states``), the QoS, markers and crowd when due.
 
         The states go out as one ``poses`` message (``simulate``), each UAV's ``pose`` while subscribed.
+        ``association`` (each user's UAV, -1 for none) and ``throughput_mbps`` (each user's) go out summed
+        per UAV on ``radio``, while it has a subscriber.
 
         ``simulate`` keeps the ``[ros2] speed`` pace here (simulated seconds per wall-clock second).
         """
@@ -287,6 +293,14 @@ class RunNode:
             for state in states:
                 self.state(state, time_s, pose_if_subscribed="poses" in self._pub)
         self.qos(time_s, qos)
+        radio = self._pub["radio"]
+        if association is not None and throughput_mbps is not None and radio.get_subscription_count():
+            uav_of = np.asarray(association)
+            served = uav_of >= 0
+            users = np.bincount(uav_of[served], minlength=self.n_uavs)[:self.n_uavs]
+            mbps = np.bincount(uav_of[served], np.asarray(throughput_mbps)[served],
+                               minlength=self.n_uavs)[:self.n_uavs]
+            radio.publish(msg.radio_per_uav(at, users.tolist(), mbps.tolist()))
         markers, crowd = self._pub["markers"], self._pub["crowd"]
         if (markers.get_subscription_count() or crowd.get_subscription_count()) and self._markers_due():
             uavs = {s.uav_id: s.position_enu_m for s in states if s.position_enu_m is not None}
