@@ -67,7 +67,7 @@ def open_run_node(config: Ros2Config, stack: ExitStack, *, swarm: str, n_uavs: i
         geofence: Operator targets must lie inside it.
 
     Raises:
-        typed_config.ConfigError: The ``ros2`` extra is not installed (the message names it).
+        typed_config.ConfigError: The ``ros2`` extra is not installed or does not load (:func:`check_ros2`).
     """
     check_ros2()
     from uav_swarm.runs.ros2.node import RunNode

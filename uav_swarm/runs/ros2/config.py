@@ -87,8 +87,7 @@ def ros2_environment(config: Ros2Config, environ: MutableMapping[str, str] | Non
 
 def _ros_libraries(folder: Path) -> bool:
     """Whether ``folder`` holds ROS 2 libraries (rcl, an rmw, generated message code)."""
-    return any(True for pattern in ("librcl*.so*", "librmw*.so*", "lib*__rosidl_*.so*")
-               for _ in folder.glob(pattern))
+    return any(any(folder.glob(pattern)) for pattern in ("librcl*.so*", "librmw*.so*", "lib*__rosidl_*.so*"))
 
 
 def foreign_ros(environ: Mapping[str, str] | None = None) -> str:
