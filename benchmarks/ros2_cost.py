@@ -12,7 +12,8 @@ only, in a ROS domain of its own, that takes what a viewer takes (the swarm's ``
 plans, the QoS, the markers, the crowd, the scene, ``/clock``; ``--per-uav-poses`` adds every UAV's own
 ``pose`` topic) and counts what it received; the run without a subscriber is in another domain, where
 nobody listens. Printed: the machine and ``/proc/loadavg`` before and after, the median wall time of each
-kind, the ratios (goals <= 1.10 with a subscriber, <= 1.05 without) and the messages the subscriber
+kind, the ratios (goals <= 1.10 with a subscriber, <= 1.05 without), the same ratios of the run process's
+CPU time (its own work, which other load on the machine does not change) and the messages the subscriber
 received per round.
 
 Usage: python benchmarks/ros2_cost.py [--scope loop|command] [--duration-s 60] [--rounds 5] [--domain-id 77]
@@ -91,8 +92,12 @@ def _subscriber(n_uavs: int, per_uav_poses: bool) -> None:
 
 
 def _round(config, planner, kind: str, subscriber: subprocess.Popen, scope: str, domain_id: int
-           ) -> tuple[float, dict]:
-    """One timed run of ``kind`` (``plain``, ``unsubscribed``, ``subscribed``) and what the subscriber got."""
+           ) -> tuple[float, float, dict]:
+    """One run of ``kind`` (``plain``, ``unsubscribed``, ``subscribed``): wall time, CPU time, messages.
+
+    The CPU time is this process's (every thread: the loop, the ROS 2 executor, DDS); the messages are what
+    the subscriber received.
+    """
     from uav_swarm.runs.outputs import RunOutputs
     from uav_swarm.runs.ros2 import open_run_node
     from uav_swarm.runs.simulate import run_sequence, simulate
@@ -106,10 +111,10 @@ def _round(config, planner, kind: str, subscriber: subprocess.Popen, scope: str,
         subscriber.stdin.flush()
     if scope == "command":
         with tempfile.TemporaryDirectory() as folder:
-            start_s = time.perf_counter()
+            start_s, start_cpu_s = time.perf_counter(), time.process_time()
             simulate(config, folder, progress=False)
-            wall_s = time.perf_counter() - start_s
-        return wall_s, json.loads(subscriber.stdout.readline()) if subscribed else {}
+            wall_s, cpu_s = time.perf_counter() - start_s, time.process_time() - start_cpu_s
+        return wall_s, cpu_s, json.loads(subscriber.stdout.readline()) if subscribed else {}
     with ExitStack() as stack:
         outputs = steering = None
         if with_ros:
@@ -117,11 +122,11 @@ def _round(config, planner, kind: str, subscriber: subprocess.Popen, scope: str,
                                           n_uavs=config.n_uavs, command="simulate", sim_time=True,
                                           task=config.task, uav=config.uav, geofence=None)
             outputs = RunOutputs(ros=ros)
-        start_s = time.perf_counter()
+        start_s, start_cpu_s = time.perf_counter(), time.process_time()
         run_sequence(config, planner, "learned", outputs=outputs, steering=steering)
-        wall_s = time.perf_counter() - start_s
+        wall_s, cpu_s = time.perf_counter() - start_s, time.process_time() - start_cpu_s
     counts = json.loads(subscriber.stdout.readline()) if subscribed else {}
-    return wall_s, counts
+    return wall_s, cpu_s, counts
 
 
 def main() -> None:
@@ -160,13 +165,15 @@ def main() -> None:
     assert subscriber.stdout.readline().strip() == "ready"
     kinds = ("plain", "unsubscribed", "subscribed")
     wall_s: dict[str, list[float]] = {kind: [] for kind in kinds}
+    cpu_s: dict[str, list[float]] = {kind: [] for kind in kinds}
     received = []
     try:
         _round(config, planner, "plain", subscriber, "loop", args.domain_id)  # warm-up: the first calls
         for _ in range(args.rounds):
             for kind in kinds:
-                seconds, counts = _round(config, planner, kind, subscriber, args.scope, args.domain_id)
+                seconds, cpu, counts = _round(config, planner, kind, subscriber, args.scope, args.domain_id)
                 wall_s[kind].append(seconds)
+                cpu_s[kind].append(cpu)
                 if kind == "subscribed":
                     received.append(sum(counts.values()))
     finally:
@@ -174,6 +181,7 @@ def main() -> None:
         subscriber.stdin.flush()
         subscriber.wait(timeout=60)
     median = {kind: float(np.median(times)) for kind, times in wall_s.items()}
+    cpu = {kind: float(np.median(times)) for kind, times in cpu_s.items()}
     load_after = Path("/proc/loadavg").read_text().strip()
     print(f"python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPUs; /proc/loadavg "
           f"before {load_before}, after {load_after}")
@@ -185,10 +193,13 @@ def main() -> None:
               "subscribed": "with ROS 2, subscribed"}
     for kind in kinds:
         runs = ", ".join(f"{t:.2f}" for t in wall_s[kind])
-        print(f"{labels[kind]:<30}: {median[kind]:6.2f} s (median; runs {runs})")
+        print(f"{labels[kind]:<30}: {median[kind]:6.2f} s (median; runs {runs}); CPU time of the run's "
+              f"process {cpu[kind]:.2f} s")
     print(f"ratio, subscribed         : {median['subscribed'] / median['plain']:.3f} (goal <= 1.10); the "
           f"subscriber received {', '.join(map(str, received))} messages per round")
     print(f"ratio, nobody subscribed  : {median['unsubscribed'] / median['plain']:.3f} (goal <= 1.05)")
+    print(f"CPU time ratios           : subscribed {cpu['subscribed'] / cpu['plain']:.3f}, nobody subscribed "
+          f"{cpu['unsubscribed'] / cpu['plain']:.3f} (the run's own work, whatever else loads the machine)")
 
 
 if __name__ == "__main__":
