@@ -74,17 +74,16 @@ def _subscriber(n_uavs: int, per_uav_poses: bool) -> None:
         node.create_subscription(kind, f"{_NAMESPACE}/{topic}", count(topic), qos)
     node.create_subscription(Clock, "/clock", count("/clock"), best_effort)
     print("ready", flush=True)
-    heard = False
     for line in sys.stdin:  # one line per round from the benchmark: "go", then "end"
         if line.strip() == "end":
             break
         counts.clear()
-        heard = False
+        seen = False  # the run's poses publisher in the graph (it shows there after its first data)
         while True:
             rclpy.spin_once(node, timeout_sec=0.05)
             publishers = node.count_publishers(f"{_NAMESPACE}/poses")
-            heard = heard or bool(counts)
-            if heard and publishers == 0:
+            seen = seen or (publishers > 0 and counts.get("poses", 0) > 0)
+            if seen and publishers == 0:
                 break
         print(json.dumps(counts), flush=True)
     node.destroy_node()

@@ -253,9 +253,8 @@ class RunNode:
         if not 0 <= state.uav_id < self.n_uavs or state.position_enu_m is None:
             return
         at = self._stamp(time_s, state.stamp_s)
-        pose = self._pub[f"pose{state.uav_id}"]
-        if not pose_if_subscribed or pose.get_subscription_count():
-            pose.publish(msg.pose_stamped(at, state.position_enu_m))
+        if not pose_if_subscribed or self._subscribed(f"pose{state.uav_id}"):
+            self._pub[f"pose{state.uav_id}"].publish(msg.pose_stamped(at, state.position_enu_m))
         fix = state.position_wgs84
         if fix is not None and f"fix{state.uav_id}" in self._pub:
             fix_message = msg.nav_sat_fix(at, state.uav_id, fix.lat_deg, fix.lon_deg, fix.alt_m)
@@ -279,22 +278,24 @@ class RunNode:
 
         The states go out as one ``poses`` message (``simulate``), each UAV's ``pose`` while subscribed.
         ``association`` (each user's UAV, -1 for none) and ``throughput_mbps`` (each user's) go out summed
-        per UAV on ``radio``, while it has a subscriber.
+        per UAV on ``radio``. These streams are volatile: each goes out only while it has a subscriber
+        (nobody else would get it); a UAV's target, latched for late subscribers, goes out when it changes.
 
         ``simulate`` keeps the ``[ros2] speed`` pace here (simulated seconds per wall-clock second).
         """
         self._keep_pace(time_s)
         at = self._stamp(time_s, qos.stamp_s)
-        if "clock" in self._pub:
+        if self._subscribed("clock"):
             self._pub["clock"].publish(Clock(clock=at))
         if with_states:
-            if "poses" in self._pub:
+            if self._subscribed("poses"):
                 self._pub["poses"].publish(msg.swarm_poses(at, [s.position_enu_m for s in states]))
             for state in states:
                 self.state(state, time_s, pose_if_subscribed="poses" in self._pub)
-        self.qos(time_s, qos)
+        if self._subscribed("qos"):
+            self.qos(time_s, qos)
         radio = self._pub["radio"]
-        if association is not None and throughput_mbps is not None and radio.get_subscription_count():
+        if association is not None and throughput_mbps is not None and self._subscribed("radio"):
             uav_of = np.asarray(association)
             served = uav_of >= 0
             users = np.bincount(uav_of[served], minlength=self.n_uavs)[:self.n_uavs]
@@ -302,10 +303,15 @@ class RunNode:
                                minlength=self.n_uavs)[:self.n_uavs]
             radio.publish(msg.radio_per_uav(at, users.tolist(), mbps.tolist()))
         markers, crowd = self._pub["markers"], self._pub["crowd"]
-        if (markers.get_subscription_count() or crowd.get_subscription_count()) and self._markers_due():
+        if (self._subscribed("markers") or self._subscribed("crowd")) and self._markers_due():
             uavs = {s.uav_id: s.position_enu_m for s in states if s.position_enu_m is not None}
             markers.publish(msg.swarm_markers(at, uavs, self.coverage_radius_m, self.min_separation_m))
             crowd.publish(msg.crowd_cloud(at, pedestrians_m, covered))
+
+    def _subscribed(self, topic: str) -> bool:
+        """Whether ``topic`` is one of the node's and has a subscriber now."""
+        publisher = self._pub.get(topic)
+        return publisher is not None and publisher.get_subscription_count() > 0
 
     def _markers_due(self) -> bool:
         """Whether this step's markers go out (at most ``markers_max_rate_hz`` per wall-clock second)."""
