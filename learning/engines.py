@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import copy
 import io
+import os
 import warnings
 from typing import Protocol
 
@@ -131,6 +132,9 @@ class OnnxEngine:
 
     def __init__(self, model: UtilityNet, shape: tuple[int, int, int], threads: int = 1) -> None:
         import onnx  # noqa: F401  (the exporter's own import, checked here for a clear fallback)
+
+        # ONNX Runtime posts usage events to Microsoft unless this is set when it loads (a user value stays)
+        os.environ.setdefault("ORT_DISABLE_TELEMETRY", "1")
         import onnxruntime
 
         clone = _frozen_copy(model)

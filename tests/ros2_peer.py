@@ -69,7 +69,7 @@ def main() -> int:
     ns, n_uavs = spec["namespace"], spec["n_uavs"]
     got: dict = {"poses": {str(i): [] for i in range(n_uavs)}, "targets": {str(i): [] for i in range(n_uavs)},
                  "plans": [], "plan_info": [], "qos": [], "markers": [], "scene": [], "late_scene": [],
-                 "statuses": [], "clock": [], "releases": [], "crowd": [],
+                 "statuses": [], "clock": [], "releases": [], "crowd": [], "swarm": [], "radio": [],
            "fixes": {str(i): [] for i in range(n_uavs)}}
     rclpy.init()
     node = rclpy.create_node("uav_swarm_test_peer")
@@ -88,6 +88,11 @@ def main() -> int:
     node.create_subscription(DiagnosticArray, f"{ns}/plan/info",
                              lambda m: got["plan_info"].extend(_values(m)), RELIABLE)
     node.create_subscription(DiagnosticArray, f"{ns}/qos", lambda m: got["qos"].extend(_values(m)), RELIABLE)
+    node.create_subscription(PoseArray, f"{ns}/poses", lambda m: got["swarm"].append(
+        [_ns(m.header.stamp), m.header.frame_id,
+         [[p.position.x, p.position.y, p.position.z] for p in m.poses]]), BEST_EFFORT)
+    node.create_subscription(DiagnosticArray, f"{ns}/radio", lambda m: got["radio"].append(_values(m)),
+                             RELIABLE)
     node.create_subscription(DiagnosticArray, f"{ns}/operator/status",
                              lambda m: got["statuses"].extend(_values(m)), RELIABLE)
     node.create_subscription(MarkerArray, f"{ns}/markers", lambda m: got["markers"].append(_markers(m)),

@@ -1,45 +1,25 @@
-"""Helpers of the ROS 2 tests: a domain of their own, the peer process, and what strace saw a process send."""
+"""Helpers of the ROS 2 tests: a domain of their own and the peer process (under strace when asked)."""
 
 from __future__ import annotations
 
 import itertools
 import json
 import os
-import re
-import shutil
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+from traffic import strace_prefix
+
 REPO = Path(__file__).resolve().parents[1]
 PEER = Path(__file__).resolve().parent / "ros2_peer.py"
 _DOMAINS = itertools.count()
-_ADDRESS = re.compile(r'inet_addr\("([0-9.]+)"\)|inet_pton\(AF_INET6, "([^"]+)"')
 
 
 def domain_id() -> int:
     """A ROS_DOMAIN_ID of this test (1..100), apart from other tests and other test processes."""
     return 1 + (os.getpid() * 7 + 13 * next(_DOMAINS)) % 100
-
-
-def strace_prefix(out: Path) -> list[str]:
-    """Run a command under strace, logging every connect and send of it and its threads to ``out``."""
-    return [shutil.which("strace") or "strace", "-f", "-qq", "-e", "trace=connect,sendto,sendmsg,sendmmsg",
-            "-o", str(out)]
-
-
-def destinations(trace: Path) -> tuple[set[str], int]:
-    """The IPv4 / IPv6 addresses a process connected or sent to, and how many such calls strace saw."""
-    found: set[str] = set()
-    calls = 0
-    for line in trace.read_text().splitlines():
-        if not re.search(r"\b(connect|sendto|sendmsg|sendmmsg)\(", line):
-            continue
-        addresses = {a or b for a, b in _ADDRESS.findall(line)}
-        calls += bool(addresses)
-        found |= addresses
-    return found, calls
 
 
 def start_peer(spec: dict, out: Path, env: dict[str, str], trace: Path | None = None) -> subprocess.Popen:

@@ -47,7 +47,7 @@ def test_a_ros2_operator_flies_a_px4_and_an_ardupilot_vehicle_to_its_targets(tmp
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     config = load_fly_config(None, {
         "bridge_config": str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)),
-        "duration_s": 80.0, "speedup": 2.0,  # long enough for the guarded way "publish_telemetry": False,
+        "duration_s": 80.0, "speedup": 2.0, "publish_telemetry": False,  # long enough for the guarded way
         "flight": {"link_timeout_s": 3.0, "ready_timeout_s": 10.0, "arm_retry_s": 0.5},
         "guard": {"accel_m_s2": 10.0},  # the swift peers brake at 10 m/s^2 and report it
         "ros2": {"enabled": True, "namespace": "/fleet", "wait_for_subscriber_s": 120.0}})

@@ -18,7 +18,8 @@ import pytest
 import rclpy  # noqa: F401  (the ros2 extra: the test command installs it; missing, the tests fail)
 from mcap.reader import make_reader
 from ports import free_tcp_port
-from ros2_run import destinations, domain_id, ros_env, start_peer, strace_prefix
+from ros2_run import domain_id, ros_env, start_peer
+from traffic import destinations, off_loopback, strace_prefix
 
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
@@ -91,6 +92,10 @@ def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves
         for k, (_, _, x, y, z) in enumerate(poses):  # the very numbers Zenoh carried
             assert (x, y, z) == states[uav_id, k].position_enu_m
     assert got["clock"] == sorted(got["clock"]) and got["clock"][-1] == n_steps * DT_NS
+    # the swarm in one message a step: pose i is UAV i's, the same as its own topic's
+    assert [stamp_ns for stamp_ns, _, _ in got["swarm"]] == [(k + 1) * DT_NS for k in range(n_steps)]
+    for k, (_, frame, positions) in enumerate(got["swarm"]):
+        assert frame == "map" and positions == [got["poses"][str(i)][k][2:] for i in range(n_uavs)]
 
     # the plans: over ROS 2, Zenoh and in the recording, the same targets
     zenoh_plans = {p.seq: p for p in zenoh if isinstance(p, Plan)}
@@ -117,6 +122,17 @@ def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves
             assert float(values[key]) == getattr(zenoh_qos[seq], key)
             assert float(values[key]) == pytest.approx(float(rows[seq + 1][key]), abs=1e-6)
         assert values["association"] == "paper (no admission control)"
+
+    # the radio per UAV only (one status each): its users add up to the served ones, their rates to the mean's
+    assert got["radio"], "no radio message arrived"
+    qos_by_stamp = {status["stamp_ns"]: status["values"] for status in got["qos"]}
+    for radio in got["radio"]:
+        assert [s["name"] for s in radio] == [f"uav_{i}/radio" for i in range(n_uavs)]
+        figures = qos_by_stamp[radio[0]["stamp_ns"]]
+        n_users = int(figures["n_users"])
+        assert sum(int(s["values"]["users"]) for s in radio) == round(float(figures["qos_s1"]) * n_users)
+        assert sum(float(s["values"]["throughput_mbps"]) for s in radio) == pytest.approx(
+            float(figures["mean_throughput_mbps"]) * n_users)
 
     # the crowd: one point per user, served exactly where the QoS says (S1 is the served share)
     assert got["crowd"], "no PointCloud2 arrived"
@@ -154,6 +170,7 @@ def test_a_ros2_peer_sees_every_pose_plan_and_qos_of_simulate_and_nothing_leaves
     for trace in (tmp_path / "run.strace", tmp_path / "peer.strace"):
         addresses, calls = destinations(trace)
         assert calls > 0 and addresses <= {"127.0.0.1", "::1"}, (trace.name, addresses)
+        assert off_loopback(trace) == [], trace.name  # no DNS query either
 
 
 def test_a_ros2_peer_steers_two_uavs_of_simulate_and_bad_targets_are_refused(tmp_path):
@@ -252,3 +269,37 @@ def test_telemetry_ros2_republishes_a_swarm_flown_elsewhere(tmp_path):
         assert frame == "map" and tuple(position) == sent[stamp_ns]
     assert got["plans"][-1][2] == [[50.0, 60.0, 10.0]] and got["plan_info"][-1]["values"]["uav_ids"] == "1"
     assert float(got["qos"][-1]["values"]["qos_s2"]) == 0.25
+
+
+def test_ros2_topics_lists_a_runs_topics_with_their_types_and_counts(tmp_path):
+    n_uavs = 2
+    config = _config(tmp_path / "sim.toml", "listed", f"tcp/127.0.0.1:{free_tcp_port()}", n_uavs=n_uavs,
+                     duration_s=40.0, replan_every=10, publish_telemetry=False)
+    env = ros_env(domain_id())
+    run = subprocess.Popen([sys.executable, "-m", "uav_swarm", "simulate", "--config", str(config), "--out",
+                            str(tmp_path / "out"), "--ros2", "--quiet"], env=env, stderr=subprocess.PIPE,
+                           text=True)
+    try:  # the run waits for a subscriber of its poses: the listing's
+        listing = subprocess.run([sys.executable, "-m", "uav_swarm", "telemetry", "ros2-topics", "--swarm",
+                                  "listed", "--duration-s", "2", "--wait-s", "300"], env=env,
+                                 capture_output=True, text=True, timeout=600)
+        assert run.wait(timeout=600) == 0, run.stderr.read()[-3000:]
+    finally:
+        run.kill()
+    assert listing.returncode == 0, listing.stderr[-3000:]
+    header, *rows = listing.stdout.strip().splitlines()
+    assert header.split()[:2] == ["topic", "type"]
+    table = {row.split()[0]: (row.split()[1], row.split()[2]) for row in rows}
+    expected = {f"uav_{i}/{kind}": "geometry_msgs/msg/PoseStamped" for i in range(n_uavs)
+                for kind in ("pose", "target", "operator_target")}
+    diagnostics, markers = "diagnostic_msgs/msg/DiagnosticArray", "visualization_msgs/msg/MarkerArray"
+    expected |= {"poses": "geometry_msgs/msg/PoseArray", "plan": "geometry_msgs/msg/PoseArray",
+                 "plan/info": diagnostics, "qos": diagnostics, "radio": diagnostics,
+                 "markers": markers, "crowd": "sensor_msgs/msg/PointCloud2", "scene": markers,
+                 "operator/status": diagnostics}
+    listed = {topic: kind for topic, (kind, _) in table.items()}
+    clock = {"/clock": "rosgraph_msgs/msg/Clock"}
+    assert listed == {f"/uav_swarm/listed/{t}": k for t, k in expected.items()} | clock
+    counted = [f"/uav_swarm/listed/{t}" for t in ("poses", "uav_0/pose", "uav_1/pose", "qos")] + ["/clock"]
+    for topic in counted:
+        assert int(table[topic][1]) > 0, topic  # every published step while it counted

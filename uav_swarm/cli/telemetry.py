@@ -1,4 +1,4 @@
-"""``uav-swarm telemetry watch | record | ros2``: watch, record or republish a swarm's Zenoh telemetry.
+"""``uav-swarm telemetry watch | record | ros2 | ros2-topics``: watch, record, republish a swarm's telemetry.
 
 By default both connect to the publishing side on ``tcp/127.0.0.1:7447`` as a peer, with
 multicast scouting off. ``--config FILE`` reads a ``[telemetry]`` table (the fields of
@@ -9,7 +9,8 @@ command-line flags override both.
 ``ros2`` republishes the swarm on ROS 2 (the ``ros2`` extra), so that a ROS 2 machine can join a swarm
 flown elsewhere: each UAV's pose, fix and target, the plans and the QoS, on the topics of ``--ros2``
 (``docs/ros2.md``), stamped with the time each payload was produced; DDS stays on this machine unless
-``--ros2-subnet``.
+``--ros2-subnet``. ``ros2-topics`` lists a run's ROS 2 topics and their rates
+(:mod:`uav_swarm.runs.ros2.rates`).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ __all__ = ["register", "run"]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the ``telemetry`` command with its ``watch`` and ``record`` subcommands."""
+    """Add the ``telemetry`` command: ``watch``, ``record``, ``ros2`` and ``ros2-topics``."""
     parser = subparsers.add_parser("telemetry", help="watch or record the swarm's Zenoh telemetry",
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
@@ -55,6 +56,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                       "(default: %(default)s)")
     ros2.add_argument("--ros2-subnet", action="store_true",
                       help="let DDS discover beyond this machine (default: this machine only)")
+    topics = actions.add_parser(
+        "ros2-topics", help="list a run's ROS 2 topics and their rates (needs the ros2 extra)",
+        description="List the ROS 2 topics of a run (simulate --ros2, fly --ros2, telemetry ros2) with their "
+        "types, and count what each delivers for --duration-s: ros2 topic list and ros2 topic hz with only "
+        "the ros2 extra installed. Same ROS_DOMAIN_ID as the run; this machine only unless --ros2-subnet.")
+    topics.add_argument("--swarm", default="default", help="swarm name (default: %(default)s)")
+    topics.add_argument("--namespace", default="",
+                        help="ROS 2 namespace of the topics (default: /uav_swarm/<swarm>)")
+    topics.add_argument("--duration-s", type=number(float, gt=0.0), default=5.0, metavar="S",
+                        help="count the messages for S seconds (default: %(default)s)")
+    topics.add_argument("--wait-s", type=number(float, ge=0.0, le=600.0), default=10.0, metavar="S",
+                        help="wait at most S s for the run's topics to appear (default: %(default)s)")
+    topics.add_argument("--ros2-subnet", action="store_true",
+                        help="let DDS discover beyond this machine (default: this machine only)")
+    topics.set_defaults(func=_ros2_topics)
     for sub in (watch, record, ros2):
         sub.add_argument("--config", type=Path, help="TOML file with a [telemetry] table (default: none)")
         sub.add_argument("--swarm", help="swarm name (default: 'default')")
@@ -119,12 +135,35 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _ros_node(args: argparse.Namespace, swarm: str, stack: ExitStack) -> Any:
-    """The republishing ROS 2 node, open until ``stack`` closes (ConfigError: no ros2 extra)."""
-    from uav_swarm.runs.ros2.config import Ros2Config, import_rclpy
+def _ros2_topics(args: argparse.Namespace) -> int:
+    """Print the run's topics and their rates; 1 when no topic of the namespace is found."""
+    import os
+
+    from uav_swarm.runs.ros2 import check_ros2
+    from uav_swarm.runs.ros2.config import Ros2Config
 
     config = Ros2Config(enabled=True, namespace=args.namespace, localhost_only=not args.ros2_subnet)
-    import_rclpy()
+    check_ros2()
+    from uav_swarm.runs.ros2.rates import format_rates, topic_rates
+
+    namespace = config.namespace_for(args.swarm)
+    rates = topic_rates(namespace, args.duration_s, config, wait_s=args.wait_s)
+    if not rates:
+        print(f"uav-swarm telemetry ros2-topics: no topic under {namespace} in ROS_DOMAIN_ID "
+              f"{os.environ.get('ROS_DOMAIN_ID', '0')}: is a run with --ros2 going in this domain?",
+              file=sys.stderr)
+        return 1
+    print(format_rates(rates, args.duration_s))
+    return 0
+
+
+def _ros_node(args: argparse.Namespace, swarm: str, stack: ExitStack) -> Any:
+    """The republishing ROS 2 node, open until ``stack`` closes (ConfigError: no ros2 extra)."""
+    from uav_swarm.runs.ros2 import check_ros2
+    from uav_swarm.runs.ros2.config import Ros2Config
+
+    config = Ros2Config(enabled=True, namespace=args.namespace, localhost_only=not args.ros2_subnet)
+    check_ros2()
     from uav_swarm.runs.ros2.node import RunNode
 
     node = RunNode(config, swarm=swarm, n_uavs=args.n_uavs, node_name="uav_swarm_telemetry", sim_time=False)

@@ -146,9 +146,11 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     from typed_config.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
-    from uav_swarm.runs.ros2 import open_run_node
+    from uav_swarm.runs.ros2 import check_ros2, open_run_node
 
     out_dir = Path(out_dir)
+    if config.ros2.enabled:
+        check_ros2()  # before the network loads and any vehicle is contacted
     bridge = load_flight_bridge(config)
     record = None if record is None else check_recording_path(record)
     scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,

@@ -86,8 +86,12 @@ class RunOutputs:
             self.ros.state(state)
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
-             covered: np.ndarray) -> None:
-        """One recorded step at run time ``time_s``: the UAVs' states, the QoS, the crowd, who is served."""
+             covered: np.ndarray, *, association: np.ndarray | None = None,
+             throughput_mbps: np.ndarray | None = None) -> None:
+        """One recorded step at run time ``time_s``: the UAVs' states, the QoS, the crowd, who is served.
+
+        ``association`` and ``throughput_mbps`` (each user's UAV and rate) reach ROS 2 summed per UAV.
+        """
         if self.publisher is not None:
             if not self.states_on_arrival:
                 for state in states:
@@ -96,7 +100,8 @@ class RunOutputs:
         if self.recorder is not None:
             self.recorder.step(time_s, states, qos, pedestrians_m, covered)
         if self.ros is not None:
-            self.ros.step(time_s, states, qos, pedestrians_m, covered, with_states=not self.states_on_arrival)
+            self.ros.step(time_s, states, qos, pedestrians_m, covered, with_states=not self.states_on_arrival,
+                          association=association, throughput_mbps=throughput_mbps)
 
     def announce(self, uav_id: int) -> None:
         """UAV ``uav_id`` flies under the planner now (its Zenoh liveliness token)."""

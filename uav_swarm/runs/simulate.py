@@ -188,7 +188,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                                                    paper_radio).qos_s2
         if outputs.active and step % config.telemetry_every == 0:
             states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard)
-            outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
+            outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered,
+                         association=cov.association, throughput_mbps=cov.throughput_mbps)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
             frames.append(Frame(
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
@@ -326,9 +327,11 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     from typed_config.files import write_bytes_atomic
     from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
     from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
-    from uav_swarm.runs.ros2 import open_run_node
+    from uav_swarm.runs.ros2 import check_ros2, open_run_node
 
     out_dir = Path(out_dir)
+    if config.ros2.enabled:
+        check_ros2()  # before the network loads and the engines are timed
     bridge = _load_bridge(config)
     record = None if record is None else check_recording_path(record)
     kinds = [config.planner] + (["expert"] if config.compare_expert and config.planner != "expert" else [])

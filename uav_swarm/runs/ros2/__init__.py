@@ -14,7 +14,7 @@ import logging
 from contextlib import ExitStack
 from typing import TYPE_CHECKING
 
-from uav_swarm.runs.ros2.config import Ros2Config, import_rclpy
+from uav_swarm.runs.ros2.config import Ros2Config, import_rclpy, not_loading
 from uav_swarm.runs.steering import OperatorTargets
 
 if TYPE_CHECKING:
@@ -23,9 +23,31 @@ if TYPE_CHECKING:
     from uav_swarm.runs.ros2.node import RunNode
     from uav_swarm.world.uav import UAVConfig
 
-__all__ = ["Ros2Config", "open_run_node"]
+__all__ = ["Ros2Config", "check_ros2", "open_run_node"]
 
 logger = logging.getLogger(__name__)
+
+
+def check_ros2() -> None:
+    """Whether ROS 2 loads in this process: rclpy and the type support of every message the node uses.
+
+    A run calls it before its heavy work (the planner's network, the engines' timing), so that a missing
+    extra or a broken ROS 2 is said at once, in one line.
+
+    Raises:
+        typed_config.ConfigError: The ``ros2`` extra is not installed (the message names it), or its
+            libraries do not load, e.g. another ROS 2 sourced in the shell takes their place (the message
+            names its variables: :func:`uav_swarm.runs.ros2.config.not_loading`).
+    """
+    import_rclpy()
+    from rosidl_generator_py.import_type_support_impl import UnsupportedTypeSupport
+
+    try:
+        from uav_swarm.runs.ros2.node import load_interfaces
+
+        load_interfaces()
+    except (ImportError, UnsupportedTypeSupport) as exc:
+        raise not_loading(exc) from exc
 
 
 def open_run_node(config: Ros2Config, stack: ExitStack, *, swarm: str, n_uavs: int, command: str,
@@ -45,9 +67,9 @@ def open_run_node(config: Ros2Config, stack: ExitStack, *, swarm: str, n_uavs: i
         geofence: Operator targets must lie inside it.
 
     Raises:
-        typed_config.ConfigError: The ``ros2`` extra is not installed (the message names it).
+        typed_config.ConfigError: The ``ros2`` extra is not installed or does not load (:func:`check_ros2`).
     """
-    import_rclpy()
+    check_ros2()
     from uav_swarm.runs.ros2.node import RunNode
 
     area = task.scenario

@@ -22,13 +22,16 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import MutableMapping
+import sys
+from collections.abc import Mapping, MutableMapping
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 
 from typed_config import Config, ConfigError, param
 
-__all__ = ["Ros2Config", "ros2_environment", "import_rclpy", "MISSING_EXTRA", "RMW_IMPLEMENTATION"]
+__all__ = ["Ros2Config", "ros2_environment", "import_rclpy", "foreign_ros", "not_loading", "MISSING_EXTRA",
+           "RMW_IMPLEMENTATION"]
 
 RMW_IMPLEMENTATION = "rmw_fastrtps_cpp"
 """The ROS 2 middleware the ``ros2`` extra installs (Fast DDS)."""
@@ -82,19 +85,69 @@ def ros2_environment(config: Ros2Config, environ: MutableMapping[str, str] | Non
     return environ
 
 
+def _ros_libraries(folder: Path) -> bool:
+    """Whether ``folder`` holds ROS 2 libraries (rcl, an rmw, generated message code)."""
+    return any(any(folder.glob(pattern)) for pattern in ("librcl*.so*", "librmw*.so*", "lib*__rosidl_*.so*"))
+
+
+def foreign_ros(environ: Mapping[str, str] | None = None) -> str:
+    """What of another ROS 2 installation the environment names, in words ('' when nothing).
+
+    A sourced ROS 2 (its ``setup.bash``) sets ``ROS_DISTRO`` and ``AMENT_PREFIX_PATH`` and puts its
+    libraries on ``LD_LIBRARY_PATH`` and its Python packages on ``PYTHONPATH``; the ``ros2`` extra
+    needs none of them, and libraries of another build there take the place of the wheels'.
+
+    Examples:
+        >>> foreign_ros({"ROS_DISTRO": "jazzy", "AMENT_PREFIX_PATH": "/opt/ros/jazzy"})
+        'ROS_DISTRO=jazzy, AMENT_PREFIX_PATH=/opt/ros/jazzy'
+        >>> foreign_ros({"PATH": "/usr/bin"})
+        ''
+    """
+    environ = os.environ if environ is None else environ
+    ours = Path(sys.prefix).resolve()
+    found = [f"ROS_DISTRO={environ['ROS_DISTRO']}"] if environ.get("ROS_DISTRO") else []
+    for name, holds_ros in (("AMENT_PREFIX_PATH", lambda p: True), ("LD_LIBRARY_PATH", _ros_libraries),
+                            ("PYTHONPATH", lambda p: (p / "rclpy").is_dir())):
+        folders = [Path(p) for p in environ.get(name, "").split(os.pathsep) if p]
+        theirs = [str(p) for p in folders
+                  if not p.resolve().is_relative_to(ours) and holds_ros(p)]
+        if theirs:
+            found.append(f"{name}={os.pathsep.join(theirs)}")
+    return ", ".join(found)
+
+
+def not_loading(exc: BaseException, environ: Mapping[str, str] | None = None) -> ConfigError:
+    """The one-line error of an installed ROS 2 that does not load, naming another ROS 2 when it is sourced.
+
+    Examples:
+        >>> print(not_loading(ImportError("libfoo.so: cannot open"), {"ROS_DISTRO": "humble"}))
+        ROS 2 does not load (libfoo.so: cannot open): another ROS 2 is set in this shell (ROS_DISTRO=humble) \
+and its libraries take the place of the ros2 extra's; run uav-swarm from a shell where no ROS 2 is sourced \
+(or unset ROS_DISTRO, AMENT_PREFIX_PATH and their entries of LD_LIBRARY_PATH and PYTHONPATH)
+    """
+    first_line = (str(exc).splitlines() or [type(exc).__name__])[0]
+    other = foreign_ros(environ)
+    if other:
+        return ConfigError(f"ROS 2 does not load ({first_line}): another ROS 2 is set in this shell "
+                           f"({other}) and its libraries take the place of the ros2 extra's; run uav-swarm "
+                           "from a shell where no ROS 2 is sourced (or unset ROS_DISTRO, AMENT_PREFIX_PATH "
+                           "and their entries of LD_LIBRARY_PATH and PYTHONPATH)")
+    return ConfigError(f"ROS 2 (rclpy) is installed but does not load: {first_line}; reinstall "
+                       "'uav-swarm[ros2]' and start Python without -S")
+
+
 def import_rclpy() -> ModuleType:
     """``rclpy``, or a :class:`ConfigError` that names the ``ros2`` extra when it is not installed.
 
     Raises:
         ConfigError: :data:`MISSING_EXTRA`; or rclpy is there but its libraries do not load (e.g. Python
-            started with ``-S``, which skips the wheels' start-up hook that sets their library path).
+            started with ``-S``, which skips the wheels' start-up hook that sets their library path, or
+            another ROS 2 sourced in the shell: :func:`not_loading`).
     """
     try:
         import rclpy
     except ImportError as exc:
         if isinstance(exc, ModuleNotFoundError) and exc.name in ("rclpy", None):
             raise ConfigError(MISSING_EXTRA) from exc
-        first_line = (str(exc).splitlines() or [type(exc).__name__])[0]
-        raise ConfigError(f"ROS 2 (rclpy) is installed but does not load: {first_line}; reinstall "
-                          "'uav-swarm[ros2]' and start Python without -S") from exc
+        raise not_loading(exc) from exc
     return rclpy

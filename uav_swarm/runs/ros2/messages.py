@@ -28,8 +28,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from bridge.telemetry.schema import Plan, Qos
 
-__all__ = ["MAP_FRAME", "stamp", "pose_stamped", "nav_sat_fix", "plan_poses", "plan_info", "qos_status",
-           "operator_status", "static_scene", "swarm_markers", "crowd_cloud", "uav_frame"]
+__all__ = ["MAP_FRAME", "stamp", "pose_stamped", "nav_sat_fix", "swarm_poses", "plan_poses", "plan_info",
+           "qos_status", "radio_per_uav", "operator_status", "static_scene", "swarm_markers", "crowd_cloud",
+           "uav_frame"]
 
 MAP_FRAME = "map"
 """The run's fixed frame: East-North-Up metres from the home (REP 103 / 105)."""
@@ -78,6 +79,18 @@ def nav_sat_fix(at: Time, uav_id: int, lat_deg: float, lon_deg: float, alt_m: fl
                      position_covariance_type=NavSatFix.COVARIANCE_TYPE_UNKNOWN)
 
 
+def swarm_poses(at: Time, positions_m: Sequence[Vec3 | None]) -> PoseArray:
+    """The swarm in one message: pose ``i`` at ``positions_m[i]`` (UAV ``i``; a missing one at NaN).
+
+    Examples:
+        >>> poses = swarm_poses(stamp(0.5), [(1.0, 2.0, 10.0), (3.0, 4.0, 12.0)])
+        >>> [(p.position.x, p.position.z) for p in poses.poses], poses.header.frame_id
+        ([(1.0, 10.0), (3.0, 12.0)], 'map')
+    """
+    nan = (float("nan"),) * 3
+    return PoseArray(header=_header(at), poses=[_pose(nan if p is None else p) for p in positions_m])
+
+
 def plan_poses(at: Time, plan: Plan) -> PoseArray:
     """The plan's targets, one pose per UAV in the order of ``plan.targets``."""
     return PoseArray(header=_header(at), poses=[_pose(t.target_enu_m) for t in plan.targets])
@@ -106,6 +119,23 @@ def qos_status(at: Time, qos: Qos, association: str) -> DiagnosticArray:
               "association": association}
     status = _status("qos", DiagnosticStatus.OK, association, values)
     return DiagnosticArray(header=_header(at), status=[status])
+
+
+def radio_per_uav(at: Time, users: Sequence[int], throughput_mbps: Sequence[float]) -> DiagnosticArray:
+    """The radio as each UAV serves it: one status ``uav_<id>/radio`` per UAV, nothing per user.
+
+    Values: ``users`` (stations associated with the UAV) and ``throughput_mbps`` (their total).
+
+    Examples:
+        >>> radio = radio_per_uav(stamp(0.1), [3, 0], [60.0, 0.0])
+        >>> [(s.name, [(v.key, v.value) for v in s.values]) for s in radio.status]
+        [('uav_0/radio', [('users', '3'), ('throughput_mbps', '60.0')]), ('uav_1/radio', [('users', '0'), \
+('throughput_mbps', '0.0')])]
+    """
+    statuses = [_status(f"uav_{uav_id}/radio", DiagnosticStatus.OK, "",
+                        {"users": int(n), "throughput_mbps": repr(float(mbps))})
+                for uav_id, (n, mbps) in enumerate(zip(users, throughput_mbps, strict=True))]
+    return DiagnosticArray(header=_header(at), status=statuses)
 
 
 def operator_status(at: Time, uav_id: int, accepted: bool, message: str, target_m: Vec3 | None

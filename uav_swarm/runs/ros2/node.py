@@ -3,11 +3,16 @@
 Topics, under the run's namespace (``/uav_swarm/<swarm>`` unless ``[ros2] namespace`` says otherwise;
 ``docs/ros2.md`` has the table with rates and QoS):
 
-- ``uav_<id>/pose`` (``geometry_msgs/PoseStamped``, ``map``), best effort: each published state;
+- ``poses`` (``geometry_msgs/PoseArray``, ``map``), best effort: ``simulate``'s swarm at each published
+  step, pose ``i`` is UAV ``i``'s (one message a step, whatever the swarm's size);
+- ``uav_<id>/pose`` (``geometry_msgs/PoseStamped``, ``map``), best effort: each state of a vehicle
+  (``fly``, ``telemetry ros2``); in ``simulate`` each published step while the topic has a subscriber;
 - ``uav_<id>/fix`` (``sensor_msgs/NavSatFix``), best effort: a real vehicle's WGS84 fix;
 - ``uav_<id>/target`` (``geometry_msgs/PoseStamped``), reliable, transient local: its current target;
 - ``plan`` (``geometry_msgs/PoseArray``) and ``plan/info`` (``diagnostic_msgs/DiagnosticArray``), reliable;
 - ``qos`` (``diagnostic_msgs/DiagnosticArray``), reliable;
+- ``radio`` (``diagnostic_msgs/DiagnosticArray``), reliable: per UAV, its users and their throughput, while
+  subscribed (a run's per-user radio figures reach ROS 2 only as these per-UAV aggregates);
 - ``markers`` (``visualization_msgs/MarkerArray``): the UAVs, their coverage and separation circles;
 - ``crowd`` (``sensor_msgs/PointCloud2``): the people, field ``served``;
 - ``scene`` (``visualization_msgs/MarkerArray``), reliable, transient local: the area and the obstacles;
@@ -37,6 +42,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.type_support import check_for_type_support
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix, PointCloud2
 from std_srvs.srv import Trigger
@@ -49,7 +55,8 @@ from uav_swarm.runs.ros2.config import Ros2Config, ros2_environment
 if TYPE_CHECKING:
     from uav_swarm.runs.steering import OperatorTargets
 
-__all__ = ["RunNode", "STATE_QOS", "LATCHED_QOS", "RELIABLE_QOS", "MARKER_QOS", "CLOCK_QOS"]
+__all__ = ["RunNode", "load_interfaces", "STATE_QOS", "LATCHED_QOS", "RELIABLE_QOS", "MARKER_QOS",
+           "CLOCK_QOS"]
 
 logger = logging.getLogger(__name__)
 
@@ -72,6 +79,21 @@ MARKER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Re
 CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
                        durability=DurabilityPolicy.VOLATILE)
 """``/clock``, as ROS 2's time source subscribes to it."""
+
+
+INTERFACES = (PoseStamped, PoseArray, NavSatFix, DiagnosticArray, MarkerArray, PointCloud2, Clock, Trigger)
+"""Every message and service type the node publishes, takes or serves."""
+
+
+def load_interfaces() -> None:
+    """Load the C type support of every one of :data:`INTERFACES` (what a node loads when it starts).
+
+    Raises:
+        rosidl_generator_py.import_type_support_impl.UnsupportedTypeSupport: A type's library does not
+            load (e.g. another ROS 2's library of the same name took its place).
+    """
+    for interface in INTERFACES:
+        check_for_type_support(interface)
 
 
 class RunNode:
@@ -131,6 +153,8 @@ class RunNode:
         node = self._node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context)
 
         pub = self._pub
+        if self.sim_time:
+            pub["poses"] = node.create_publisher(PoseArray, "poses", STATE_QOS)
         for uav_id in range(self.n_uavs):
             pub[f"pose{uav_id}"] = node.create_publisher(PoseStamped, f"uav_{uav_id}/pose", STATE_QOS)
             pub[f"target{uav_id}"] = node.create_publisher(PoseStamped, f"uav_{uav_id}/target", LATCHED_QOS)
@@ -139,6 +163,7 @@ class RunNode:
         pub["plan"] = node.create_publisher(PoseArray, "plan", RELIABLE_QOS)
         pub["plan/info"] = node.create_publisher(DiagnosticArray, "plan/info", RELIABLE_QOS)
         pub["qos"] = node.create_publisher(DiagnosticArray, "qos", RELIABLE_QOS)
+        pub["radio"] = node.create_publisher(DiagnosticArray, "radio", MARKER_QOS)
         pub["markers"] = node.create_publisher(MarkerArray, "markers", MARKER_QOS)
         pub["crowd"] = node.create_publisher(PointCloud2, "crowd", MARKER_QOS)
         pub["scene"] = node.create_publisher(MarkerArray, "scene", LATCHED_QOS)
@@ -177,7 +202,9 @@ class RunNode:
         self._node = None
 
     def wait_for_subscriber(self, timeout_s: float) -> bool:
-        """Wait until every UAV's pose has a subscriber and every subscriber the graph knows is matched.
+        """Wait until the poses have a subscriber and every subscriber the graph knows is matched.
+
+        The poses: ``poses`` (``simulate``) or every UAV's ``pose``.
 
         The second half means a node that subscribes to the poses and the plan gets the first plan too.
         True when so within ``timeout_s``.
@@ -190,9 +217,12 @@ class RunNode:
         return True
 
     def _subscribers_matched(self) -> bool:
-        poses = [self._pub[f"pose{i}"] for i in range(self.n_uavs)]
-        if not all(p.get_subscription_count() > 0 and self._node.count_subscribers(p.topic_name) > 0
-                   for p in poses):
+        def subscribed(publisher: Any) -> bool:
+            return bool(publisher.get_subscription_count() > 0
+                        and self._node.count_subscribers(publisher.topic_name) > 0)
+
+        if not (("poses" in self._pub and subscribed(self._pub["poses"]))
+                or all(subscribed(self._pub[f"pose{i}"]) for i in range(self.n_uavs))):
             return False
         return all(p.get_subscription_count() >= self._node.count_subscribers(p.topic_name)
                    for p in self._pub.values())
@@ -213,12 +243,18 @@ class RunNode:
         self._pub["plan"].publish(msg.plan_poses(at, plan))
         self._pub["plan/info"].publish(msg.plan_info(at, plan))
 
-    def state(self, state: UavState, time_s: float | None = None) -> None:
-        """One UAV's state: its pose, its fix (a vehicle's) and its target when it changed."""
+    def state(self, state: UavState, time_s: float | None = None, *, pose_if_subscribed: bool = False
+              ) -> None:
+        """One UAV's state: its pose, its fix (a vehicle's) and its target when it changed.
+
+        ``pose_if_subscribed``: the pose only while its topic has a subscriber (``simulate``, whose
+        ``poses`` carries every UAV's).
+        """
         if not 0 <= state.uav_id < self.n_uavs or state.position_enu_m is None:
             return
         at = self._stamp(time_s, state.stamp_s)
-        self._pub[f"pose{state.uav_id}"].publish(msg.pose_stamped(at, state.position_enu_m))
+        if not pose_if_subscribed or self._subscribed(f"pose{state.uav_id}"):
+            self._pub[f"pose{state.uav_id}"].publish(msg.pose_stamped(at, state.position_enu_m))
         fix = state.position_wgs84
         if fix is not None and f"fix{state.uav_id}" in self._pub:
             fix_message = msg.nav_sat_fix(at, state.uav_id, fix.lat_deg, fix.lon_deg, fix.alt_m)
@@ -236,24 +272,46 @@ class RunNode:
         self._pub["qos"].publish(msg.qos_status(self._stamp(time_s, qos.stamp_s), qos, self.association))
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
-             covered: np.ndarray, *, with_states: bool = True) -> None:
+             covered: np.ndarray, *, with_states: bool = True, association: np.ndarray | None = None,
+             throughput_mbps: np.ndarray | None = None) -> None:
         """One published step: ``/clock``, the states (``with_states``), the QoS, markers and crowd when due.
+
+        The states go out as one ``poses`` message (``simulate``), each UAV's ``pose`` while subscribed.
+        ``association`` (each user's UAV, -1 for none) and ``throughput_mbps`` (each user's) go out summed
+        per UAV on ``radio``. These streams are volatile: each goes out only while it has a subscriber
+        (nobody else would get it); a UAV's target, latched for late subscribers, goes out when it changes.
 
         ``simulate`` keeps the ``[ros2] speed`` pace here (simulated seconds per wall-clock second).
         """
         self._keep_pace(time_s)
         at = self._stamp(time_s, qos.stamp_s)
-        if "clock" in self._pub:
+        if self._subscribed("clock"):
             self._pub["clock"].publish(Clock(clock=at))
         if with_states:
+            if self._subscribed("poses"):
+                self._pub["poses"].publish(msg.swarm_poses(at, [s.position_enu_m for s in states]))
             for state in states:
-                self.state(state, time_s)
-        self.qos(time_s, qos)
+                self.state(state, time_s, pose_if_subscribed="poses" in self._pub)
+        if self._subscribed("qos"):
+            self.qos(time_s, qos)
+        radio = self._pub["radio"]
+        if association is not None and throughput_mbps is not None and self._subscribed("radio"):
+            uav_of = np.asarray(association)
+            served = uav_of >= 0
+            users = np.bincount(uav_of[served], minlength=self.n_uavs)[:self.n_uavs]
+            mbps = np.bincount(uav_of[served], np.asarray(throughput_mbps)[served],
+                               minlength=self.n_uavs)[:self.n_uavs]
+            radio.publish(msg.radio_per_uav(at, users.tolist(), mbps.tolist()))
         markers, crowd = self._pub["markers"], self._pub["crowd"]
-        if (markers.get_subscription_count() or crowd.get_subscription_count()) and self._markers_due():
+        if (self._subscribed("markers") or self._subscribed("crowd")) and self._markers_due():
             uavs = {s.uav_id: s.position_enu_m for s in states if s.position_enu_m is not None}
             markers.publish(msg.swarm_markers(at, uavs, self.coverage_radius_m, self.min_separation_m))
             crowd.publish(msg.crowd_cloud(at, pedestrians_m, covered))
+
+    def _subscribed(self, topic: str) -> bool:
+        """Whether ``topic`` is one of the node's and has a subscriber now."""
+        publisher = self._pub.get(topic)
+        return publisher is not None and publisher.get_subscription_count() > 0
 
     def _markers_due(self) -> bool:
         """Whether this step's markers go out (at most ``markers_max_rate_hz`` per wall-clock second)."""
