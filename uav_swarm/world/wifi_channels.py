@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from uav_swarm.world.comms import RadioConfig
+from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.wifi_coverage import channel_conflicts
 from uav_swarm.world.wifi_phy import dbm_to_mw
 
