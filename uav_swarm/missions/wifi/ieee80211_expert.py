@@ -54,7 +54,8 @@ class Ieee80211ExpertConfig(Config):
 
     grid_step_m: float = param(10.0, gt=0.0, le=50.0, doc="spacing of the greedy's candidate grid, metres")
     min_gain_users: int = param(
-        5, ge=1, le=10_000, doc="a UAV is added (and kept) only while it serves at least this many more users")
+        5, ge=1, le=10_000, doc="a UAV is added (and kept) only while it serves at least this many more "
+        "users")
     polish_radius_m: float = param(5.0, ge=0.0, le=50.0, doc="how far the polish moves a UAV, metres")
     polish_step_m: float = param(2.5, gt=0.0, le=50.0, doc="spacing of the polish's grid, metres")
     max_moves: int = param(20, ge=0, le=1000, doc="improving polish moves allowed (0: no polish)")
@@ -215,7 +216,8 @@ def place_uavs_80211(users_m: np.ndarray, radio: RadioConfig, width_m: float, he
     if users_m.ndim != 2 or users_m.shape[1] != 2 or not np.all(np.isfinite(users_m)):
         raise ValueError(f"users_m must be a finite (N, 2) array, got shape {users_m.shape}")
     if radio.propagation != "802.11":
-        raise ValueError(f"the 802.11 expert needs RadioConfig.propagation = '802.11', got {radio.propagation!r}")
+        raise ValueError("the 802.11 expert needs RadioConfig.propagation = '802.11', "
+                         f"got {radio.propagation!r}")
     height = radio.altitude_m if altitude_m is None else altitude_m
     if not height > 0.0:
         raise ValueError("the 802.11 expert needs the UAVs' altitude: set RadioConfig.altitude_m (> 0)")

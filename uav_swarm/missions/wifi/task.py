@@ -104,8 +104,7 @@ class WifiConfig(Config):
         return super().from_dict(data, where=where)
 
     def check(self) -> None:
-        """A square area, ordered warm-ups, a radius above the altitude (802.11: an altitude and its expert), a
-        separation the budget can keep."""
+        """A square area, ordered warm-ups, a radius or an altitude, the expert, a separation that fits."""
         if self.warmup_min_s > self.warmup_max_s:
             raise ConfigError(f"WifiConfig.warmup_min_s = {self.warmup_min_s} must be <= "
                               f"warmup_max_s = {self.warmup_max_s}")
@@ -117,8 +116,9 @@ class WifiConfig(Config):
                               "allowed altitude_m < the radio range")
         if self.radio.propagation == "802.11":
             if self.expert.method != "auto":
-                raise ConfigError(f"WifiConfig.expert.method = {self.expert.method!r} is the paper's radio's; "
-                                  "under radio.propagation = '802.11' the 802.11 expert runs: use 'auto'")
+                raise ConfigError(f"WifiConfig.expert.method = {self.expert.method!r} is the paper's "
+                                  "radio's; under radio.propagation = '802.11' the 802.11 expert runs: "
+                                  "use 'auto'")
             if not self.radio.altitude_m > 0.0:
                 raise ConfigError("WifiConfig.radio.altitude_m = 0: the 802.11 radio needs the UAVs' height "
                                   "above the users; allowed 0 < altitude_m")
@@ -269,9 +269,9 @@ class WifiTask:
         """
         config = self.config
         if config.radio.propagation == "802.11":
-            return place_uavs_80211(users_m, config.radio, self.width_m, self.height_m, strategy=config.strategy,
-                                    max_uavs=self.rules.max_uavs, min_separation_m=config.min_separation_m,
-                                    config=config.expert.ieee80211)
+            return place_uavs_80211(users_m, config.radio, self.width_m, self.height_m,
+                                    strategy=config.strategy, max_uavs=self.rules.max_uavs,
+                                    min_separation_m=config.min_separation_m, config=config.expert.ieee80211)
         return place_uavs(users_m, self.rules, self.width_m, self.height_m, config.expert,
                           velocities_m_s=velocities_m_s)
 
