@@ -1,4 +1,4 @@
-"""The Wi-Fi experts under the 802.11 radio: how much the paper's placements lose, and what a channel plan adds.
+"""The Wi-Fi experts under the 802.11 radio: what the paper's placements lose, what a channel plan adds.
 
 On ``--n`` held-out crowds (split ``test`` of seed ``--seed``: the Wi-Fi task's random scenes), every
 placement is judged by the 802.11 model (:mod:`uav_swarm.world.wifi_coverage`: path loss, SINR, MCS,
@@ -58,7 +58,8 @@ def main() -> None:
     one_channel = RadioConfig.from_dict({**wifi, "ieee80211": {"channels": [36]}})
     tasks = {
         "802.11 expert, S2": (build_task("wifi-s2", {"radio": wifi}), radio_s2, 2),
-        "802.11 expert, S2, one channel": (build_task("wifi-s2", {"radio": one_channel.to_dict()}), one_channel, 2),
+        "802.11 expert, S2, one channel": (build_task("wifi-s2", {"radio": one_channel.to_dict()}),
+                                           one_channel, 2),
         "paper search expert, S2": (build_task("wifi-s2", {"expert": {"method": "search"}}), radio_s2, 2),
         "paper capacitated expert, S2 (AC)": (build_task("wifi-s2", {"radio": {"station_limit": "auto"}}),
                                               radio_s2, 2),
@@ -79,8 +80,8 @@ def main() -> None:
         print(f"crowd {i + 1}/{args.n} ({len(scene.users_m)} users) done", flush=True)
     reference = {2: float(np.mean([r[0] for r in rows["802.11 expert, S2"]])),
                  1: float(np.mean([r[0] for r in rows["802.11 expert, S1"]]))}
-    print(f"\n{args.n} held-out crowds (seed {args.seed}, split test), UAVs {args.altitude_m:g} m above the users; "
-          f"QoS judged by the 802.11 model with each placement's channel plan")
+    print(f"\n{args.n} held-out crowds (seed {args.seed}, split test), UAVs {args.altitude_m:g} m above the "
+          "users; QoS judged by the 802.11 model with each placement's channel plan")
     print(f"{'placement':38s} {'QoS':>7s} {'/ 802.11 expert':>16s} {'UAVs':>6s} {'s/crowd':>8s}")
     for name, (_, _, strategy) in tasks.items():
         qos = np.array([r[0] for r in rows[name]])

@@ -7,7 +7,12 @@ import pytest
 
 from typed_config import ConfigError
 from uav_swarm.missions.registry import build_task
-from uav_swarm.missions.wifi.ieee80211_expert import Ieee80211ExpertConfig, place_uavs_80211, placement_scores
+from uav_swarm.missions.wifi.ieee80211_expert import (
+    Ieee80211ExpertConfig,
+    place_uavs_80211,
+    placement_scores,
+    refine_80211,
+)
 from uav_swarm.world.comms import evaluate_coverage
 from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.wifi_channels import plan_channels
@@ -101,3 +106,21 @@ def test_task_config_refuses_what_the_80211_expert_cannot_honour():
     with pytest.raises(ValueError, match="propagation"):
         place_uavs_80211(_crowd(1), RadioConfig(), 200.0, 200.0, strategy=2, max_uavs=2, min_separation_m=5.0,
                          config=CONFIG)
+
+
+def test_refinement_from_nothing_is_the_expert_and_never_loses_what_it_was_given():
+    users = _crowd(3)
+    expert = _place(users)
+    from_nothing = refine_80211(users, np.zeros((0, 2)), RADIO, 200.0, 200.0, strategy=2, max_uavs=6,
+                                min_separation_m=5.0, config=CONFIG)
+    assert np.array_equal(from_nothing, expert)
+    rng = np.random.default_rng(0)
+    proposals = expert[:-1] + rng.normal(0.0, 8.0, expert[:-1].shape)  # one missing, the others off
+    heights = np.full(len(proposals), 10.0)
+    given, _ = placement_scores(users, np.clip(proposals, 0.0, 200.0)[None], RADIO, heights, 2)
+    refined = refine_80211(users, proposals, RADIO, 200.0, 200.0, strategy=2, max_uavs=6,
+                           min_separation_m=5.0, config=CONFIG)
+    served, _ = placement_scores(users, refined[None], RADIO, np.full(len(refined), 10.0), 2)
+    assert served[0] >= given[0] - CONFIG.min_gain_users  # the prune may drop a UAV worth less than that
+    best, _ = placement_scores(users, expert[None], RADIO, np.full(len(expert), 10.0), 2)
+    assert served[0] >= 0.9 * best[0]

@@ -18,6 +18,9 @@ candidate at once (one batch of worlds per move):
 - **prune**: a UAV whose removal loses fewer than ``min_gain_users`` served users is removed (the last
   such first), so that every UAV kept earns its place.
 
+:func:`refine_80211` runs the same three steps from proposed positions (a learned planner's peaks): the
+greedy then only adds what the proposals miss, which makes it several times cheaper than the expert.
+
 Every candidate keeps ``min_separation_m`` to the other UAVs, and every step is deterministic (ties by
 index): the same crowd gives the same placement, and a crowd moved by a few centimetres gives the same
 choices wherever no score is tied within the moved users.
@@ -45,7 +48,7 @@ from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.wifi_channels import plan_channels
 from uav_swarm.world.wifi_coverage import wifi_links
 
-__all__ = ["Ieee80211ExpertConfig", "placement_scores", "place_uavs_80211"]
+__all__ = ["Ieee80211ExpertConfig", "placement_scores", "place_uavs_80211", "refine_80211"]
 
 
 @dataclass(frozen=True)
@@ -127,9 +130,15 @@ class _Search:
             np.array([self.altitude_m]), 1)
         return np.asarray(served > 0)
 
-    def _scores(self, placements_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def scores(self, placements_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`placement_scores` of (B, K, 2) placements of this crowd, at the search's height."""
         heights = np.full(placements_m.shape[1], self.altitude_m)
         return placement_scores(self.users_m, placements_m, self.radio, heights, self.strategy)
+
+    def adopt(self, uavs_m: np.ndarray) -> None:
+        """Go on from these ``(k, 2)`` UAV positions (separated, inside the area)."""
+        served, throughput = self.scores(uavs_m[None])
+        self.uavs_m, self.served, self.throughput_mbps = uavs_m, int(served[0]), float(throughput[0])
 
     def greedy(self) -> None:
         """Add UAVs while one serves at least ``min_gain_users`` more users."""
@@ -139,7 +148,7 @@ class _Search:
                 return
             worlds = np.concatenate([np.broadcast_to(self.uavs_m, (len(options), *self.uavs_m.shape)),
                                      options[:, None, :]], axis=1)
-            served, throughput = self._scores(worlds)
+            served, throughput = self.scores(worlds)
             best = _best(served, throughput)
             if served[best] - self.served < self.config.min_gain_users:
                 return
@@ -165,7 +174,7 @@ class _Search:
             if not worlds or sum(len(w) for w in worlds) == 0:
                 return
             stacked = np.concatenate(worlds)
-            served, throughput = self._scores(stacked)
+            served, throughput = self.scores(stacked)
             best = _best(served, throughput)
             better = served[best] > self.served or (
                 served[best] == self.served and throughput[best] > self.throughput_mbps + 1e-6)
@@ -179,7 +188,7 @@ class _Search:
         while len(self.uavs_m) > 1:
             n_uavs = len(self.uavs_m)
             worlds = np.stack([np.delete(self.uavs_m, j, axis=0) for j in range(n_uavs)])
-            served, throughput = self._scores(worlds)
+            served, throughput = self.scores(worlds)
             loss = self.served - served
             # The last UAV whose removal costs least, if that costs fewer than min_gain_users.
             j = int(np.lexsort((-np.arange(n_uavs), loss))[0])
@@ -187,6 +196,52 @@ class _Search:
                 return
             self.uavs_m = worlds[j]
             self.served, self.throughput_mbps = int(served[j]), float(throughput[j])
+
+
+def _checked(users_m: np.ndarray, radio: RadioConfig, altitude_m: float | None) -> tuple[np.ndarray, float]:
+    users_m = np.asarray(users_m, dtype=np.float64)
+    if users_m.ndim != 2 or users_m.shape[1] != 2 or not np.all(np.isfinite(users_m)):
+        raise ValueError(f"users_m must be a finite (N, 2) array, got shape {users_m.shape}")
+    if radio.propagation != "802.11":
+        raise ValueError("the 802.11 expert needs RadioConfig.propagation = '802.11', "
+                         f"got {radio.propagation!r}")
+    height = radio.altitude_m if altitude_m is None else altitude_m
+    if not height > 0.0:
+        raise ValueError("the 802.11 expert needs the UAVs' altitude: set RadioConfig.altitude_m (> 0)")
+    return users_m, height
+
+
+def _sorted(uavs_m: np.ndarray) -> np.ndarray:
+    return uavs_m[np.lexsort((uavs_m[:, 0], uavs_m[:, 1]))] if len(uavs_m) else np.zeros((0, 2))
+
+
+def refine_80211(users_m: np.ndarray, proposals_m: np.ndarray, radio: RadioConfig, width_m: float,
+                 height_m: float, *, strategy: int, max_uavs: int, min_separation_m: float,
+                 config: Ieee80211ExpertConfig, altitude_m: float | None = None) -> np.ndarray:
+    """Proposed positions refined on the crowd: the expert's greedy, polish and prune from them.
+
+    Proposals outside the area are clipped into it; a proposal closer than ``min_separation_m`` to one kept
+    before it is dropped; at most ``max_uavs`` are kept. Arguments and result as :func:`place_uavs_80211`.
+
+    Raises:
+        ValueError: As :func:`place_uavs_80211`, or ``proposals_m`` not a finite ``(k, 2)`` array.
+    """
+    users_m, height = _checked(users_m, radio, altitude_m)
+    proposals = np.asarray(proposals_m, dtype=np.float64).reshape(-1, 2)
+    if not np.all(np.isfinite(proposals)):
+        raise ValueError("proposals_m must be finite")
+    proposals = np.clip(proposals, 0.0, (width_m, height_m))
+    kept = np.zeros((0, 2))
+    for point in proposals[:max_uavs]:
+        if _separated(point[None], kept, min_separation_m)[0]:
+            kept = np.vstack([kept, point])
+    search = _Search(users_m, radio, width_m, height_m, strategy, max_uavs, min_separation_m, height, config)
+    if len(kept):
+        search.adopt(kept)
+    search.greedy()
+    search.polish()
+    search.prune()
+    return _sorted(search.uavs_m)
 
 
 def place_uavs_80211(users_m: np.ndarray, radio: RadioConfig, width_m: float, height_m: float, *,
@@ -212,18 +267,9 @@ def place_uavs_80211(users_m: np.ndarray, radio: RadioConfig, width_m: float, he
         ValueError: ``users_m`` is not a finite ``(N, 2)`` array, the radio is not the 802.11 model, or no
             altitude is known.
     """
-    users_m = np.asarray(users_m, dtype=np.float64)
-    if users_m.ndim != 2 or users_m.shape[1] != 2 or not np.all(np.isfinite(users_m)):
-        raise ValueError(f"users_m must be a finite (N, 2) array, got shape {users_m.shape}")
-    if radio.propagation != "802.11":
-        raise ValueError("the 802.11 expert needs RadioConfig.propagation = '802.11', "
-                         f"got {radio.propagation!r}")
-    height = radio.altitude_m if altitude_m is None else altitude_m
-    if not height > 0.0:
-        raise ValueError("the 802.11 expert needs the UAVs' altitude: set RadioConfig.altitude_m (> 0)")
+    users_m, height = _checked(users_m, radio, altitude_m)
     search = _Search(users_m, radio, width_m, height_m, strategy, max_uavs, min_separation_m, height, config)
     search.greedy()
     search.polish()
     search.prune()
-    uavs_m = search.uavs_m
-    return uavs_m[np.lexsort((uavs_m[:, 0], uavs_m[:, 1]))] if len(uavs_m) else np.zeros((0, 2))
+    return _sorted(search.uavs_m)

@@ -51,7 +51,7 @@ import numpy as np
 from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
-from uav_swarm.missions.wifi.ieee80211_expert import place_uavs_80211
+from uav_swarm.missions.wifi.ieee80211_expert import place_uavs_80211, refine_80211
 from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.rules import CoverageRules
@@ -217,8 +217,12 @@ class WifiRefiner:
     def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
         """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""
         task = self.task
-        refined_m = refine_placement(scene.users_m, task.to_metres(positions_px), task.rules, task.width_m,
-                                     task.height_m, self.config)
+        proposals_m = task.to_metres(positions_px)
+        if task.config.radio.propagation == "802.11":
+            refined_m = task.refine_80211(scene.users_m, proposals_m)
+        else:
+            refined_m = refine_placement(scene.users_m, proposals_m, task.rules, task.width_m, task.height_m,
+                                         self.config)
         return task.to_pixels(refined_m)
 
     def solve(self, scene: WifiScene) -> np.ndarray:
@@ -274,6 +278,18 @@ class WifiTask:
                                     min_separation_m=config.min_separation_m, config=config.expert.ieee80211)
         return place_uavs(users_m, self.rules, self.width_m, self.height_m, config.expert,
                           velocities_m_s=velocities_m_s)
+
+    def refine_80211(self, users_m: np.ndarray, proposals_m: np.ndarray, max_uavs: int | None = None
+                     ) -> np.ndarray:
+        """Proposed positions (metres) refined on the crowd under the 802.11 radio, at most ``max_uavs``.
+
+        The 802.11 expert's search from the proposals
+        (:func:`~uav_swarm.missions.wifi.ieee80211_expert.refine_80211`).
+        """
+        config = self.config
+        return refine_80211(users_m, proposals_m, config.radio, self.width_m, self.height_m,
+                            strategy=config.strategy, max_uavs=max_uavs or self.rules.max_uavs,
+                            min_separation_m=config.min_separation_m, config=config.expert.ieee80211)
 
     def sample(self, rng: np.random.Generator) -> WifiScene:
         """Draw a scenario and warm its crowd up for a random time."""
