@@ -205,3 +205,10 @@ def test_the_tables_loader_names_the_file_and_key(tmp_path):
     half = snapshot([[2.0, 0.0]], [[0.0, 0.0]], refitted)
     full = snapshot([[2.0, 0.0]], [[0.0, 0.0]])
     assert half.throughput_mbps[0] == pytest.approx(full.throughput_mbps[0] / 2)
+
+
+def test_the_802_11_model_needs_the_altitudes():
+    with pytest.raises(ValueError, match="needs the UAVs' altitudes"):
+        evaluate_coverage(np.zeros((1, 2)), np.zeros((1, 2)), WIFI)
+    given = evaluate_coverage(np.zeros((1, 2)), np.zeros((1, 2)), WIFI.replace(altitude_m=20.0))
+    assert given.sinr_db[0] == pytest.approx(snapshot([[0.0, 0.0]], [[0.0, 0.0]]).sinr_db[0])

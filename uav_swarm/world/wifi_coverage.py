@@ -120,9 +120,12 @@ def uav_altitudes_m(altitudes_m: np.ndarray | None, n_worlds: int, n_uavs: int, 
     """``(B, K)`` height of each UAV above the users: ``altitudes_m`` ((K,) or (B, K)), else the config's.
 
     Raises:
-        ValueError: A shape that is neither.
+        ValueError: A shape that is neither, or no altitude at all (None and ``config.altitude_m = 0``).
     """
     if altitudes_m is None:
+        if config.altitude_m <= 0.0:
+            raise ValueError("the 802.11 model needs the UAVs' altitudes: pass altitudes_m (each UAV's "
+                             "height above the users) or set RadioConfig.altitude_m")
         return np.full((n_worlds, n_uavs), config.altitude_m)
     heights = np.asarray(altitudes_m, dtype=np.float64)
     if heights.shape not in ((n_uavs,), (n_worlds, n_uavs)):
