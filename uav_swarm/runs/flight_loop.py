@@ -407,7 +407,11 @@ class Flight:
         live = self._live()
         users = self.crowd.positions_m
         uavs = np.array([(s.x_m, s.y_m) for _, s in live]).reshape(-1, 2)
-        cov = self._association.update(users, uavs, [vehicle.uav_id for vehicle, _ in live])
+        heights = None  # the paper's radio is 2-D; the 802.11 model takes each vehicle's measured height
+        if self.config.task.radio.propagation == "802.11":
+            heights = np.array([s.z_m if s.z_m is not None else self.safety.cruise_alt_m[v.system_id]
+                                for v, s in live], dtype=np.float64)
+        cov = self._association.update(users, uavs, [vehicle.uav_id for vehicle, _ in live], heights)
         times.append(self._clock_s)
         rows.append((float(cov.qos_s1), float(cov.qos_s2), float(cov.mean_throughput_mbps)))
         if self.outputs.active:
