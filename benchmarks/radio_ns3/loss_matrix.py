@@ -15,7 +15,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_phy import air_to_ground_loss_db, free_space_loss_db
 

@@ -1,8 +1,8 @@
 """The project's 802.11 model on a calibration scene, and the ns-3 result of the same scene, side by side.
 
-The model runs as ``simulate`` runs it (:func:`uav_swarm.world.wifi_coverage.wifi_links`) with the settings
-ns-3 was given (:data:`loss_matrix.RADIO`, the scene's channel width and channels, each UAV's altitude) and, to
-compare like with like, **throughput fairness** (ns-3's access point queues serve every station the same
+The model runs as ``simulate`` runs it (:func:`uav_swarm.world.wifi_coverage.wifi_links`) with the
+settings ns-3 was given (:data:`loss_matrix.RADIO`, the scene's channel width and channels, each UAV's
+altitude) and, to compare like with like, **throughput fairness** (ns-3's access point queues serve every station the same
 throughput at saturation) and no admission on rate (every user of the scene is a station in ns-3). The model
 associates by itself (strongest signal); :func:`model_scene` checks that it picks the scene's serving UAVs.
 """
@@ -14,11 +14,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
 from loss_matrix import RADIO, loss_matrix_db
-from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_coverage import wifi_links
+
+from uav_swarm.world.comms import RadioConfig
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,8 @@ def load_ns3(path: Path, scene: dict) -> Ns3Scene:
     result = json.loads(path.read_text(encoding="utf-8"))
     gap_db = float(np.abs(np.asarray(result["job"]["loss_db"]) - loss_matrix_db(scene)).max())
     if gap_db > 0.01:
-        raise ValueError(f"{path}: its path loss differs from the model's by {gap_db:.3f} dB: rerun run_ns3.py")
+        raise ValueError(f"{path}: its path loss differs from the model's by {gap_db:.3f} dB: "
+                         "rerun run_ns3.py")
     n_uavs = len(scene["uavs_m"])
     serving = np.asarray(scene["serving_uav"])
     stations = np.array([[s["throughput_mbps"] for s in run["stations"]] for run in result["runs"]])

@@ -1,12 +1,12 @@
 """Run one calibration scene in ns-3 and write what each station received (run in its own process).
 
-This file runs under the Python that has the PyPI ``ns3`` package (``pip install ns3``, the ``radio-calibration``
-extra) and imports nothing of the project, so that an abort inside ns-3 only ends this process. It reads a job
+This file runs under the Python that has the PyPI ``ns3`` package (``pip install ns3``, the
+``radio-calibration`` extra) and imports nothing of the project, so that an abort inside ns-3 only ends this process. It reads a job
 (JSON, written by ``run_ns3.py``) and writes a result (JSON, atomically):
 
 - the network: access points and stations at the job's 3-D positions; each access point on its own channel
-  number and width (5 GHz band), its stations on the same channel with the access point's SSID (passive scanning,
-  association before the measurement starts); 802.11ax, one spatial stream, 0.8 us guard interval, every radio
+  number and width (5 GHz band), its stations on the same channel with the access point's SSID (passive
+  scanning, association before the measurement starts); 802.11ax, one spatial stream, 0.8 us guard interval, every radio
   transmitting at ``tx_power_dbm``; ns-3's defaults otherwise (noise figure 7 dB, preamble detection and
   carrier sense at -82 dBm, A-MPDUs up to 65,535 bytes, no RTS/CTS, EDCA best effort, the table-based error
   model);
@@ -15,8 +15,8 @@ extra) and imports nothing of the project, so that an abort inside ns-3 only end
 - the rate: the job's remote station manager (``ns3::IdealWifiManager`` by default: the MCS whose table-based
   error rate is low enough at the SINR of the last frame received from the peer);
 - the traffic: a saturated UDP downlink, 1,472-byte datagrams from each access point to each of its stations,
-  ``offered_mbps_per_ap`` split equally over its stations (well above what an access point can carry). The access
-  point's queueing is ns-3's as shipped: the traffic-control layer's default root queue discipline (FqCoDel,
+  ``offered_mbps_per_ap`` split equally over its stations (well above what an access point can carry). The
+  access point's queueing is ns-3's as shipped: the traffic-control layer's default root queue discipline (FqCoDel,
   fair per flow) over the Wi-Fi MAC's first-come first-served queue, so that at saturation every station of an
   access point receives the same throughput whatever its rate (throughput fairness, the 802.11 performance
   anomaly);
@@ -83,7 +83,7 @@ def run_seed(job: dict, seed: int) -> dict:
     ns.RngSeedManager.SetRun(seed)
     ns.cppyy.gbl.calib.Reset()
     positions = job["positions_m"]
-    ap_of = job["serving_ap"]  # per node: -1 for an access point, else the index of the station's access point
+    ap_of = job["serving_ap"]  # per node: -1 for an access point, else the node of the station's access point
     n_nodes = len(positions)
     nodes = ns.NodeContainer()
     nodes.Create(n_nodes)
@@ -126,7 +126,8 @@ def run_seed(job: dict, seed: int) -> dict:
         devices[ap_node] = wifi.Install(phy, mac, nodes.Get(ap_node)).Get(0)
         stations = [i for i in range(n_nodes) if ap_of[i] == ap_node]
         if stations:
-            mac.SetType("ns3::StaWifiMac", "Ssid", ns.SsidValue(ssid), "ActiveProbing", ns.BooleanValue(False))
+            mac.SetType("ns3::StaWifiMac", "Ssid", ns.SsidValue(ssid),
+                        "ActiveProbing", ns.BooleanValue(False))
             installed = wifi.Install(phy, mac, _node_container([nodes.Get(i) for i in stations]))
             for n, i in enumerate(stations):
                 devices[i] = installed.Get(n)
@@ -151,7 +152,8 @@ def run_seed(job: dict, seed: int) -> dict:
         client = ns.UdpClientHelper(interfaces.GetAddress(i).ConvertTo(), PORT)
         client.SetAttribute("MaxPackets", ns.UintegerValue(0))
         client.SetAttribute("PacketSize", ns.UintegerValue(PAYLOAD_BYTES))
-        client.SetAttribute("Interval", ns.TimeValue(ns.Seconds(PAYLOAD_BYTES * 8 / (per_station_mbps * 1e6))))
+        interval_s = PAYLOAD_BYTES * 8 / (per_station_mbps * 1e6)
+        client.SetAttribute("Interval", ns.TimeValue(ns.Seconds(interval_s)))
         app = client.Install(nodes.Get(ap_of[i]))
         app.Start(ns.Seconds(0.05 + 0.05 * start_rng.GetValue()))
 

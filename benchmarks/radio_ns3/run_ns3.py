@@ -1,8 +1,8 @@
 """Run every calibration scene in ns-3 (one subprocess per scene), caching each result as JSON; resumable.
 
 For each scene of ``scenes.json`` (in file order: the small ones first) whose result is not yet in
-``--results`` (``<name>.json`` whose job equals the scene's job), it writes the ns-3 job (positions, the path-loss
-matrix of :mod:`loss_matrix`, channels, seeds) and runs ``ns3_scene.py`` (small scenes several to a process,
+``--results`` (``<name>.json`` whose job equals the scene's job), it writes the ns-3 job (positions, the
+path-loss matrix of :mod:`loss_matrix`, channels, seeds) and runs ``ns3_scene.py`` (small scenes several to a process,
 one import of ns-3 for all) under ``--ns3-python`` (a Python with
 the PyPI ``ns3`` package, the ``radio-calibration`` extra), optionally behind ``flock --lock`` and ``nice``
 so that each scene waits for a shared CPU lock. A scene that fails or times out is reported and skipped;
@@ -116,7 +116,8 @@ def main() -> int:
             started = time.perf_counter()
             try:
                 done = subprocess.run(command, capture_output=True, text=True, timeout=args.timeout_s)
-                tail = (done.stdout.strip().splitlines() or done.stderr.strip().splitlines())[-len(batch) * 3:]
+                lines = done.stdout.strip().splitlines() or done.stderr.strip().splitlines()
+                tail = lines[-len(batch) * 3:]
             except subprocess.TimeoutExpired:
                 tail = [f"timed out after {args.timeout_s} s"]
         missing = [job["name"] for job in batch if not _cached(args.results / f"{job['name']}.json", job)]

@@ -1,8 +1,8 @@
 """The calibration scenes of the 802.11 model against ns-3, written as data (``scenes.json``), seeded.
 
-Every scene is UAV access points (x, y, altitude above the users, channel) and users on the ground, each user
-served by the UAV it receives strongest (the path loss of the project's model); users are placed only where the
-serving UAV reaches them at 8 dB SNR or more (MCS 0 and above in ns-3), so that every station of ns-3 carries
+Every scene is UAV access points (x, y, altitude above the users, channel) and users on the ground, each
+user served by the UAV it receives strongest (the path loss of the project's model); users are placed only
+where the serving UAV reaches them at 8 dB SNR or more (MCS 0 and above in ns-3), so that every station of ns-3 carries
 traffic. The families, and which scenes are fitted and which are held out (the split alternates inside each
 family, fixed here and written into the file):
 
@@ -28,7 +28,6 @@ import os
 from pathlib import Path
 
 import numpy as np
-
 from loss_matrix import NOISE_20MHZ_DBM, RADIO, link_loss_db
 
 HERE = Path(__file__).resolve().parent
@@ -38,7 +37,7 @@ MIN_SNR_DB = 8.0
 
 def _users_around(rng: np.random.Generator, uavs_m: np.ndarray, serving: int, n_users: int, radius_m: float
                   ) -> list[list[float]]:
-    """``n_users`` ground positions within ``radius_m`` of UAV ``serving`` that it serves (strongest, SNR >= 8)."""
+    """``n_users`` ground positions within ``radius_m`` of UAV ``serving`` that it serves (strongest, >= 8 dB)."""
     users: list[list[float]] = []
     while len(users) < n_users:
         angle = rng.uniform(0.0, 2.0 * math.pi)
@@ -74,7 +73,8 @@ def _greedy_channels(uavs_m: np.ndarray, plan: list[int]) -> list[int]:
     channels: list[int] = []
     for k in range(len(uavs_m)):
         distance = np.linalg.norm(uavs_m[:k] - uavs_m[k], axis=1)
-        cost = [sum(1.0 / (1.0 + d) for d, c in zip(distance, channels, strict=True) if c == ch) for ch in plan]
+        cost = [sum(1.0 / (1.0 + d) for d, c in zip(distance, channels, strict=True) if c == ch)
+                for ch in plan]
         channels.append(plan[int(np.argmin(cost))])
     return channels
 
@@ -101,12 +101,13 @@ def build_scenes(seed: int) -> list[dict]:
     scenes.append(_cells(rng, "three-3ch", "three", triangle, [36, 40, 44], 8, 25.0))
     six = [[x_m, y_m, 10.0] for y_m in (0.0, 30.0) for x_m in (0.0, 30.0, 60.0)]
     scenes.append(_cells(rng, "six-3ch", "three", six, [36, 40, 44, 44, 36, 40], 6, 25.0))
-    scenes.append(_cells(rng, "hidden-3", "hidden", [[0.0, 0.0, 30.0], [350.0, 0.0, 30.0], [700.0, 0.0, 30.0]],
-                         [36, 36, 36], 6, 40.0))
-    scenes.append(_cells(rng, "hidden-4", "hidden", [[0.0, 0.0, 30.0], [330.0, 0.0, 30.0], [660.0, 0.0, 30.0],
-                                                     [990.0, 0.0, 30.0]], [36, 36, 36, 36], 6, 40.0))
+    line3 = [[0.0, 0.0, 30.0], [350.0, 0.0, 30.0], [700.0, 0.0, 30.0]]
+    scenes.append(_cells(rng, "hidden-3", "hidden", line3, [36, 36, 36], 6, 40.0))
+    line4 = [[0.0, 0.0, 30.0], [330.0, 0.0, 30.0], [660.0, 0.0, 30.0], [990.0, 0.0, 30.0]]
+    scenes.append(_cells(rng, "hidden-4", "hidden", line4, [36, 36, 36, 36], 6, 40.0))
     for name, plan in (("ten-1ch", [36]), ("ten-3ch", [36, 40, 44])):
-        uavs = np.column_stack([rng.uniform(0.0, 120.0, 10), rng.uniform(0.0, 120.0, 10), 10.0 + 2.0 * np.arange(10)])
+        uavs = np.column_stack([rng.uniform(0.0, 120.0, 10), rng.uniform(0.0, 120.0, 10),
+                                10.0 + 2.0 * np.arange(10)])
         uavs_m = np.round(uavs, 2).tolist()
         scenes.append(_cells(rng, name, "ten", uavs_m, _greedy_channels(uavs, plan), 20, 35.0, measure_s=1.0))
     by_family: dict[str, int] = {}
