@@ -6,8 +6,8 @@ Reads ``scenes.json`` and the cached ns-3 results (``run_ns3.py``), then:
    error rate of 1e-6 (``ns3_thresholds.py`` reads these thresholds out of ns-3); below -82 dBm a PHY detects
    no preamble at all, so a station that weak never associates (12 dB SNR at 20 MHz with a 7 dB noise
    figure). The model's table is ``max(ideal + offset, floor)``: the floor is that 12 dB, the offset
-   (-3..3 dB) the one that gives the most stations of the fitted scenes ns-3's MCS (the MCS that carried most of their
-   data; -1 when ns-3 sent nothing).
+   (-3..3 dB) the one that gives the most stations of the fitted scenes ns-3's MCS (the MCS that carried
+   most of their data; -1 when ns-3 sent nothing).
 2. **MAC efficiency, access intensity, hidden-AP weighting** by a grid search: the loss is the sum over the
    fitted scenes of the squared normalised errors of every AP (``|model - ns3| / max(0.15 ns3, 5 Mbps)``)
    and of every scene total (``|model - ns3| / max(0.10 ns3, 5 Mbps)``): the acceptance bounds, so 1 is the
@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from loss_matrix import NOISE_20MHZ_DBM
 from model_eval import ModelScene, Ns3Scene, load_ns3, model_scene
+
 from uav_swarm.world.wifi_tables import SHIPPED_TABLES, load_wifi_tables
 
 HERE = Path(__file__).resolve().parent
@@ -63,7 +64,7 @@ def misclassified(sinr_db: np.ndarray, mcs: np.ndarray, thresholds_db: np.ndarra
 
 def fit_thresholds(sinr_db: np.ndarray, mcs: np.ndarray, ideal_db: np.ndarray, floor_db: float
                    ) -> tuple[np.ndarray, float]:
-    """``max(ideal + offset, floor)`` with the offset (0.1 dB steps, -3..3) that misclassifies fewest stations."""
+    """``max(ideal + offset, floor)``, the offset (0.1 dB steps, -3..3) misclassifying the fewest stations."""
     best = (len(mcs) + 1, 0.0)
     for offset in sorted(np.round(np.arange(-3.0, 3.01, 0.1), 1), key=abs):  # ties: the smallest shift
         wrong = misclassified(sinr_db, mcs, np.maximum(ideal_db + offset, floor_db))
@@ -199,7 +200,8 @@ def _pm(values: np.ndarray) -> str:
 def _report(rows: list[tuple[dict, ModelScene, ModelScene]], ns3: dict[str, Ns3Scene]) -> dict:
     """Print the table and the held-out verdicts; return them as a dict."""
     print("\n| scene | split | APs x stations | ns-3 total Mbps (mean ± sd, 3 seeds) | model (fitted) "
-          "| error | shipped model | per-AP ns-3 / model Mbps | worst AP error / bound | station median error |")
+          "| error | shipped model | per-AP ns-3 / model Mbps | worst AP error / bound "
+          "| station median error |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     held: dict[str, list] = {"ap": [], "scene": [], "station": []}
     scenes_out = []
@@ -216,7 +218,8 @@ def _report(rows: list[tuple[dict, ModelScene, ModelScene]], ns3: dict[str, Ns3S
             per_ap = per_ap[:57] + "..."
         print(f"| {scene['name']} | {scene['split']} | {len(scene['uavs_m'])} x {len(scene['users_m'])} | "
               f"{_pm(totals)} | {model.ap_mbps.sum():.1f} | {100 * error:+.1f} % | "
-              f"{before.ap_mbps.sum():.1f} | {per_ap} | {aps.max():.2f} | {100 * median:.0f} % ({stations.size}) |")
+              f"{before.ap_mbps.sum():.1f} | {per_ap} | {aps.max():.2f} | "
+              f"{100 * median:.0f} % ({stations.size}) |")
         if scene["split"] == "test":
             held["ap"] += aps.tolist()
             held["scene"].append(abs(error))

@@ -1,8 +1,8 @@
 """The project's 802.11 model on a calibration scene, and the ns-3 result of the same scene, side by side.
 
-The model runs as ``simulate`` runs it (:func:`uav_swarm.world.wifi_coverage.wifi_links`) with the
-settings ns-3 was given (:data:`loss_matrix.RADIO`, the scene's channel width and channels, each UAV's
-altitude) and, to compare like with like, **throughput fairness** (ns-3's access point queues serve every station the same
+The model runs as ``simulate`` runs it (:func:`uav_swarm.world.wifi_coverage.wifi_links`) with the settings
+ns-3 was given (:data:`loss_matrix.RADIO`, the scene's channel width and channels, each UAV's altitude) and,
+to compare like with like, **throughput fairness** (ns-3's access point queues serve every station the same
 throughput at saturation) and no admission on rate (every user of the scene is a station in ns-3). The model
 associates by itself (strongest signal); :func:`model_scene` checks that it picks the scene's serving UAVs.
 """
@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 from loss_matrix import RADIO, loss_matrix_db
-from uav_swarm.world.wifi_config import Ieee80211Config
-from uav_swarm.world.wifi_coverage import wifi_links
 
 from uav_swarm.world.comms import RadioConfig
+from uav_swarm.world.wifi_config import Ieee80211Config
+from uav_swarm.world.wifi_coverage import wifi_links
 
 
 @dataclass(frozen=True)

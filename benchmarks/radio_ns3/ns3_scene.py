@@ -1,25 +1,25 @@
 """Run one calibration scene in ns-3 and write what each station received (run in its own process).
 
 This file runs under the Python that has the PyPI ``ns3`` package (``pip install ns3``, the
-``radio-calibration`` extra) and imports nothing of the project, so that an abort inside ns-3 only ends this process. It reads a job
-(JSON, written by ``run_ns3.py``) and writes a result (JSON, atomically):
+``radio-calibration`` extra) and imports nothing of the project, so that an abort inside ns-3 only ends
+this process. It reads a job (JSON, written by ``run_ns3.py``) and writes a result (JSON, atomically):
 
 - the network: access points and stations at the job's 3-D positions; each access point on its own channel
   number and width (5 GHz band), its stations on the same channel with the access point's SSID (passive
-  scanning, association before the measurement starts); 802.11ax, one spatial stream, 0.8 us guard interval, every radio
-  transmitting at ``tx_power_dbm``; ns-3's defaults otherwise (noise figure 7 dB, preamble detection and
-  carrier sense at -82 dBm, A-MPDUs up to 65,535 bytes, no RTS/CTS, EDCA best effort, the table-based error
-  model);
+  scanning, association before the measurement starts); 802.11ax, one spatial stream, 0.8 us guard interval
+  (set: ns-3's default is 3.2 us), every radio transmitting at ``tx_power_dbm``; ns-3's defaults otherwise
+  (noise figure 7 dB, preamble detection and carrier sense at -82 dBm, A-MPDUs up to 65,535 bytes, no RTS/CTS,
+  EDCA best effort, the table-based error model);
 - the path loss: ``MatrixPropagationLossModel`` with the job's dB matrix (every pair, symmetric), so that ns-3
   compares only its MAC and PHY with the project's model; constant-speed propagation delay;
 - the rate: the job's remote station manager (``ns3::IdealWifiManager`` by default: the MCS whose table-based
   error rate is low enough at the SINR of the last frame received from the peer);
 - the traffic: a saturated UDP downlink, 1,472-byte datagrams from each access point to each of its stations,
   ``offered_mbps_per_ap`` split equally over its stations (well above what an access point can carry). The
-  access point's queueing is ns-3's as shipped: the traffic-control layer's default root queue discipline (FqCoDel,
-  fair per flow) over the Wi-Fi MAC's first-come first-served queue, so that at saturation every station of an
-  access point receives the same throughput whatever its rate (throughput fairness, the 802.11 performance
-  anomaly);
+  access point's queueing is ns-3's as shipped: the traffic-control layer's default root queue discipline
+  (FqCoDel, fair per flow) over the Wi-Fi MAC's first-come first-served queue, so that at saturation every
+  station of an access point receives the same throughput whatever its rate (throughput fairness, the 802.11
+  performance anomaly);
 - the measurement: datagrams received by each station's UDP server between ``warmup_s`` and
   ``warmup_s + measure_s``, and for each station the data PPDUs sent to it by MCS (``PhyTxPsduBegin``).
 

@@ -2,9 +2,9 @@
 
 For each scene of ``scenes.json`` (in file order: the small ones first) whose result is not yet in
 ``--results`` (``<name>.json`` whose job equals the scene's job), it writes the ns-3 job (positions, the
-path-loss matrix of :mod:`loss_matrix`, channels, seeds) and runs ``ns3_scene.py`` (small scenes several to a process,
-one import of ns-3 for all) under ``--ns3-python`` (a Python with
-the PyPI ``ns3`` package, the ``radio-calibration`` extra), optionally behind ``flock --lock`` and ``nice``
+path-loss matrix of :mod:`loss_matrix`, channels, seeds) and runs ``ns3_scene.py`` (small scenes several
+to a process, one import of ns-3 for all) under ``--ns3-python`` (a Python with the PyPI ``ns3`` package,
+the ``radio-calibration`` extra), optionally behind ``flock --lock`` and ``nice``
 so that each scene waits for a shared CPU lock. A scene that fails or times out is reported and skipped;
 the next run retries it.
 

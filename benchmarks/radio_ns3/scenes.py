@@ -1,10 +1,11 @@
 """The calibration scenes of the 802.11 model against ns-3, written as data (``scenes.json``), seeded.
 
-Every scene is UAV access points (x, y, altitude above the users, channel) and users on the ground, each
-user served by the UAV it receives strongest (the path loss of the project's model); users are placed only
-where the serving UAV reaches them at 8 dB SNR or more (MCS 0 and above in ns-3), so that every station of ns-3 carries
-traffic. The families, and which scenes are fitted and which are held out (the split alternates inside each
-family, fixed here and written into the file):
+Every scene is UAV access points (x, y, altitude above the users, channel) and users on the ground, each user
+served by the UAV it receives strongest (the path loss of the project's model); users are placed only where
+the serving UAV reaches them at 8 dB SNR or more (those under 12 dB, -82 dBm, are below ns-3's preamble
+detection and never associate there: the edge of coverage is part of the test). The families, and which scenes
+are fitted and which are held out (the split alternates inside each family, fixed here and written into the
+file):
 
 - ``single-*``: one UAV at 10 m, one user at a growing horizontal distance (5-100 m): the SINR -> MCS map;
 - ``cell-*``: one UAV, 8-16 users in a disk (mixed rates: the performance anomaly), 20, 40 and 80 MHz;
@@ -37,7 +38,7 @@ MIN_SNR_DB = 8.0
 
 def _users_around(rng: np.random.Generator, uavs_m: np.ndarray, serving: int, n_users: int, radius_m: float
                   ) -> list[list[float]]:
-    """``n_users`` ground positions within ``radius_m`` of UAV ``serving`` that it serves (strongest, >= 8 dB)."""
+    """``n_users`` ground positions within ``radius_m`` of UAV ``serving``, served by it at >= 8 dB."""
     users: list[list[float]] = []
     while len(users) < n_users:
         angle = rng.uniform(0.0, 2.0 * math.pi)
