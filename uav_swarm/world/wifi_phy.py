@@ -22,8 +22,8 @@ All functions broadcast over any leading shape (worlds, users, UAVs). Formulas (
 Examples:
     >>> round(float(free_space_loss_db(np.array(100.0), 5.18e9)), 2)
     86.73
-    >>> mcs_index(np.array([8.9, 9.0, 40.0]), load_wifi_tables()).tolist()
-    [-1, 0, 11]
+    >>> mcs_index(np.array([-5.0, 40.0]), load_wifi_tables()).tolist()
+    [-1, 11]
 """
 
 from __future__ import annotations
