@@ -225,7 +225,7 @@ def _report(rows: list[tuple[dict, ModelScene, ModelScene]], ns3: dict[str, Ns3S
         print(f"| {scene['name']} | {scene['split']} | {len(scene['uavs_m'])} x {len(scene['users_m'])} | "
               f"{_pm(totals)} | {model.ap_mbps.sum():.1f} | {100 * error:+.1f} % | "
               f"{before.ap_mbps.sum():.1f} | {per_ap} | {aps.max():.2f} | "
-              f"{100 * median:.0f} % ({stations.size}) |")
+              f"{f'{100 * median:.0f} %' if stations.size else '-'} ({stations.size}) |")
         if scene["split"] == "test":
             held["ap"] += aps.tolist()
             ap_mean = result.ap_mbps.mean(axis=0)
