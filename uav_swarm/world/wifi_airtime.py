@@ -42,9 +42,10 @@ def carrier_sense_graph(ap_power_dbm: np.ndarray, channels: np.ndarray, cca_thre
         channels: (B, K) channel number of each AP.
         cca_threshold_dbm: The carrier-sense threshold at the channel width.
     """
-    n_uavs = channels.shape[1]
-    co_channel = channels[:, :, None] == channels[:, None, :]
-    return co_channel & (ap_power_dbm >= cca_threshold_dbm) & ~np.eye(n_uavs, dtype=bool)
+    graph = (channels[:, :, None] == channels[:, None, :]) & (ap_power_dbm >= cca_threshold_dbm)
+    diagonal = np.arange(channels.shape[1])
+    graph[:, diagonal, diagonal] = False
+    return graph
 
 
 @numba.njit(cache=True, nogil=True)

@@ -80,6 +80,7 @@ class WifiLinks:
         airtime: (B, K) each AP's airtime share (pass 2; 0 for an AP without stations).
         channel: (B, K) each AP's channel number.
         throughput_per_user_mbps: (B, K) mean throughput of the AP's stations (0 without).
+        covered_users: (B,) users covered in each world.
         qos_s1: (B,) share of the world's users covered.
         qos_s2: (B,) share covered with at least ``min_user_rate_mbps``.
         mean_throughput_mbps: (B,) mean throughput over the world's users.
@@ -98,6 +99,7 @@ class WifiLinks:
     airtime: np.ndarray
     channel: np.ndarray
     throughput_per_user_mbps: np.ndarray
+    covered_users: np.ndarray
     qos_s1: np.ndarray
     qos_s2: np.ndarray
     mean_throughput_mbps: np.ndarray
@@ -184,24 +186,33 @@ def _disturbance_mw(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c
 
 
 @numba.njit(cache=True, nogil=True)
-def _admit(user_order: np.ndarray, power_mw: np.ndarray, rate_mbps: np.ndarray, copy_index: np.ndarray,
-           airtime: np.ndarray, efficiency: float, min_rate_mbps: float, top_rate_mbps: float,
+def _pair_rate_mbps(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, hidden: np.ndarray,
+                    noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray) -> float:
+    """PHY rate of user ``n`` (world ``c``) at AP ``k`` from its SINR (0 below MCS 0)."""
+    disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
+    return ladder_mbps[_mcs(power_mw[n, k] / disturbance_mw, thresholds) + 1]
+
+
+@numba.njit(cache=True, nogil=True)
+def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, copy_index: np.ndarray,
+           weights: np.ndarray, hidden: np.ndarray, noise_mw: float, thresholds: np.ndarray,
+           ladder_mbps: np.ndarray, airtime: np.ndarray, efficiency: float, min_rate_mbps: float,
            airtime_fair: bool, rate_admission: bool, station_limit: int, previous: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray]:
-    """Step 4: incumbents, then newcomers; in range: ``rate_mbps > 0``; ``airtime`` (B, K); limit 0: none.
+    """Step 4: incumbents, then newcomers, at the pass-1 airtime and rates; ``airtime`` (B, K); limit 0: none.
 
     An AP is *closed* once no newcomer could pass its test (even at the top rate): skipping it changes
     nothing.
     """
-    n_users, n_uavs = rate_mbps.shape
+    n_users, n_uavs = in_range.shape
+    top_rate_mbps = ladder_mbps[-1]
     association = np.full(n_users, -1, np.int64)
     count = np.zeros(airtime.shape, np.int64)
     slowest = np.full(airtime.shape, np.inf)
     inverse_sum = np.zeros(airtime.shape)
     closed = np.zeros(airtime.shape, np.bool_)
 
-    def join(n: int, c: int, k: int) -> None:
-        rate = rate_mbps[n, k]
+    def join(n: int, c: int, k: int, rate: float) -> None:
         association[n] = k
         count[c, k] += 1
         slowest[c, k] = min(slowest[c, k], rate)
@@ -215,8 +226,10 @@ def _admit(user_order: np.ndarray, power_mw: np.ndarray, rate_mbps: np.ndarray, 
 
     for n in range(n_users):
         k = previous[n]
-        if 0 <= k < n_uavs and rate_mbps[n, k] > 0.0:
-            join(n, copy_index[n], k)
+        if 0 <= k < n_uavs and in_range[n, k]:
+            c = copy_index[n]
+            rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
+            join(n, c, k, rate)
     tried = np.zeros(n_uavs, np.bool_)
     for n in user_order:
         c = copy_index[n]
@@ -226,13 +239,13 @@ def _admit(user_order: np.ndarray, power_mw: np.ndarray, rate_mbps: np.ndarray, 
         while True:  # the strongest AP in range not tried yet (ties: the lower index)
             k = -1
             for j in range(n_uavs):
-                if not tried[j] and not closed[c, j] and rate_mbps[n, j] > 0.0 \
+                if not tried[j] and not closed[c, j] and in_range[n, j] \
                         and (k < 0 or power_mw[n, j] > power_mw[n, k]):
                     k = j
             if k < 0:
                 break
             tried[k] = True
-            rate = rate_mbps[n, k]
+            rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
             if rate_admission:
                 if airtime_fair:
                     share = airtime[c, k] * efficiency * min(slowest[c, k], rate) / (count[c, k] + 1)
@@ -240,7 +253,7 @@ def _admit(user_order: np.ndarray, power_mw: np.ndarray, rate_mbps: np.ndarray, 
                     share = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / rate)
                 if share < min_rate_mbps:
                     continue
-            join(n, c, k)
+            join(n, c, k, rate)
             break
     return association, count
 
@@ -251,8 +264,13 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
            efficiency: float, min_rate_mbps: float, airtime_fair: bool, rate_admission: bool,
            station_limit: int, previous: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                      np.ndarray]:
-    """Steps 3-5 of the module docstring for all worlds (powers and carrier-sense graph given)."""
+                      np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Steps 3-5 of the module docstring for all worlds (powers and carrier-sense graph given).
+
+    Returns per user: association, in range, SINR (linear), MCS, rate, throughput; per AP: stations, airtime,
+    mean throughput of its stations; per world: users covered, users covered with the minimum rate, total
+    throughput.
+    """
     n_users, n_uavs = power_mw.shape
     n_worlds = graph.shape[0]
     # 3. Pass 1: the APs some user reaches with an SNR of MCS 0 are active.
@@ -264,23 +282,20 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
     airtime = independent_set_airtime(graph, active, rho)
     weights = hidden_interferers(graph, channels, active, airtime, weighting)
     hidden = weights.sum(axis=2).sum(axis=1) > 0.0  # (B,) worlds with hidden interferers
-    rate_pairs = np.zeros((n_users, n_uavs))  # 0: out of range
+    in_range = np.zeros((n_users, n_uavs), np.bool_)  # the pass-1 SINR reaches MCS 0
     strongest = np.zeros(n_users)  # the strongest received power among the APs in range
-    in_range = np.zeros(n_users, np.bool_)
     for n in range(n_users):
+        c = copy_index[n]
         for k in range(n_uavs):
-            c = copy_index[n]
             disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
-            m = _mcs(power_mw[n, k] / disturbance_mw, thresholds)
-            if m >= 0:
-                rate_pairs[n, k] = ladder_mbps[m + 1]
-                in_range[n] = True
+            if power_mw[n, k] >= thresholds[0] * disturbance_mw:
+                in_range[n, k] = True
                 strongest[n] = max(strongest[n], power_mw[n, k])
     # 4. Association: strongest users first (a stable sort: the lower row first on ties).
     user_order = np.argsort(-strongest, kind="mergesort")
-    association, stations = _admit(user_order, power_mw, rate_pairs, copy_index, airtime, efficiency,
-                                   min_rate_mbps, ladder_mbps[-1], airtime_fair, rate_admission,
-                                   station_limit, previous)
+    association, stations = _admit(user_order, power_mw, in_range, copy_index, weights, hidden, noise_mw,
+                                   thresholds, ladder_mbps, airtime, efficiency, min_rate_mbps, airtime_fair,
+                                   rate_admission, station_limit, previous)
     # 5. Pass 2: the APs with stations.
     served = stations > 0
     if np.any(served != active):
@@ -308,6 +323,10 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
                 inverse_sum[c, k] += 1.0 / ladder_mbps[mcs[n] + 1]
     rate = np.zeros(n_users)
     throughput = np.zeros(n_users)
+    per_ap = np.zeros((n_worlds, n_uavs))
+    covered = np.zeros(n_worlds, np.int64)
+    fast = np.zeros(n_worlds, np.int64)
+    total_mbps = np.zeros(n_worlds)
     for n in range(n_users):
         if mcs[n] < 0:
             continue
@@ -317,20 +336,30 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
             throughput[n] = airtime[c, k] * efficiency * rate[n] / sharing[c, k]
         else:
             throughput[n] = airtime[c, k] * efficiency / inverse_sum[c, k]
+        per_ap[c, k] += throughput[n]
+        total_mbps[c] += throughput[n]
+        covered[c] += 1
+        fast[c] += throughput[n] >= min_rate_mbps
     for c in range(n_worlds):
         for k in range(n_uavs):
             if not served[c, k]:
                 airtime[c, k] = 0.0
-    return association, in_range, sinr, mcs, rate, throughput, stations, airtime
+            elif sharing[c, k]:
+                per_ap[c, k] /= sharing[c, k]
+    in_range_any = np.zeros(n_users, np.bool_)
+    for n in range(n_users):
+        in_range_any[n] = strongest[n] > 0.0
+    return (association, in_range_any, sinr, mcs, rate, throughput, stations, airtime, per_ap, covered, fast,
+            total_mbps)
 
 
 @functools.lru_cache(maxsize=16)
-def _constants(wifi: Ieee80211Config) -> tuple[WifiTables, float, np.ndarray, np.ndarray, float]:
-    """The tables, noise (mW), linear SINR thresholds, rate ladder and MAC efficiency of the settings."""
+def _constants(wifi: Ieee80211Config) -> tuple[WifiTables, float, np.ndarray, np.ndarray, float, np.ndarray]:
+    """The tables, noise (mW), linear SINR thresholds, rate ladder, MAC efficiency and usable channels."""
     tables = load_wifi_tables(wifi.tables_file)
     efficiency = wifi.mac_efficiency if wifi.mac_efficiency is not None else tables.mac_efficiency
     return (tables, float(dbm_to_mw(noise_dbm(wifi))), dbm_to_mw(tables.min_sinr_db),
-            rate_ladder_mbps(wifi, tables), efficiency)
+            rate_ladder_mbps(wifi, tables), efficiency, np.array(wifi.usable_channels, np.int64))
 
 
 def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
@@ -351,7 +380,7 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
         ValueError: A shape or a channel the model does not take (the message names it).
     """
     wifi = config.ieee80211
-    tables, noise_mw, thresholds, ladder, efficiency = _constants(wifi)
+    tables, noise_mw, thresholds, ladder, efficiency, _ = _constants(wifi)
     users_m = np.ascontiguousarray(users_m, dtype=np.float64).reshape(-1, 2)
     copy_index = np.ascontiguousarray(copy_index, dtype=np.int64)
     uavs_m = np.ascontiguousarray(uavs_m, dtype=np.float64)
@@ -360,31 +389,23 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
     before = np.full(n_all, -1, np.int64) if previous is None else np.asarray(previous, np.int64)
     if before.shape != (n_all,):
         raise ValueError(f"previous must have shape ({n_all},), got {before.shape}")
-    heights = uav_altitudes_m(altitudes_m, n_worlds, n_uavs, config)
-    plan = uav_channels(channels, n_worlds, n_uavs, config)
+    check_contenders(n_uavs)
+    heights = np.ascontiguousarray(uav_altitudes_m(altitudes_m, n_worlds, n_uavs, config))
+    plan = np.ascontiguousarray(uav_channels(channels, n_worlds, n_uavs, config))
     offsets = np.searchsorted(copy_index, np.arange(n_worlds + 1)) if n_worlds > 1 else np.array([0, n_all])
     n_users = np.diff(offsets)
-    # 1-2. Powers, (N, K) user from AP in mW; the carrier-sense graph from the APs' (B, K, K) powers.
-    check_contenders(n_uavs)
+    # 1-2. Powers, (N, K) user from AP in mW; the carrier-sense graph.
     power_mw = station_power_mw(users_m, copy_index, uavs_m, heights, wifi)
     graph = carrier_sense_graph(ap_pair_power_dbm(uavs_m, heights, wifi), plan, wifi.cca_threshold_dbm)
     # 3-5. Passes and association.
-    association, in_range, sinr, mcs, rate, throughput, stations, airtime = _links(
-        power_mw, copy_index, np.ascontiguousarray(graph), np.ascontiguousarray(plan),
-        noise_mw, thresholds, ladder,
-        tables.access_intensity, tables.interference_airtime_weighting, efficiency, config.min_user_rate_mbps,
+    (association, in_range, sinr, mcs, rate, throughput, stations, airtime, per_ap, covered, fast,
+     total) = _links(
+        power_mw, copy_index, graph, plan, noise_mw, thresholds, ladder, tables.access_intensity,
+        tables.interference_airtime_weighting, efficiency, config.min_user_rate_mbps,
         wifi.fairness == "airtime", wifi.rate_admission, config.max_stations or 0, before)
-    covered = mcs >= 0
-    fast = covered & (throughput >= config.min_user_rate_mbps)
     denominator = np.maximum(n_users, 1)
-    slot = copy_index * n_uavs + np.maximum(association, 0)
-    per_ap = np.bincount(slot[covered], weights=throughput[covered], minlength=n_worlds * n_uavs)
-    sharing = np.bincount(slot[covered], minlength=n_worlds * n_uavs)
     return WifiLinks(
-        association=association, covered=covered, in_range=in_range, sinr_db=10.0 * np.log10(sinr), mcs=mcs,
+        association=association, covered=mcs >= 0, in_range=in_range, sinr_db=10.0 * np.log10(sinr), mcs=mcs,
         rate_mbps=rate, throughput_mbps=throughput, offsets=offsets, n_users=n_users, users_per_uav=stations,
-        airtime=airtime, channel=np.array(plan),
-        throughput_per_user_mbps=(per_ap / np.maximum(sharing, 1)).reshape(n_worlds, n_uavs),
-        qos_s1=np.bincount(copy_index[covered], minlength=n_worlds) / denominator,
-        qos_s2=np.bincount(copy_index[fast], minlength=n_worlds) / denominator,
-        mean_throughput_mbps=np.bincount(copy_index, weights=throughput, minlength=n_worlds) / denominator)
+        airtime=airtime, channel=plan, throughput_per_user_mbps=per_ap, covered_users=covered,
+        qos_s1=covered / denominator, qos_s2=fast / denominator, mean_throughput_mbps=total / denominator)
