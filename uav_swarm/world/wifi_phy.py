@@ -68,41 +68,41 @@ def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.nda
                      config: Ieee80211Config) -> np.ndarray:
     """``(N, K)`` power (mW) each user receives from each UAV's AP of its own world (air to ground).
 
-    Computed as ``10^((EIRP - FSPL(1 m) - excess) / 10) / max(d^2, 1)``, the formula above in milliwatts, by
-    blocks of :data:`BLOCK_USERS` users (small temporaries stay in cache: many worlds at once are no slower
-    per user than one).
+    Computed as ``10^((EIRP - FSPL(1 m) - excess) / 10) / max(d^2, 1)``, the formula above in milliwatts,
+    world by world in blocks of at most :data:`BLOCK_USERS` users (small temporaries stay in cache: many
+    worlds at once cost no more per user than one).
 
     Args:
-        users_m: (N, 2) user positions, metres.
-        copy_index: (N,) each user's world.
+        users_m: (N, 2) user positions, metres, stacked world by world.
+        copy_index: (N,) each user's world (non-decreasing).
         uavs_m: (B, K, 2) UAV positions, metres.
         heights_m: (B, K) each UAV's height above the users, metres.
         config: The 802.11 settings.
     """
     power_mw = np.empty((len(users_m), uavs_m.shape[1]))
-    for start in range(0, len(users_m), BLOCK_USERS):
-        rows = slice(start, start + BLOCK_USERS)
-        power_mw[rows] = _block_power_mw(users_m[rows], copy_index[rows], uavs_m, heights_m, config)
+    bounds = np.append(np.flatnonzero(np.diff(copy_index, prepend=-1)), len(users_m)).tolist()  # worlds' rows
+    for first, end in zip(bounds[:-1], bounds[1:], strict=True):
+        c = int(copy_index[first])
+        for start in range(first, end, BLOCK_USERS):
+            rows = slice(start, min(start + BLOCK_USERS, end))
+            power_mw[rows] = _block_power_mw(users_m[rows], uavs_m[c], heights_m[c], config)
     return power_mw
 
 
-def _block_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray,
-                    config: Ieee80211Config) -> np.ndarray:
+def _block_power_mw(users_m: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray, config: Ieee80211Config
+                    ) -> np.ndarray:
+    """(n, K) powers of users of one world from its (K, 2) UAVs at (K,) heights."""
     a, b, eta_los_db, eta_nlos_db = config.environment_parameters
     eirp_dbm = config.tx_power_dbm + config.ap_antenna_gain_dbi + config.station_antenna_gain_dbi
-    if uavs_m.shape[0] == 1:  # one world: broadcast instead of gathering each user's UAVs
-        uav_x, uav_y, height = uavs_m[0, :, 0], uavs_m[0, :, 1], heights_m[0]
-    else:
-        uav_x, uav_y, height = uavs_m[copy_index, :, 0], uavs_m[copy_index, :, 1], heights_m[copy_index]
-    dx = uav_x - users_m[:, 0:1]
-    dy = uav_y - users_m[:, 1:2]
+    dx = uavs_m[:, 0] - users_m[:, 0:1]
+    dy = uavs_m[:, 1] - users_m[:, 1:2]
     horizontal_sq = dx * dx
     horizontal_sq += dy * dy
-    elevation_deg = np.arctan2(np.broadcast_to(height, horizontal_sq.shape), np.sqrt(horizontal_sq))
+    elevation_deg = np.arctan2(np.broadcast_to(heights_m, horizontal_sq.shape), np.sqrt(horizontal_sq))
     elevation_deg *= 180.0 / math.pi
     p_los = 1.0 / (1.0 + a * np.exp(-b * (elevation_deg - a)))
     excess_db = eta_nlos_db - (eta_nlos_db - eta_los_db) * p_los
-    distance_sq = np.maximum(horizontal_sq + height * height, MIN_DISTANCE_M * MIN_DISTANCE_M)
+    distance_sq = np.maximum(horizontal_sq + heights_m * heights_m, MIN_DISTANCE_M * MIN_DISTANCE_M)
     at_1m_db = eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9)
     return np.exp((at_1m_db - excess_db) * (math.log(10.0) / 10.0)) / distance_sq
 
