@@ -91,20 +91,32 @@ def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.nda
 
 def _block_power_mw(users_m: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray, config: Ieee80211Config
                     ) -> np.ndarray:
-    """(n, K) powers of users of one world from its (K, 2) UAVs at (K,) heights."""
+    """(n, K) powers of users of one world from its (K, 2) UAVs at (K,) heights.
+
+    The formula with its constants folded (few whole-array passes): ``P_LoS = 1 / (1 + exp(ln a + a b - b
+    theta))`` and ``P = exp(ln10 / 10 (EIRP - FSPL(1 m) - eta_NLoS + (eta_NLoS - eta_LoS) P_LoS)) / d^2``.
+    """
     a, b, eta_los_db, eta_nlos_db = config.environment_parameters
     eirp_dbm = config.tx_power_dbm + config.ap_antenna_gain_dbi + config.station_antenna_gain_dbi
+    to_neper = math.log(10.0) / 10.0
     dx = uavs_m[:, 0] - users_m[:, 0:1]
     dy = uavs_m[:, 1] - users_m[:, 1:2]
     horizontal_sq = dx * dx
     horizontal_sq += dy * dy
-    elevation_deg = np.arctan2(np.broadcast_to(heights_m, horizontal_sq.shape), np.sqrt(horizontal_sq))
-    elevation_deg *= 180.0 / math.pi
-    p_los = 1.0 / (1.0 + a * np.exp(-b * (elevation_deg - a)))
-    excess_db = eta_nlos_db - (eta_nlos_db - eta_los_db) * p_los
-    distance_sq = np.maximum(horizontal_sq + heights_m * heights_m, MIN_DISTANCE_M * MIN_DISTANCE_M)
-    at_1m_db = eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9)
-    return np.exp((at_1m_db - excess_db) * (math.log(10.0) / 10.0)) / distance_sq
+    distance_sq = horizontal_sq + heights_m * heights_m
+    np.maximum(distance_sq, MIN_DISTANCE_M * MIN_DISTANCE_M, out=distance_sq)
+    np.sqrt(horizontal_sq, out=horizontal_sq)
+    exponent = np.arctan2(np.broadcast_to(heights_m, horizontal_sq.shape), horizontal_sq)  # elevation, rad
+    exponent *= -b * 180.0 / math.pi
+    exponent += math.log(a) + a * b
+    np.exp(exponent, out=exponent)
+    exponent += 1.0
+    np.reciprocal(exponent, out=exponent)  # P_LoS
+    exponent *= (eta_nlos_db - eta_los_db) * to_neper
+    exponent += (eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9) - eta_nlos_db) * to_neper
+    np.exp(exponent, out=exponent)
+    exponent /= distance_sq
+    return exponent
 
 
 def ap_pair_power_dbm(uavs_m: np.ndarray, altitudes_m: np.ndarray, config: Ieee80211Config) -> np.ndarray:
