@@ -79,6 +79,8 @@ def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.nda
         heights_m: (B, K) each UAV's height above the users, metres.
         config: The 802.11 settings.
     """
+    if uavs_m.shape[0] == 1 and len(users_m) <= BLOCK_USERS:
+        return _block_power_mw(users_m, uavs_m[0], heights_m[0], config)
     power_mw = np.empty((len(users_m), uavs_m.shape[1]))
     bounds = np.append(np.flatnonzero(np.diff(copy_index, prepend=-1)), len(users_m)).tolist()  # worlds' rows
     for first, end in zip(bounds[:-1], bounds[1:], strict=True):
