@@ -121,7 +121,7 @@ def uav_channels(channels: np.ndarray | None, n_worlds: int, n_uavs: int, config
         wrong = sorted(set(plan.ravel().tolist()) - set(usable.tolist()))
         raise ValueError(f"channels {wrong} are not usable: allowed {usable.tolist()} "
                          "(RadioConfig.ieee80211)")
-    return np.broadcast_to(plan, (n_worlds, n_uavs))
+    return plan if plan.ndim == 2 else np.broadcast_to(plan, (n_worlds, n_uavs))
 
 
 def uav_altitudes_m(altitudes_m: np.ndarray | None, n_worlds: int, n_uavs: int, config: RadioConfig
@@ -140,7 +140,7 @@ def uav_altitudes_m(altitudes_m: np.ndarray | None, n_worlds: int, n_uavs: int, 
     if heights.shape not in ((n_uavs,), (n_worlds, n_uavs)):
         raise ValueError(f"altitudes_m must have shape ({n_uavs},) or ({n_worlds}, {n_uavs}), "
                          f"got {heights.shape}")
-    return np.broadcast_to(heights, (n_worlds, n_uavs))
+    return heights if heights.ndim == 2 else np.broadcast_to(heights, (n_worlds, n_uavs))
 
 
 def channel_conflicts(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.ndarray | None = None

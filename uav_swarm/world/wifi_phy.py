@@ -25,8 +25,9 @@ used, in :mod:`uav_swarm.world.wifi_coverage`.
 
 Examples:
     >>> config = Ieee80211Config()
-    >>> round(float(free_space_loss_db(np.array(100.0), 5.18e9)), 2)
-    86.73
+    >>> two = ap_pair_power_dbm(np.array([[[0.0, 0.0], [100.0, 0.0]]]), np.array([[10.0, 10.0]]), config)
+    >>> round(float(two[0, 0, 1]), 2)  # 20 dBm - FSPL(100 m) = 20 - 86.73
+    -66.73
     >>> power_mw = station_power_mw(np.array([[0.0, 0.0]]), np.zeros(1, np.int64), np.array([[[30.0, 0.0]]]),
     ...                             np.array([[20.0]]), config)  # 30 m away, 20 m up
     >>> round(float(10 * np.log10(power_mw[0, 0])), 2), round(noise_dbm(config), 2)
@@ -39,12 +40,13 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_tables import WifiTables, load_wifi_tables
 
-__all__ = ["SPEED_OF_LIGHT_M_S", "free_space_loss_db", "station_power_mw", "ap_pair_power_dbm", "noise_dbm",
+__all__ = ["SPEED_OF_LIGHT_M_S", "station_power_mw", "ap_pair_power_dbm", "noise_dbm",
            "dbm_to_mw", "rate_ladder_mbps"]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
@@ -57,11 +59,6 @@ BLOCK_USERS = 1024
 def _fspl_1m_db(frequency_hz: float) -> float:
     """Free-space path loss at 1 m (dB)."""
     return 20.0 * math.log10(frequency_hz) + 20.0 * math.log10(4.0 * math.pi / SPEED_OF_LIGHT_M_S)
-
-
-def free_space_loss_db(distance_m: np.ndarray, frequency_hz: float) -> np.ndarray:
-    """Free-space path loss (dB) at ``distance_m`` (at least :data:`MIN_DISTANCE_M`)."""
-    return 20.0 * np.log10(np.maximum(distance_m, MIN_DISTANCE_M)) + _fspl_1m_db(frequency_hz)
 
 
 def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray,
@@ -129,11 +126,26 @@ def ap_pair_power_dbm(uavs_m: np.ndarray, altitudes_m: np.ndarray, config: Ieee8
         altitudes_m: (B, K) each UAV's altitude, metres.
         config: The 802.11 settings.
     """
-    positions = np.concatenate([uavs_m, altitudes_m[:, :, None]], axis=2)
-    offsets_m = positions[:, :, None] - positions[:, None]
-    distance_m = np.sqrt((offsets_m * offsets_m).sum(axis=3))
     eirp_dbm = config.tx_power_dbm + 2.0 * config.ap_antenna_gain_dbi
-    return eirp_dbm - free_space_loss_db(distance_m, config.frequency_ghz * 1e9)
+    return _ap_pair_kernel(np.ascontiguousarray(uavs_m, dtype=np.float64),
+                           np.ascontiguousarray(altitudes_m, dtype=np.float64),
+                           eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9))
+
+
+@numba.njit(cache=True, nogil=True)
+def _ap_pair_kernel(uavs_m: np.ndarray, altitudes_m: np.ndarray, at_1m_dbm: float) -> np.ndarray:
+    """``EIRP - FSPL(1 m) - 20 log10(max(d_ij, 1))`` for every pair of APs of each world (K x K is small)."""
+    n_worlds, n_uavs = altitudes_m.shape
+    power_dbm = np.empty((n_worlds, n_uavs, n_uavs))
+    for c in range(n_worlds):
+        for i in range(n_uavs):
+            for j in range(n_uavs):
+                dx = uavs_m[c, i, 0] - uavs_m[c, j, 0]
+                dy = uavs_m[c, i, 1] - uavs_m[c, j, 1]
+                dz = altitudes_m[c, i] - altitudes_m[c, j]
+                distance_m = max(math.sqrt(dx * dx + dy * dy + dz * dz), MIN_DISTANCE_M)
+                power_dbm[c, i, j] = at_1m_dbm - 20.0 * math.log10(distance_m)
+    return power_dbm
 
 
 def noise_dbm(config: Ieee80211Config) -> float:
