@@ -1,7 +1,7 @@
 """The path loss ns-3 is given: every pair of radios of a scene, in dB, from the project's 802.11 model.
 
-UAV to user: Al-Hourani's air-to-ground loss (the model's ``air_to_ground_loss_db``); UAV to UAV: free space
-(``free_space_loss_db``); user to user (only ns-3 needs it: stations send block acknowledgements): the
+UAV to user: Al-Hourani's air-to-ground loss (the model's ``station_power_mw``); UAV to UAV: free space
+(``ap_pair_power_dbm``); user to user (only ns-3 needs it: stations send block acknowledgements): the
 air-to-ground formula at zero height, i.e. free space plus almost all of the NLoS excess. Positions are
 ``(x_m, y_m, height_m)`` with users at height 0 and UAVs at their altitude above the users.
 
@@ -15,8 +15,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from uav_swarm.world.wifi_config import Ieee80211Config
-from uav_swarm.world.wifi_phy import air_to_ground_loss_db, free_space_loss_db
+from uav_swarm.world.wifi_phy import ap_pair_power_dbm, station_power_mw
 
 RADIO: dict[str, float | str] = {"environment": "urban", "frequency_ghz": 5.18, "tx_power_dbm": 20.0,
                                  "noise_figure_db": 7.0}
@@ -25,12 +26,16 @@ NOISE_20MHZ_DBM = -174.0 + 10.0 * math.log10(20e6) + float(RADIO["noise_figure_d
 
 
 def link_loss_db(a_m: np.ndarray, b_m: np.ndarray) -> float:
-    """Path loss (dB) between two radios at ``(x_m, y_m, height_m)``."""
-    horizontal_m = float(np.hypot(a_m[0] - b_m[0], a_m[1] - b_m[1]))
+    """Path loss (dB) between two radios at ``(x_m, y_m, height_m)``: the model's powers, less its EIRP."""
     if a_m[2] > 0.0 and b_m[2] > 0.0:
-        distance_m = float(np.linalg.norm(np.asarray(a_m) - np.asarray(b_m)))
-        return float(free_space_loss_db(np.array(distance_m), CONFIG.frequency_ghz * 1e9))
-    return float(air_to_ground_loss_db(np.array(horizontal_m), np.array(abs(a_m[2] - b_m[2])), CONFIG))
+        uavs_m = np.array([[a_m[:2], b_m[:2]]], dtype=float)
+        power_dbm = ap_pair_power_dbm(uavs_m, np.array([[a_m[2], b_m[2]]], dtype=float), CONFIG)[0, 0, 1]
+        return float(CONFIG.tx_power_dbm + 2.0 * CONFIG.ap_antenna_gain_dbi - power_dbm)
+    low, high = (a_m, b_m) if a_m[2] <= b_m[2] else (b_m, a_m)  # the user, and the UAV (or the other user)
+    power_mw = station_power_mw(np.array([low[:2]], dtype=float), np.zeros(1, np.int64),
+                                np.array([[high[:2]]], dtype=float), np.array([[high[2] - low[2]]]), CONFIG)
+    eirp_dbm = CONFIG.tx_power_dbm + CONFIG.ap_antenna_gain_dbi + CONFIG.station_antenna_gain_dbi
+    return float(eirp_dbm - 10.0 * np.log10(power_mw[0, 0]))
 
 
 def scene_positions_m(scene: dict) -> np.ndarray:
