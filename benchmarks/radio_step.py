@@ -7,7 +7,7 @@ process so that a changing machine load hits both alike; the ratio of the median
 (``coverage_batch``) for 1 and 64 worlds. The 802.11 runs give the UAVs a channel plan (``plan_channels``,
 the nine default 20 MHz channels), as a deployment would.
 
-Usage: python benchmarks/radio_step.py [--steps 300] [--rounds 5] [--batched-steps 30]   (--rounds 0: radio alone)
+Usage: python benchmarks/radio_step.py [--steps 300] [--rounds 5 (0: the radio alone)] [--batched-steps 30]
 """
 
 from __future__ import annotations
