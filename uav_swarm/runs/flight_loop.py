@@ -28,7 +28,7 @@ import numpy as np
 from bridge.errors import BridgeError
 from bridge.flight.guided import end_flight, launch, set_mode
 from bridge.flight.preflight import PreflightError
-from uav_swarm.planning.channel_plan import plan_channels
+from uav_swarm.world.wifi_channels import plan_channels
 from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.flight_safety import FlightSafety
 from uav_swarm.runs.fly_config import FlyConfig

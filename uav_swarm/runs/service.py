@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask
-from uav_swarm.planning.channel_plan import plan_channels
+from uav_swarm.world.wifi_channels import plan_channels
 from uav_swarm.world.comms import evaluate_coverage
 
 __all__ = ["JUMP_M", "StaticReference", "static_reference", "reference_qos", "target_jumps",
@@ -73,7 +73,7 @@ def reference_qos(users_m: np.ndarray, velocities_m_s: np.ndarray, task_config: 
     """The strategy's QoS of the best expert placement of one crowd, judged as if reached.
 
     The 802.11 radio judges each placement with the UAVs at ``altitudes_m`` ((n_uavs,), the first ones
-    used) on the channels :func:`~uav_swarm.planning.channel_plan.plan_channels` gives them.
+    used) on the channels :func:`~uav_swarm.world.wifi_channels.plan_channels` gives them.
     """
     best = 0.0
     wifi = task_config.radio.propagation == "802.11"
