@@ -12,8 +12,9 @@ from learning.inference import predict_positions
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from uav_swarm.missions.registry import build_task
 
-SHIPPED = ("wifi-s1", "wifi-s2", "wifi-s2-groups", "wifi-s2-ac", "agp", "fp")
-"""Shipped files; ``wifi-s2-*`` are strategy 2 with other experts (group expert; admission control)."""
+SHIPPED = ("wifi-s1", "wifi-s1-80211", "wifi-s2", "wifi-s2-groups", "wifi-s2-ac", "wifi-s2-80211", "agp", "fp")
+"""Shipped files; ``wifi-s2-*`` are strategy 2 with other experts (group expert; admission control), and
+``*-80211`` the 802.11 radio's expert's."""
 N_SCENES = 12
 
 
@@ -33,7 +34,7 @@ def _densest_pixels(raster: np.ndarray, k: int) -> np.ndarray:
 def test_shipped_checkpoint_loads_and_beats_the_densest_pixels_baseline(name):
     path = _shipped(name)
     assert path.is_file(), f"the package must ship {name}.pt"
-    task_name = "wifi-s2" if name.startswith("wifi-s2") else name
+    task_name = name if name in ("agp", "fp") else name[:7]  # wifi-s1-80211 is a wifi-s1 network
     ckpt = load_checkpoint(path, task_name=task_name)
     task = build_task(task_name, ckpt.task_config)
     assert ckpt.input_shape == (task.channels, *task.shape)

@@ -283,3 +283,13 @@ def test_a_minimum_the_fleet_check_accepts_starts_and_flies_separated(tmp_path, 
     assert main(argv) == 0, capsys.readouterr().err
     separation = json.loads((out / "summary.json").read_text())["planners"]["learned"]["separation"]
     assert separation["closest_m"] >= 80.0
+
+
+def test_the_802_11_radio_flies_with_a_channel_plan_and_its_static_reference(tmp_path, tiny_checkpoint):
+    task = {**SMALL_WIFI_TASK, "strategy": 2, "radio": {"propagation": "802.11"}}
+    result = simulate(tiny(tiny_checkpoint, planner="expert", gif=False, checkpoint="", duration_s=2.0,
+                           replan_every=5, task=task), tmp_path, progress=False)
+    run = result.runs["expert"]
+    assert np.all((run.qos_s2 >= 0) & (run.qos_s2 <= run.qos_s1 + 1e-12) & (run.qos_s1 <= 1))
+    assert result.summary["planners"]["expert"]["association"].startswith("802.11")
+    assert 0.0 <= result.summary["static_reference"]["mean_qos"] <= 1.0

@@ -33,7 +33,8 @@ __all__ = ["register", "run", "format_summary", "wrote_line", "CHECKPOINT_HELP"]
 
 CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: wifi-s1.pt for "
                    "strategy 1, wifi-s2-ac.pt for strategy 2 under admission control, wifi-s2.pt for "
-                   "strategy 2 with station_limit = \"off\")")
+                   "strategy 2 with station_limit = \"off\", wifi-s<strategy>-80211.pt under the 802.11 "
+                   "radio)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

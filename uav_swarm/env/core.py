@@ -45,6 +45,7 @@ from uav_swarm.world.separation import (
 )
 from uav_swarm.world.step_guard import guard_commands
 from uav_swarm.world.uav import fly_step, waypoint_velocity
+from uav_swarm.world.wifi_coverage import uav_channels
 
 __all__ = ["SwarmCore"]
 
@@ -87,16 +88,20 @@ class SwarmCore:
         self.layout = Layout(cfg, self.width_m, self.height_m)
         self.altitudes_m = cfg.uav.altitudes_m(cfg.n_uavs)
         layered = bool(np.any(self.altitudes_m != cfg.uav.alt_m))
-        # The radio sees each UAV's own altitude when the layers differ and 3D distances are on.
-        self._radio_altitudes_m = self.altitudes_m if cfg.use_3d_distance and layered else None
+        # The radio sees each UAV's own altitude when the layers differ and 3D distances are on; the 802.11
+        # model always does (its path loss depends on the elevation angle).
+        wifi = self.radio.propagation == "802.11"
+        self._radio_altitudes_m = self.altitudes_m if (cfg.use_3d_distance and layered) or wifi else None
+        self.channel_plan: np.ndarray | None = None
+        """(B, K) each UAV's channel (802.11 model, :meth:`set_channel_plan`); None: the first usable one."""
         self._guard_altitudes_m = self.altitudes_m if layered else None
         # UAVs start apart: a draw closer than the minimum is drawn again (world/separation.draw_apart_m).
         self._start_gaps_m = required_distances_m(cfg.uav.min_separation_m, self._guard_altitudes_m,
                                                   cfg.n_uavs)
         self._stacked = stacked_crowd
-        # Admission control keeps per-world association state; the paper's model is computed for all at once.
+        # Admission control and the 802.11 model keep per-world incumbents; the paper's model is memoryless.
         self._links: list[Association] | None = [Association(self.radio) for _ in range(b)] \
-            if self.radio.max_stations is not None else None
+            if self.radio.max_stations is not None or wifi else None
         (h, w), p = cfg.density_shape, cfg.patch_px
         self._padded_share_map = np.zeros((b, h + p - 1, w + p - 1), dtype=np.float32)  # zero border
         self._patch_windows = sliding_window_view(self._padded_share_map, (p, p), axis=(1, 2))
@@ -180,6 +185,19 @@ class SwarmCore:
                 self._links[c].reset()
         self._update_view()
 
+    def set_channel_plan(self, channels: np.ndarray | None) -> None:
+        """Each UAV's channel from the next step on (802.11 radio).
+
+        ``channels``: (K,) or (B, K) channel numbers; None puts all on the first usable channel.
+
+        Raises:
+            ValueError: The paper's radio, a shape or a channel the radio does not take.
+        """
+        if channels is not None and self.radio.propagation != "802.11":
+            raise ValueError("a channel plan applies only with RadioConfig.propagation = '802.11'")
+        self.channel_plan = None if channels is None else \
+            uav_channels(channels, self.num_worlds, self.config.n_uavs, self.radio).copy()
+
     def step(self, values: np.ndarray, given: np.ndarray | None = None, active: np.ndarray | None = None
              ) -> None:
         """Apply one action per UAV and advance the crowds and the UAVs of the active worlds by ``dt_s``.
@@ -246,7 +264,7 @@ class SwarmCore:
         self.share_map = self.density / np.maximum(n_users, 1).astype(np.float32)[:, None, None]
         self._padded_share_map[:, half:half + h, half:half + w] = self.share_map
         self.coverage: CoverageBatch = coverage_batch(peds, copy, self.positions_m, self.radio, self._links,
-                                                      self._radio_altitudes_m)
+                                                      self._radio_altitudes_m, self.channel_plan)
         distances_m = pair_distances_m(self.positions_m, self._guard_altitudes_m)
         self.separation = separation_penalty(self.positions_m, cfg.uav.min_separation_m,
                                              distances_m=distances_m)

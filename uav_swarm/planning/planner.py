@@ -128,20 +128,26 @@ def default_checkpoint(task_name: str = "wifi-s1") -> Path:
 
 
 def shipped_checkpoint_name(task_config: WifiConfig) -> str:
-    """The shipped checkpoint a task flies by default: ``wifi-s2-ac`` for strategy 2 under admission control.
+    """The shipped checkpoint a task flies by default.
 
-    That network learned the capacitated expert (:mod:`uav_swarm.missions.wifi.capacitated`); the others
-    are the task's name (``wifi-s1``, ``wifi-s2``: the paper's radio).
+    ``wifi-s1-80211`` and ``wifi-s2-80211`` under the 802.11 radio (the 802.11 expert's networks,
+    :mod:`uav_swarm.missions.wifi.ieee80211_expert`); ``wifi-s2-ac`` for strategy 2 under admission control
+    (the capacitated expert's, :mod:`uav_swarm.missions.wifi.capacitated`); else the task's name
+    (``wifi-s1``, ``wifi-s2``: the paper's radio).
     """
+    if task_config.radio.propagation == "802.11":
+        return f"wifi-s{task_config.strategy}-80211"
     admission = task_config.strategy == 2 and task_config.radio.max_stations is not None
     return "wifi-s2-ac" if admission else f"wifi-s{task_config.strategy}"
 
 
-def _missing_checkpoint_message(path: Path, task_name: str) -> str:
-    return (f"no checkpoint at {path}: the shipped {task_name} checkpoint is not installed. Train one "
-            f"(uav-swarm dataset --task {task_name} --n 5000 --seed 1 --out runs/{task_name}/data; "
-            f"uav-swarm train --task {task_name} --data runs/{task_name}/data --out runs/{task_name}/train "
-            f"--config configs/tasks/{task_name}.toml) and copy runs/{task_name}/train/best.pt to {path}, "
+def _missing_checkpoint_message(path: Path, task_name: str, shipped: str) -> str:
+    config = f"configs/tasks/{shipped}.toml"
+    return (f"no checkpoint at {path}: the shipped {shipped} checkpoint is not installed. Train one "
+            f"(uav-swarm dataset --task {task_name} --config {config} --n 5000 --seed 1 "
+            f"--out runs/{shipped}/data; "
+            f"uav-swarm train --task {task_name} --data runs/{shipped}/data --out runs/{shipped}/train "
+            f"--config {config}) and copy runs/{shipped}/train/best.pt to {path}, "
             "or pass --checkpoint PATH (or use --planner expert)")
 
 
@@ -188,7 +194,7 @@ class LearnedPlanner(AssigningPlanner):
         path = default_checkpoint(shipped) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
             if checkpoint in (None, ""):
-                raise CheckpointError(_missing_checkpoint_message(path, task_name))
+                raise CheckpointError(_missing_checkpoint_message(path, task_name, shipped))
             raise CheckpointError(f"checkpoint not found: {path} (--checkpoint)")
         side = task_config.size_px
         ckpt = load_checkpoint(path, task_name=task_name)
@@ -261,7 +267,9 @@ class LearnedPlanner(AssigningPlanner):
             if self._check is not None:
                 peaks_px = self._check(raster, peaks_px)
             peaks_m = self.task.to_metres(peaks_px)
-            if self.config.refine:
+            if self.config.refine and self.task.config.radio.propagation == "802.11":
+                peaks_m = self.task.refine_80211(peds, peaks_m, self.n_uavs)
+            elif self.config.refine:
                 peaks_m = refine_placement(peds, peaks_m, self._rules, self.task.width_m, self.task.height_m,
                                            self.refinement)
             out.append((peaks_m, utility))

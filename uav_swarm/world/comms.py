@@ -24,6 +24,11 @@ at least ``signal_at_range``. A UAV's capacity is shared equally among its assoc
   every incumbent on its UAV while it stays in range, even when a newcomer is nearer; newcomers fill
   the free places strongest first. The admission itself is :mod:`uav_swarm.world.admission`.
 
+**Propagation** (``RadioConfig.propagation``): ``"paper"`` is the model above; ``"802.11"`` is the 802.11
+model of :mod:`uav_swarm.world.wifi_coverage` (path loss, SINR, MCS rates, airtime shared by co-channel APs
+that hear each other, admission on rate; docs/radio.md), which the same functions and :class:`Association`
+run, with each UAV's own altitude and a channel plan.
+
 A user *has network* (``covered``) when it is associated; strategy 1's QoS is the share of users
 with network, strategy 2's the share with network and at least ``min_user_rate_mbps``. Under
 admission control with ``L <= capacity / min_user_rate`` the two are equal.
@@ -41,123 +46,17 @@ Examples:
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
-from typed_config import Config, ConfigError, param
 from uav_swarm.world.admission import admit_stations
+from uav_swarm.world.coverage import Coverage, coverage_of_links
+from uav_swarm.world.radio_config import RadioConfig
+from uav_swarm.world.wifi_coverage import wifi_links
 
 __all__ = ["RadioConfig", "Coverage", "Association", "rescaled_signal", "evaluate_coverage",
-           "coverage_of"]
-
-
-@dataclass(frozen=True)
-class RadioConfig(Config):
-    """Parameters of the UAV Wi-Fi model (defaults: the paper's radio with 0.1 at 30 m)."""
-
-    range_m: float = param(30.0, gt=0.0, le=10_000.0,
-                           doc="distance (m) at which the rescaled signal equals signal_at_range")
-    signal_at_range: float = param(0.1, gt=0.0, lt=1.0,
-                                   doc="coverage threshold on the rescaled signal (0..1)")
-    sigma_sq_m2: float | None = param(
-        None, gt=0.0, doc="Gaussian variance (m^2); None derives it from range_m and signal_at_range; "
-        "450 is the paper's value")
-    capacity_mbps: float = param(200.0, gt=0.0, doc="UAV capacity (Mbps) shared equally by its users")
-    min_user_rate_mbps: float = param(5.0, ge=0.0, doc="per-user rate (Mbps) that strategy 2 requires")
-    altitude_m: float = param(0.0, ge=0.0, le=10_000.0,
-                              doc="UAV height above the users (m); > 0 uses the 3D distance")
-    station_limit: int | Literal["auto", "off"] | None = param(
-        None, ge=1, doc="stations a UAV admits (admission control, as an access point's max_num_sta): "
-        "an integer 1..floor(capacity_mbps / min_user_rate_mbps), 'auto' for that floor (40 by default), "
-        "or 'off' for the paper's model (every user in range joins its strongest UAV); None (not given) is "
-        "the paper's model too, except in simulate and fly with strategy 2, which take 'auto'")
-
-    def check(self) -> None:
-        """Reject a minimum rate above the capacity and a station limit the capacity cannot serve."""
-        if self.min_user_rate_mbps > self.capacity_mbps:
-            raise ConfigError(
-                f"RadioConfig.min_user_rate_mbps = {self.min_user_rate_mbps} is out of range: "
-                f"allowed 0 <= min_user_rate_mbps <= capacity_mbps ({self.capacity_mbps})")
-        if self.station_limit is None or self.station_limit == "off":
-            return
-        most = self.rate_bound_stations
-        if self.station_limit == "auto":
-            if most is None:
-                raise ConfigError("RadioConfig.station_limit = 'auto' needs min_user_rate_mbps > 0 "
-                                  "(the limit is floor(capacity_mbps / min_user_rate_mbps)); give an integer")
-        elif most is not None and self.station_limit > most:
-            raise ConfigError(
-                f"RadioConfig.station_limit = {self.station_limit} is out of range: allowed "
-                f"1 <= station_limit <= {most} (capacity_mbps / min_user_rate_mbps = {self.capacity_mbps} / "
-                f"{self.min_user_rate_mbps}: more stations could not all get the minimum rate)")
-
-    @property
-    def rate_bound_stations(self) -> int | None:
-        """``floor(capacity / min_user_rate)``: the most users that all get the minimum rate (None at 0)."""
-        if self.min_user_rate_mbps <= 0.0:
-            return None
-        return int(math.floor(self.capacity_mbps / self.min_user_rate_mbps + 1e-9))
-
-    @property
-    def max_stations(self) -> int | None:
-        """The station limit in force per UAV, ``None`` for the paper's model (no admission control)."""
-        if self.station_limit == "auto":
-            return self.rate_bound_stations
-        if self.station_limit == "off":
-            return None
-        return self.station_limit
-
-    @property
-    def association_name(self) -> str:
-        """Which association runs, in words (outputs and tables say it)."""
-        limit = self.max_stations
-        return "paper (no admission control)" if limit is None else \
-            f"admission control ({limit} stations per UAV)"
-
-    @property
-    def effective_sigma_sq_m2(self) -> float:
-        """The Gaussian variance in use (m^2): ``sigma_sq_m2`` or the one giving the threshold at range."""
-        if self.sigma_sq_m2 is not None:
-            return self.sigma_sq_m2
-        return self.range_m**2 / (2.0 * math.log(1.0 / self.signal_at_range))
-
-    @property
-    def coverage_radius_m(self) -> float:
-        """Horizontal distance (m) within which the signal reaches ``signal_at_range`` (0 if never)."""
-        reach_sq = 2.0 * self.effective_sigma_sq_m2 * math.log(1.0 / self.signal_at_range)
-        return math.sqrt(max(0.0, reach_sq - self.altitude_m**2))
-
-
-@dataclass(frozen=True)
-class Coverage:
-    """Association, coverage and throughput of N users served by K UAVs.
-
-    Attributes:
-        association: (N,) int, index of each user's UAV, -1 without network.
-        covered: (N,) bool, the user has network (is associated).
-        users_per_uav: (K,) int, users associated with each UAV.
-        throughput_mbps: (N,) float, ``capacity / users_per_uav[association]``, 0 without network.
-        qos_s1: Share of users with network (strategy 1), 0.0 without users.
-        qos_s2: Share of users with network and at least ``min_user_rate_mbps`` (strategy 2).
-        mean_throughput_mbps: Mean throughput over all users (users without network count as 0).
-        in_range: (N,) bool, strongest signal >= ``signal_at_range`` (equals ``covered`` in the paper's model;
-            under admission control a user in range of full UAVs only is refused).
-        model: Which association ran (:attr:`RadioConfig.association_name`).
-    """
-
-    association: np.ndarray
-    covered: np.ndarray
-    users_per_uav: np.ndarray
-    throughput_mbps: np.ndarray
-    qos_s1: float
-    qos_s2: float
-    mean_throughput_mbps: float
-    in_range: np.ndarray
-    model: str
+           "coverage_of", "coverage_of_links"]
 
 
 def _check_points(name: str, points: np.ndarray) -> np.ndarray:
@@ -240,8 +139,17 @@ def coverage_of(association: np.ndarray, in_range_any: np.ndarray, n_uavs: int, 
     )
 
 
+def _wifi_snapshot(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
+                   altitudes_m: np.ndarray | None, channels: np.ndarray | None, previous: np.ndarray | None
+                   ) -> Coverage:
+    users_m, uavs_m = _check_points("users_m", users_m), _check_points("uavs_m", uavs_m)
+    links = wifi_links(users_m, np.zeros(len(users_m), np.int64), uavs_m[None], config, altitudes_m, channels,
+                       previous)
+    return coverage_of_links(links, 0, config)
+
+
 def evaluate_coverage(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
-                      altitudes_m: np.ndarray | None = None) -> Coverage:
+                      altitudes_m: np.ndarray | None = None, channels: np.ndarray | None = None) -> Coverage:
     """Associate the users (the config's association, snapshot) and share each UAV's capacity.
 
     Args:
@@ -249,13 +157,19 @@ def evaluate_coverage(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConf
         uavs_m: (K, 2) UAV positions in metres.
         config: The radio model; ``config.station_limit`` chooses the association (module docstring).
         altitudes_m: (K,) each UAV's height above the users (metres); None: ``config.altitude_m`` for all.
+        channels: 802.11 only: (K,) each UAV's channel number; None: all on the first usable channel.
 
     Returns:
         The :class:`Coverage` of the users.
 
     Raises:
-        ValueError: An input is not of shape (n, 2), or ``altitudes_m`` not of shape (K,).
+        ValueError: An input is not of shape (n, 2), ``altitudes_m`` or ``channels`` not of shape (K,), or
+            ``channels`` given to the paper's model.
     """
+    if config.propagation == "802.11":
+        return _wifi_snapshot(users_m, uavs_m, config, altitudes_m, channels, None)
+    if channels is not None:
+        raise ValueError("channels apply only with RadioConfig.propagation = '802.11'")
     d2 = _squared_distances(users_m, uavs_m, config, altitudes_m)  # (K, N)
     n_uavs, n_users = d2.shape
     if n_users == 0 or n_uavs == 0:
@@ -280,6 +194,8 @@ def _signal_in_range(d2: np.ndarray, config: RadioConfig) -> np.ndarray:
 class Association:
     """The association of a sequence of snapshots (the environment, ``simulate``, ``fly``).
 
+    With propagation ``"802.11"`` incumbents are always kept while in range (MCS 0 or better at their AP) and
+    newcomers are admitted as :mod:`uav_swarm.world.wifi_coverage` says.
     In the paper's model (no station limit) every snapshot is associated afresh, exactly as
     :func:`evaluate_coverage`. Under admission control a user keeps its UAV while it stays in range
     (no eviction by newcomers, no roaming while its signal holds); users that left their UAV's range,
@@ -317,8 +233,20 @@ class Association:
         rows = np.array([row_of.get(int(uav_id), -1) for uav_id in self._ids] + [-1], np.int64)
         return rows[self._association]  # -1 (no UAV) indexes the appended -1
 
+    def incumbents(self, uav_ids: np.ndarray, n_users: int) -> np.ndarray:
+        """(N,) each user's UAV at the last update in ``uav_ids``' rows (-1: none); keeps the ids."""
+        previous = self._previous_rows(uav_ids)
+        self._ids = uav_ids
+        if previous is None or previous.shape[0] != n_users:
+            return np.full(n_users, -1, np.int64)
+        return previous
+
+    def remember(self, association: np.ndarray) -> None:
+        """Keep ``association`` (this update's, in the rows of the ids given to :meth:`incumbents`)."""
+        self._association = association
+
     def update(self, users_m: np.ndarray, uavs_m: np.ndarray, uav_ids: Sequence[int] | None = None,
-               altitudes_m: np.ndarray | None = None) -> Coverage:
+               altitudes_m: np.ndarray | None = None, channels: np.ndarray | None = None) -> Coverage:
         """Associate the users of this snapshot, keeping incumbents in range, and return the coverage.
 
         Args:
@@ -327,14 +255,23 @@ class Association:
             uav_ids: (K,) a stable id per UAV row, for fleets whose rows change (a vehicle lost or back);
                 default: the row index.
             altitudes_m: (K,) each UAV's height above the users; None: ``config.altitude_m`` for all.
+            channels: 802.11 only: (K,) each UAV's channel number; None: all on the first usable channel.
 
         Raises:
-            ValueError: An input is not of shape (n, 2), ``uav_ids`` or ``altitudes_m`` not of length K.
+            ValueError: An input is not of shape (n, 2), ``uav_ids``, ``altitudes_m`` or ``channels`` not of
+                length K, or ``channels`` given to the paper's model.
         """
         config, limit = self.config, self.config.max_stations
         ids = np.arange(len(uavs_m)) if uav_ids is None else np.asarray(uav_ids, np.int64).reshape(-1)
         if len(ids) != len(uavs_m):
             raise ValueError(f"uav_ids has {len(ids)} ids for {len(uavs_m)} UAVs")
+        if config.propagation == "802.11":
+            kept = self.incumbents(ids, len(np.asarray(users_m).reshape(-1, 2)))
+            coverage = _wifi_snapshot(users_m, uavs_m, config, altitudes_m, channels, kept)
+            self.remember(coverage.association)
+            return coverage
+        if channels is not None:
+            raise ValueError("channels apply only with RadioConfig.propagation = '802.11'")
         previous = self._previous_rows(ids)
         self._ids = ids
         if limit is None:

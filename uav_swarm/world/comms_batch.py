@@ -6,6 +6,8 @@ The users of all worlds are stacked world by world in one ``(N, 2)`` array with 
 associates it alone (the paper's model: every user in range joins its nearest UAV, ties to the lowest
 index, the squared distances computed operation for operation as there), or, under admission control,
 by one :class:`~uav_swarm.world.comms.Association` per world, whose incumbents are kept step to step.
+With ``RadioConfig.propagation = "802.11"`` all worlds go through the 802.11 model at once
+(:func:`~uav_swarm.world.wifi_coverage.wifi_links`), the associations holding each world's incumbents.
 
 Examples:
     >>> import numpy as np
@@ -25,7 +27,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from uav_swarm.world.comms import Association, Coverage, RadioConfig, coverage_of
+from uav_swarm.world.comms import Association, Coverage, RadioConfig, coverage_of, coverage_of_links
+from uav_swarm.world.wifi_coverage import WifiLinks, wifi_links
 
 __all__ = ["CoverageBatch", "coverage_batch", "nearest_uav"]
 
@@ -46,6 +49,8 @@ class CoverageBatch:
         qos_s2: (B,) share with network and at least ``min_user_rate_mbps``.
         mean_throughput_mbps: (B,) mean throughput over each world's users.
         config: The radio model.
+        links: 802.11 only (None in the paper's model): everything the 802.11 model computed (per-user SINR,
+            MCS, rate, throughput; each AP's airtime and channel).
     """
 
     association: np.ndarray
@@ -59,9 +64,12 @@ class CoverageBatch:
     qos_s2: np.ndarray
     mean_throughput_mbps: np.ndarray
     config: RadioConfig
+    links: WifiLinks | None = None
 
     def copy(self, c: int) -> Coverage:
         """World ``c``'s :class:`~uav_swarm.world.comms.Coverage`, as ``evaluate_coverage`` returns it."""
+        if self.links is not None:
+            return coverage_of_links(self.links, c, self.config)
         rows = slice(self.offsets[c], self.offsets[c + 1])
         return coverage_of(self.association[rows], self.in_range[rows], self.users_per_uav.shape[1],
                            self.config)
@@ -99,7 +107,8 @@ def nearest_uav(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
 
 def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
                    associations: Sequence[Association] | None = None,
-                   altitudes_m: np.ndarray | None = None) -> CoverageBatch:
+                   altitudes_m: np.ndarray | None = None, channels: np.ndarray | None = None
+                   ) -> CoverageBatch:
     """Associate the users of B worlds with their own world's UAVs and share each UAV's capacity.
 
     Args:
@@ -109,14 +118,19 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
         config: The radio model; with a station limit, ``associations`` must be given.
         associations: One :class:`~uav_swarm.world.comms.Association` per world (admission control keeps
             its incumbents between calls); None computes the paper's model afresh.
-        altitudes_m: (K,) height of each UAV above the users; None: ``config.altitude_m`` for all.
+        altitudes_m: (K,) height of each UAV above the users (802.11: or (B, K)); None: ``config.altitude_m``.
+        channels: 802.11 only: (K,) or (B, K) channel number of each UAV; None: all on the first usable one.
 
     Returns:
         The :class:`CoverageBatch`.
 
     Raises:
-        ValueError: A station limit without one association per world.
+        ValueError: A station limit without one association per world, ``channels`` with the paper's model.
     """
+    if config.propagation == "802.11":
+        return _wifi_batch(users_m, copy_index, uavs_m, config, associations, altitudes_m, channels)
+    if channels is not None:
+        raise ValueError("channels apply only with RadioConfig.propagation = '802.11'")
     n_copies, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
     if n_copies == 1:
         offsets = np.array([0, len(users_m)])
@@ -162,3 +176,28 @@ def _stacked(parts: list[Coverage], offsets: np.ndarray, n_users: np.ndarray, n_
     served = np.array([cov.users_per_uav for cov in parts], np.int64).reshape(len(parts), n_uavs)
     return _from_loads(np.concatenate([cov.association for cov in parts]),
                        np.concatenate([cov.in_range for cov in parts]), offsets, served, n_users, config)
+
+
+def _wifi_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
+                associations: Sequence[Association] | None, altitudes_m: np.ndarray | None,
+                channels: np.ndarray | None) -> CoverageBatch:
+    """The 802.11 model of all worlds at once; ``associations`` (one per world) hold the incumbents."""
+    n_copies, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
+    offsets = np.searchsorted(copy_index, np.arange(n_copies + 1)) if n_copies > 1 else [0, len(users_m)]
+    previous = None
+    if associations is not None:
+        if len(associations) != n_copies:
+            raise ValueError(f"the 802.11 model needs one Association per world ({n_copies}) or none")
+        rows = np.arange(n_uavs)
+        previous = np.concatenate([link.incumbents(rows, int(offsets[c + 1] - offsets[c]))
+                                   for c, link in enumerate(associations)])
+    links = wifi_links(users_m, copy_index, uavs_m, config, altitudes_m, channels, previous)
+    if associations is not None:
+        for c, link in enumerate(associations):
+            link.remember(links.association[offsets[c]:offsets[c + 1]])
+    return CoverageBatch(
+        association=links.association, in_range=links.in_range, offsets=links.offsets,
+        users_per_uav=links.users_per_uav, throughput_per_user_mbps=links.throughput_per_user_mbps,
+        covered_users=links.covered_users,
+        n_users=links.n_users, qos_s1=links.qos_s1, qos_s2=links.qos_s2,
+        mean_throughput_mbps=links.mean_throughput_mbps, config=config, links=links)

@@ -48,6 +48,7 @@ from scipy.spatial import cKDTree
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi.capacitated import CapacitatedExpertConfig, place_uavs_capacitated
 from uav_swarm.missions.wifi.group_expert import GroupExpertConfig, place_uavs_by_groups
+from uav_swarm.missions.wifi.ieee80211_expert import Ieee80211ExpertConfig
 from uav_swarm.missions.wifi.rules import (
     Assignment,
     CoverageRules,
@@ -78,10 +79,13 @@ class WifiExpertConfig(Config):
         "auto", doc="'search' (greedy + ruin-and-recreate), 'groups' (strategy 2 only, "
         "uav_swarm.missions.wifi.group_expert), 'capacitated' (strategy 2 under admission control, "
         "uav_swarm.missions.wifi.capacitated) or 'auto' (strategy 1: search; strategy 2: capacitated "
-        "under admission control, else groups)")
+        "under admission control, else groups); under the 802.11 radio the 802.11 expert runs "
+        "(uav_swarm.missions.wifi.ieee80211_expert), which 'auto' picks")
     groups: GroupExpertConfig = param(GroupExpertConfig(), doc="the group expert ([task.expert.groups])")
     capacitated: CapacitatedExpertConfig = param(
         CapacitatedExpertConfig(), doc="the expert under admission control ([task.expert.capacitated])")
+    ieee80211: Ieee80211ExpertConfig = param(
+        Ieee80211ExpertConfig(), doc="the expert under the 802.11 radio ([task.expert.ieee80211])")
 
     def method_for(self, rules: CoverageRules) -> str:
         """The method that runs under ``rules``: ``"search"`` or ``"groups"``.

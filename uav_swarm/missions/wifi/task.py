@@ -51,6 +51,7 @@ import numpy as np
 from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
+from uav_swarm.missions.wifi.ieee80211_expert import place_uavs_80211, refine_80211
 from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.rules import CoverageRules
@@ -59,6 +60,7 @@ from uav_swarm.world.crowd import CrowdConfig, CrowdSim
 from uav_swarm.world.raster import density_map, metres_to_pixels, pixels_to_metres
 from uav_swarm.world.scenario import ScenarioConfig, random_scenario
 from uav_swarm.world.separation import check_fleet_fits
+from uav_swarm.world.wifi_channels import plan_channels
 
 __all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster"]
 
@@ -102,16 +104,24 @@ class WifiConfig(Config):
         return super().from_dict(data, where=where)
 
     def check(self) -> None:
-        """A square area, ordered warm-ups, a radius above the altitude, a separation the budget can keep."""
+        """A square area, ordered warm-ups, a radius or an altitude, the expert, a separation that fits."""
         if self.warmup_min_s > self.warmup_max_s:
             raise ConfigError(f"WifiConfig.warmup_min_s = {self.warmup_min_s} must be <= "
                               f"warmup_max_s = {self.warmup_max_s}")
         if self.scenario.width_m != self.scenario.height_m:
             raise ConfigError(f"WifiConfig.scenario: width_m = {self.scenario.width_m} must equal "
                               f"height_m = {self.scenario.height_m} (the raster is square)")
-        if self.radio.coverage_radius_m <= 0.0:
+        if self.radio.propagation == "paper" and self.radio.coverage_radius_m <= 0.0:
             raise ConfigError(f"WifiConfig.radio.altitude_m = {self.radio.altitude_m} leaves no coverage: "
                               "allowed altitude_m < the radio range")
+        if self.radio.propagation == "802.11":
+            if self.expert.method != "auto":
+                raise ConfigError(f"WifiConfig.expert.method = {self.expert.method!r} is the paper's "
+                                  "radio's; under radio.propagation = '802.11' the 802.11 expert runs: "
+                                  "use 'auto'")
+            if not self.radio.altitude_m > 0.0:
+                raise ConfigError("WifiConfig.radio.altitude_m = 0: the 802.11 radio needs the UAVs' height "
+                                  "above the users; allowed 0 < altitude_m")
         check_fleet_fits(self.expert.max_uavs, self.min_separation_m, self.scenario.width_m,
                          self.scenario.height_m, field="task.min_separation_m")
 
@@ -207,8 +217,12 @@ class WifiRefiner:
     def refine(self, scene: WifiScene, positions_px: np.ndarray) -> np.ndarray:
         """``(k, 2)`` pixel positions obeying the strategy's rules, found from ``positions_px``."""
         task = self.task
-        refined_m = refine_placement(scene.users_m, task.to_metres(positions_px), task.rules, task.width_m,
-                                     task.height_m, self.config)
+        proposals_m = task.to_metres(positions_px)
+        if task.config.radio.propagation == "802.11":
+            refined_m = task.refine_80211(scene.users_m, proposals_m)
+        else:
+            refined_m = refine_placement(scene.users_m, proposals_m, task.rules, task.width_m, task.height_m,
+                                         self.config)
         return task.to_pixels(refined_m)
 
     def solve(self, scene: WifiScene) -> np.ndarray:
@@ -257,8 +271,25 @@ class WifiTask:
         ``velocities_m_s`` (``(N, 2)``, optional) lets the strategy-2 group expert plan for the crowd
         of the next second (:mod:`uav_swarm.missions.wifi.group_expert`); the search expert ignores it.
         """
-        return place_uavs(users_m, self.rules, self.width_m, self.height_m, self.config.expert,
+        config = self.config
+        if config.radio.propagation == "802.11":
+            return place_uavs_80211(users_m, config.radio, self.width_m, self.height_m,
+                                    strategy=config.strategy, max_uavs=self.rules.max_uavs,
+                                    min_separation_m=config.min_separation_m, config=config.expert.ieee80211)
+        return place_uavs(users_m, self.rules, self.width_m, self.height_m, config.expert,
                           velocities_m_s=velocities_m_s)
+
+    def refine_80211(self, users_m: np.ndarray, proposals_m: np.ndarray, max_uavs: int | None = None
+                     ) -> np.ndarray:
+        """Proposed positions (metres) refined on the crowd under the 802.11 radio, at most ``max_uavs``.
+
+        The 802.11 expert's search from the proposals
+        (:func:`~uav_swarm.missions.wifi.ieee80211_expert.refine_80211`).
+        """
+        config = self.config
+        return refine_80211(users_m, proposals_m, config.radio, self.width_m, self.height_m,
+                            strategy=config.strategy, max_uavs=max_uavs or self.rules.max_uavs,
+                            min_separation_m=config.min_separation_m, config=config.expert.ieee80211)
 
     def sample(self, rng: np.random.Generator) -> WifiScene:
         """Draw a scenario and warm its crowd up for a random time."""
@@ -315,7 +346,10 @@ class WifiTask:
             positions = positions.reshape(0, 2)
         if positions.ndim != 2 or positions.shape[1] != 2 or not np.all(np.isfinite(positions)):
             raise ValueError(f"positions_px must be a finite (k, 2) array, got shape {positions.shape}")
-        coverage = evaluate_coverage(scene.users_m, self.to_metres(positions), self.config.radio)
+        uavs_m = self.to_metres(positions)
+        radio = self.config.radio
+        channels = plan_channels(uavs_m, radio) if radio.propagation == "802.11" and len(uavs_m) else None
+        coverage = evaluate_coverage(scene.users_m, uavs_m, radio, channels=channels)
         qos = coverage.qos_s1 if self.config.strategy == 1 else coverage.qos_s2
         return {"qos": float(qos), "qos_s1": float(coverage.qos_s1), "qos_s2": float(coverage.qos_s2),
                 "mean_throughput_mbps": float(coverage.mean_throughput_mbps)}
