@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from uav_swarm.world.wifi_channels import plan_channels, plan_is_valid
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
+from uav_swarm.world.wifi_channels import plan_channels, plan_is_valid
 from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_coverage import channel_conflicts
 
