@@ -1,8 +1,8 @@
 """``uav-swarm fly`` under strace: a fleet of simulated vehicles flown on loopback, and nothing else reached.
 
-The vehicles (:class:`FlyingVehicle`, real MAVLink sockets) live in this process; ``fly`` runs in its own,
-under ``strace -f`` with no telemetry setting of its own, and sends its Zenoh telemetry to a subscriber
-here: every address it reaches is 127.0.0.1, and it asks no name resolver.
+The vehicles (:class:`bridge.simulated.ardupilot.ArduCopter`, real MAVLink sockets) live in this process;
+``fly`` runs in its own, under ``strace -f`` with no telemetry setting of its own, and sends its Zenoh
+telemetry to a subscriber here: every address it reaches is 127.0.0.1, and it asks no name resolver.
 """
 
 from __future__ import annotations
@@ -12,13 +12,14 @@ import subprocess
 import sys
 from pathlib import Path
 
-from flying_vehicle import FAILSAFE_ON, RTL, FlyingVehicle, launch_home
 from lossy_relay import free_tcp_port, free_udp_port
 from peer_fleet import bridge_toml, close_all
-from sim_vehicle import endpoint_pair
 from traffic import destinations, off_loopback, strace_prefix
 
 import uav_swarm
+from bridge.simulated.ardupilot import FAILSAFE_ON, RTL, ArduCopter
+from bridge.simulated.fleet import launch_home
+from bridge.simulated.peer import endpoint_pair
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 
@@ -30,7 +31,7 @@ def test_fly_reaches_its_vehicles_and_telemetry_on_loopback_only(tmp_path):
     vehicles, urls = [], []
     for i in range(2):
         vehicle_url, gcs_url = endpoint_pair("udpin", free_udp_port())
-        vehicles.append(FlyingVehicle(vehicle_url, i + 1, home=launch_home(i), params=FAILSAFE_ON))
+        vehicles.append(ArduCopter(vehicle_url, i + 1, home=launch_home(i), params=FAILSAFE_ON))
         urls.append(gcs_url)
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     config = tmp_path / "fly.toml"
