@@ -6,6 +6,7 @@ telemetry goes through a real Zenoh session to a subscriber connected over ``tcp
 
 from __future__ import annotations
 
+import json
 import logging
 import threading
 import time
@@ -315,3 +316,20 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     for topic, name in schemas.items():  # Foxglove's types as Foxglove publishes them
         if name.startswith("foxglove."):
             assert all(conform(message, name) == [] for _, message in topics[topic]), topic
+
+
+def test_the_802_11_radio_judges_a_flight_at_the_vehicles_heights_on_planned_channels(tmp_path):
+    vehicles, urls = _vehicles(2, ("udpin",), {i: {"speed_m_s": 25.0} for i in (1, 2)})
+    config = tmp_path / "fly.toml"
+    config.write_text('[task]\nstrategy = 2\n[task.radio]\npropagation = "802.11"\n', encoding="utf-8")
+    try:
+        argv = ["fly", "--bridge-config", str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "--out",
+                str(tmp_path / "out"), "--config", str(config), "--planner", "expert", "--duration-s", "6",
+                "--speedup", "2", "--no-telemetry"]
+        assert main(argv) == 0
+        summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+        assert summary["association"].startswith("802.11")
+        assert 0.0 <= summary["mean_qos_s2"] <= summary["mean_qos_s1"] <= 1.0
+        assert summary["service"]["static_reference_qos"] is not None
+    finally:
+        close_all(vehicles)

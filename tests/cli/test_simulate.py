@@ -277,3 +277,13 @@ def test_a_minimum_separation_the_fleet_cannot_keep_exits_2_naming_the_field(tmp
     assert ("uav.min_separation_m = 90 m cannot be kept by 10 UAVs in a 200 x 200 m area: allowed 0 <= "
             "uav.min_separation_m <= 84.2") in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_the_802_11_radio_flies_with_a_channel_plan_and_its_static_reference(tmp_path, tiny_checkpoint):
+    task = {**SMALL_WIFI_TASK, "strategy": 2, "radio": {"propagation": "802.11"}}
+    result = simulate(tiny(tiny_checkpoint, planner="expert", gif=False, checkpoint="", duration_s=2.0,
+                           replan_every=5, task=task), tmp_path, progress=False)
+    run = result.runs["expert"]
+    assert np.all((run.qos_s2 >= 0) & (run.qos_s2 <= run.qos_s1 + 1e-12) & (run.qos_s1 <= 1))
+    assert result.summary["planners"]["expert"]["association"].startswith("802.11")
+    assert 0.0 <= result.summary["static_reference"]["mean_qos"] <= 1.0

@@ -1,6 +1,7 @@
 """The environment under the 802.11 radio: it runs, each UAV's altitude reaches the radio, batch = singles."""
 
 import numpy as np
+import pytest
 
 from uav_swarm.env import parallel_env
 from uav_swarm.env.batched import BatchedUAVSwarm
@@ -49,3 +50,17 @@ def test_the_batched_view_matches_single_environments_under_802_11():
         for copy, env in enumerate(singles):
             _, rewards, *_ = env.step(dict(zip(env.possible_agents, actions[copy], strict=True)))
             assert reward[copy] == rewards["uav_0"]
+
+
+def test_a_channel_plan_reaches_the_radio_and_a_wrong_one_is_refused():
+    env = parallel_env(n_uavs=3, strategy=2, radio=WIFI)
+    hold(env, 1)
+    env.set_channel_plan(np.array([40, 44, 48]))
+    hold_still = {a: np.zeros(2) for a in env.possible_agents}
+    env.step(hold_still)
+    assert env.coverage.channel.tolist() == [40, 44, 48]
+    with pytest.raises(ValueError, match="channels \\[52\\] are not usable"):
+        env.set_channel_plan(np.array([52, 40, 44]))
+    paper = parallel_env(n_uavs=3)
+    with pytest.raises(ValueError, match="applies only with RadioConfig.propagation = '802.11'"):
+        paper.set_channel_plan(np.array([36, 40, 44]))

@@ -205,3 +205,25 @@ def test_the_tables_loader_names_the_file_and_key(tmp_path):
     half = snapshot([[2.0, 0.0]], [[0.0, 0.0]], refitted)
     full = snapshot([[2.0, 0.0]], [[0.0, 0.0]])
     assert half.throughput_mbps[0] == pytest.approx(full.throughput_mbps[0] / 2)
+
+
+def test_the_802_11_model_needs_the_altitudes():
+    with pytest.raises(ValueError, match="needs the UAVs' altitudes"):
+        evaluate_coverage(np.zeros((1, 2)), np.zeros((1, 2)), WIFI)
+    given = evaluate_coverage(np.zeros((1, 2)), np.zeros((1, 2)), WIFI.replace(altitude_m=20.0))
+    assert given.sinr_db[0] == pytest.approx(snapshot([[0.0, 0.0]], [[0.0, 0.0]]).sinr_db[0])
+
+
+def test_incumbents_follow_their_uav_by_id_when_the_fleet_changes():
+    link = Association(WIFI)
+    heights = np.full(2, 20.0)
+    user = np.array([[50.0, 0.0]])
+    first = link.update(user, np.array([[0.0, 0.0], [60.0, 0.0]]), uav_ids=[7, 9], altitudes_m=heights,
+                        channels=np.array([36, 40]))
+    assert first.association.tolist() == [1]  # UAV 9
+    # UAV 7 is lost; UAV 9 is now row 0 and a new UAV 5, right above the user, row 1: the user stays on 9.
+    second = link.update(user, np.array([[60.0, 0.0], [50.0, 0.0]]), uav_ids=[9, 5], altitudes_m=heights,
+                         channels=np.array([40, 36]))
+    assert second.association.tolist() == [0]
+    assert evaluate_coverage(user, np.array([[60.0, 0.0], [50.0, 0.0]]), WIFI, heights,
+                             np.array([40, 36])).association.tolist() == [1]

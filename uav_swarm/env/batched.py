@@ -148,6 +148,16 @@ class BatchedUAVSwarm:
         self._require_reset()
         return self._core.states()
 
+    def set_channel_plan(self, channels: np.ndarray | None) -> None:
+        """Each UAV's channel from the next step on (``propagation = "802.11"``).
+
+        ``channels``: (n,) or (B, n) channel numbers; None puts all on the first usable channel.
+
+        Raises:
+            ValueError: The paper's radio, or a channel outside ``radio.ieee80211``'s usable channels.
+        """
+        self._core.set_channel_plan(channels)
+
     # --- accessors --------------------------------------------------------------------
 
     @property

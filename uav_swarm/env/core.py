@@ -45,6 +45,7 @@ from uav_swarm.world.separation import (
 )
 from uav_swarm.world.step_guard import guard_commands
 from uav_swarm.world.uav import fly_step, waypoint_velocity
+from uav_swarm.world.wifi_coverage import uav_channels
 
 __all__ = ["SwarmCore"]
 
@@ -92,7 +93,7 @@ class SwarmCore:
         wifi = self.radio.propagation == "802.11"
         self._radio_altitudes_m = self.altitudes_m if (cfg.use_3d_distance and layered) or wifi else None
         self.channel_plan: np.ndarray | None = None
-        """(K,) or (B, K) each UAV's channel (802.11 model; a planner sets it); None: the first usable one."""
+        """(B, K) each UAV's channel (802.11 model, :meth:`set_channel_plan`); None: the first usable one."""
         self._guard_altitudes_m = self.altitudes_m if layered else None
         # UAVs start apart: a draw closer than the minimum is drawn again (world/separation.draw_apart_m).
         self._start_gaps_m = required_distances_m(cfg.uav.min_separation_m, self._guard_altitudes_m,
@@ -183,6 +184,19 @@ class SwarmCore:
             if self._links is not None:
                 self._links[c].reset()
         self._update_view()
+
+    def set_channel_plan(self, channels: np.ndarray | None) -> None:
+        """Each UAV's channel from the next step on (802.11 radio).
+
+        ``channels``: (K,) or (B, K) channel numbers; None puts all on the first usable channel.
+
+        Raises:
+            ValueError: The paper's radio, a shape or a channel the radio does not take.
+        """
+        if channels is not None and self.radio.propagation != "802.11":
+            raise ValueError("a channel plan applies only with RadioConfig.propagation = '802.11'")
+        self.channel_plan = None if channels is None else \
+            uav_channels(channels, self.num_worlds, self.config.n_uavs, self.radio).copy()
 
     def step(self, values: np.ndarray, given: np.ndarray | None = None, active: np.ndarray | None = None
              ) -> None:

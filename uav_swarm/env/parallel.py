@@ -291,6 +291,17 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
         """(K, 2) UAV velocities in m/s (read-only view)."""
         return _read_only(self._core.velocities_m_s[0])
 
+    def set_channel_plan(self, channels: np.ndarray | None) -> None:
+        """Each UAV's channel from the next step on (``propagation = "802.11"``).
+
+        ``channels``: (K,) channel numbers (``uav_swarm.planning.channel_plan.plan_channels`` computes them);
+        None puts all on the first usable channel.
+
+        Raises:
+            ValueError: The paper's radio, or a channel outside ``radio.ieee80211``'s usable channels.
+        """
+        self._core.set_channel_plan(channels)
+
     @property
     def uav_altitudes_m(self) -> np.ndarray:
         """(K,) UAV flight altitudes in metres (``uav.alt_m`` plus ``uav.layer_step_m`` per index)."""

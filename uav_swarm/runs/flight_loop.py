@@ -28,6 +28,7 @@ import numpy as np
 from bridge.errors import BridgeError
 from bridge.flight.guided import end_flight, launch, set_mode
 from bridge.flight.preflight import PreflightError
+from uav_swarm.planning.channel_plan import plan_channels
 from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.flight_safety import FlightSafety
 from uav_swarm.runs.fly_config import FlyConfig
@@ -111,6 +112,8 @@ class Flight:
         self.scenario = random_scenario(rng, config.task.scenario)
         self.crowd = CrowdSim(self.scenario, config.task.crowd, rng)
         self._association = Association(config.task.radio)
+        self._channels: dict[int, int] = {}
+        """Each vehicle's channel by id (802.11 radio), planned as the vehicles fly."""
         """The users' association over the flight (admission control keeps incumbents on their UAV)."""
         self.safety = FlightSafety(config, bridge, fleet, self._stop,
                                    lambda kind, sid, detail: self._event(kind, self._by_sid.get(sid), detail))
@@ -407,7 +410,16 @@ class Flight:
         live = self._live()
         users = self.crowd.positions_m
         uavs = np.array([(s.x_m, s.y_m) for _, s in live]).reshape(-1, 2)
-        cov = self._association.update(users, uavs, [vehicle.uav_id for vehicle, _ in live])
+        heights = channels = None  # the paper's radio is 2-D; the 802.11 model takes heights and channels
+        radio = self.config.task.radio
+        if radio.propagation == "802.11" and live:
+            heights = np.array([s.z_m if s.z_m is not None else self.safety.cruise_alt_m[v.system_id]
+                                for v, s in live], dtype=np.float64)
+            kept = np.array([self._channels.get(v.uav_id, -1) for v, _ in live])
+            channels = plan_channels(uavs, radio, heights, kept)  # each vehicle keeps its channel while valid
+            self._channels = {v.uav_id: int(c) for (v, _), c in zip(live, channels, strict=True)}
+        ids = [vehicle.uav_id for vehicle, _ in live]
+        cov = self._association.update(users, uavs, ids, heights, channels)
         times.append(self._clock_s)
         rows.append((float(cov.qos_s1), float(cov.qos_s2), float(cov.mean_throughput_mbps)))
         if self.outputs.active:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask
+from uav_swarm.planning.channel_plan import plan_channels
 from uav_swarm.world.comms import evaluate_coverage
 
 __all__ = ["JUMP_M", "StaticReference", "static_reference", "reference_qos", "target_jumps",
@@ -67,24 +68,35 @@ def _experts(task_config: WifiConfig, n_uavs: int) -> dict[str, WifiTask]:
     return tasks
 
 
-def reference_qos(users_m: np.ndarray, velocities_m_s: np.ndarray, task_config: WifiConfig, n_uavs: int
-                  ) -> float:
-    """The strategy's QoS of the best expert placement of one crowd, judged as if reached."""
+def reference_qos(users_m: np.ndarray, velocities_m_s: np.ndarray, task_config: WifiConfig, n_uavs: int,
+                  altitudes_m: np.ndarray | None = None) -> float:
+    """The strategy's QoS of the best expert placement of one crowd, judged as if reached.
+
+    The 802.11 radio judges each placement with the UAVs at ``altitudes_m`` ((n_uavs,), the first ones
+    used) on the channels :func:`~uav_swarm.planning.channel_plan.plan_channels` gives them.
+    """
     best = 0.0
+    wifi = task_config.radio.propagation == "802.11"
     for task in _experts(task_config, n_uavs).values():
         placement = task.expert_placement_m(users_m, velocities_m_s)
-        coverage = evaluate_coverage(users_m, placement, task_config.radio)
+        heights = None if altitudes_m is None else np.asarray(altitudes_m, np.float64)[:len(placement)]
+        channels = plan_channels(placement, task_config.radio, heights) if wifi else None
+        coverage = evaluate_coverage(users_m, placement, task_config.radio, heights if wifi else None,
+                                     channels)
         best = max(best, float(coverage.qos_s1 if task_config.strategy == 1 else coverage.qos_s2))
     return best
 
 
 def static_reference(crowds: Iterable[tuple[float, np.ndarray, np.ndarray]], task_config: WifiConfig,
-                     n_uavs: int, every_s: float) -> StaticReference:
-    """The static reference of ``(time_s, users_m, velocities_m_s)`` crowds (module docstring)."""
+                     n_uavs: int, every_s: float, altitudes_m: np.ndarray | None = None) -> StaticReference:
+    """The static reference of ``(time_s, users_m, velocities_m_s)`` crowds (module docstring).
+
+    ``altitudes_m``: (n_uavs,) the UAVs' altitudes, which the 802.11 radio needs.
+    """
     times, qos = [], []
     for time_s, users_m, velocities_m_s in crowds:
         times.append(time_s)
-        qos.append(reference_qos(users_m, velocities_m_s, task_config, n_uavs))
+        qos.append(reference_qos(users_m, velocities_m_s, task_config, n_uavs, altitudes_m))
     return StaticReference(np.array(times), np.array(qos), tuple(_experts(task_config, n_uavs)), every_s)
 
 
@@ -104,8 +116,8 @@ def metres_per_uav_minute(distance_m: float, n_uavs: int, duration_s: float) -> 
 
 def flight_figures(flown_qos: np.ndarray, plans: list[dict[int, tuple[float, float]]],
                    track: list[dict], crowd_samples: list[tuple[float, np.ndarray, np.ndarray]],
-                   task_config: WifiConfig, n_uavs: int, duration_s: float, every_s: float
-                   ) -> tuple[dict[str, float | None], StaticReference]:
+                   task_config: WifiConfig, n_uavs: int, duration_s: float, every_s: float,
+                   altitudes_m: np.ndarray | None = None) -> tuple[dict[str, float | None], StaticReference]:
     """The service figures of a live flight (``uav-swarm fly``), as ``simulate`` reports them.
 
     Args:
@@ -117,11 +129,12 @@ def flight_figures(flown_qos: np.ndarray, plans: list[dict[int, tuple[float, flo
         n_uavs: Vehicles flown.
         duration_s: Flight time.
         every_s: Seconds between two crowd samples.
+        altitudes_m: (n_uavs,) the vehicles' cruise altitudes (the 802.11 radio's static reference).
 
     Returns:
         The figures, and the static reference they were judged against.
     """
-    reference = static_reference(crowd_samples, task_config, n_uavs, every_s)
+    reference = static_reference(crowd_samples, task_config, n_uavs, every_s, altitudes_m)
     jumps = [sum(1 for uav, xy in after.items() if uav in before
                  and np.hypot(xy[0] - before[uav][0], xy[1] - before[uav][1]) > JUMP_M)
              for before, after in zip(plans[:-1], plans[1:], strict=True)]

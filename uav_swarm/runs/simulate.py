@@ -40,6 +40,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
+from uav_swarm.planning.channel_plan import plan_channels
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs import RunOutputs
@@ -145,6 +146,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     changes: list[int] = []
     frames: list[Frame] = []
     targets = np.asarray(env.uav_positions_m).copy()
+    channels: np.ndarray | None = None
     plans: list[np.ndarray] = []
     samples: list[tuple[float, np.ndarray, np.ndarray]] = []
     sample_every = max(1, round(sample_every_s / env.dt_s)) if sample_every_s else 0
@@ -161,6 +163,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                 moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
                 changes.append(int(np.count_nonzero(moved)))
             targets = result.targets_m
+            if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes
+                channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels)
+                env.set_channel_plan(channels)
             plans.append(targets.copy())
             latencies.append(result.latency_ms)
             if steering is not None:
@@ -361,7 +366,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                                           frame_every=frame_every if flown else 0,
                                           sample_every_s=sample_every_s, progress=progress)
     reference = (static_reference(runs[config.planner].crowd_samples, config.task, config.n_uavs,
-                                  config.static_every_s) if config.static_reference else None)
+                                  config.static_every_s, config.uav.altitudes_m(config.n_uavs))
+                 if config.static_reference else None)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     summary: dict[str, Any] = {"planners": {kind: summarise_run(run, config, reference)

@@ -95,7 +95,7 @@ def summarise_flight(trace: QosTrace, config: FlyConfig, n_uavs: int,
     duration_s = float(trace.times_s[-1])
     flown = trace.qos_s1 if config.task.strategy == 1 else trace.qos_s2
     service, reference = flight_figures(flown, plans, track, crowd_samples, config.task, n_uavs, duration_s,
-                                        config.static_every_s)
+                                        config.static_every_s, config.uav.altitudes_m(n_uavs))
     return {"duration_s": duration_s, "planner": trace.planner_name,
             **qos_figures(trace.qos_s1, trace.qos_s2, trace.throughput_mbps),
             "association": config.task.radio.association_name, "service": service,

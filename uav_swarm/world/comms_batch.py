@@ -198,6 +198,6 @@ def _wifi_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
     return CoverageBatch(
         association=links.association, in_range=links.in_range, offsets=links.offsets,
         users_per_uav=links.users_per_uav, throughput_per_user_mbps=links.throughput_per_user_mbps,
-        covered_users=np.bincount(np.asarray(copy_index)[links.covered], minlength=n_copies),
+        covered_users=links.covered_users,
         n_users=links.n_users, qos_s1=links.qos_s1, qos_s2=links.qos_s2,
         mean_throughput_mbps=links.mean_throughput_mbps, config=config, links=links)

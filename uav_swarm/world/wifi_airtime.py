@@ -23,11 +23,11 @@ Examples:
 
 from __future__ import annotations
 
-import functools
-
+import numba
 import numpy as np
 
-__all__ = ["MAX_CONTENDERS", "carrier_sense_graph", "csma_airtime", "hidden_interferers"]
+__all__ = ["MAX_CONTENDERS", "carrier_sense_graph", "csma_airtime", "independent_set_airtime",
+           "check_contenders", "hidden_interferers"]
 
 MAX_CONTENDERS = 16
 """The most APs per world: the airtime enumerates all 2^K subsets."""
@@ -42,18 +42,66 @@ def carrier_sense_graph(ap_power_dbm: np.ndarray, channels: np.ndarray, cca_thre
         channels: (B, K) channel number of each AP.
         cca_threshold_dbm: The carrier-sense threshold at the channel width.
     """
-    n_uavs = channels.shape[1]
-    co_channel = channels[:, :, None] == channels[:, None, :]
-    return co_channel & (ap_power_dbm >= cca_threshold_dbm) & ~np.eye(n_uavs, dtype=bool)
+    graph = (channels[:, :, None] == channels[:, None, :]) & (ap_power_dbm >= cca_threshold_dbm)
+    diagonal = np.arange(channels.shape[1])
+    graph[:, diagonal, diagonal] = False
+    return graph
 
 
-@functools.lru_cache(maxsize=MAX_CONTENDERS + 1)
-def _subsets(n_uavs: int) -> np.ndarray:
-    """(2^K, K) float64 membership of every subset of K APs (row ``s``: the bits of ``s``)."""
-    rows = np.arange(2**n_uavs, dtype=np.int64)[:, None] >> np.arange(n_uavs, dtype=np.int64)
-    members = (rows & 1).astype(np.float64)
-    members.setflags(write=False)
-    return members
+@numba.njit(cache=True, nogil=True)
+def independent_set_airtime(graph: np.ndarray, active: np.ndarray, rho: float) -> np.ndarray:
+    """:func:`csma_airtime` without the size check (compiled; callable from compiled code).
+
+    Each world's subsets of active APs are built up from their lowest member: ``S`` is independent when ``S``
+    without its lowest member ``k`` is and no other member of ``S`` is a neighbour of ``k``; its weight is
+    ``rho`` times that subset's.
+    """
+    n_worlds, n_uavs = active.shape
+    airtime = np.zeros((n_worlds, n_uavs))
+    members = np.empty(n_uavs, np.int64)
+    for c in range(n_worlds):
+        m = 0
+        for k in range(n_uavs):
+            if active[c, k]:
+                members[m] = k
+                m += 1
+        if m == 0:
+            continue
+        neighbours = np.zeros(m, np.int64)  # bit masks over the active APs' local indices
+        for i in range(m):
+            for j in range(m):
+                if graph[c, members[i], members[j]]:
+                    neighbours[i] |= 1 << j
+        weight = np.zeros(1 << m)
+        weight[0] = 1.0
+        total = 1.0
+        share = np.zeros(m)
+        for subset in range(1, 1 << m):
+            lowest = 0
+            while not (subset >> lowest) & 1:
+                lowest += 1
+            rest = subset ^ (1 << lowest)
+            if weight[rest] == 0.0 or neighbours[lowest] & rest:
+                continue
+            weight[subset] = weight[rest] * rho
+            total += weight[subset]
+            for i in range(m):
+                if (subset >> i) & 1:
+                    share[i] += weight[subset]
+        for i in range(m):
+            airtime[c, members[i]] = share[i] / total
+    return airtime
+
+
+def check_contenders(n_uavs: int) -> None:
+    """Refuse more than :data:`MAX_CONTENDERS` APs per world.
+
+    Raises:
+        ValueError: Too many.
+    """
+    if n_uavs > MAX_CONTENDERS:
+        raise ValueError(f"the 802.11 airtime model takes at most {MAX_CONTENDERS} UAVs per world, "
+                         f"got {n_uavs}")
 
 
 def csma_airtime(graph: np.ndarray, active: np.ndarray, access_intensity: float) -> np.ndarray:
@@ -67,33 +115,25 @@ def csma_airtime(graph: np.ndarray, active: np.ndarray, access_intensity: float)
     Raises:
         ValueError: More than :data:`MAX_CONTENDERS` APs per world.
     """
-    n_worlds, n_uavs = active.shape
-    if n_uavs > MAX_CONTENDERS:
-        raise ValueError(f"the 802.11 airtime model takes at most {MAX_CONTENDERS} UAVs per world, "
-                         f"got {n_uavs}")
-    if n_uavs == 0:
-        return np.zeros((n_worlds, 0))
-    members = _subsets(n_uavs)  # (S, K)
-    edges = np.einsum("sk,bkl,sl->bs", members, graph.astype(np.float64), members, optimize=True)  # (B, S)
-    outside = members @ (~active).T.astype(np.float64)  # (S, B): inactive members of each subset
-    size = members.sum(axis=1)  # (S,)
-    allowed = (edges == 0.0) & (outside.T == 0.0)
-    # rho^|S| relative to the largest allowed set (no overflow for any rho).
-    log_weight = np.where(allowed, size * np.log(access_intensity), -np.inf)
-    weight = np.exp(log_weight - log_weight.max(axis=1, keepdims=True))  # (B, S); the empty set is allowed
-    return (weight @ members) / weight.sum(axis=1, keepdims=True)
+    check_contenders(active.shape[1])
+    return independent_set_airtime(np.ascontiguousarray(graph, dtype=np.bool_),
+                                   np.ascontiguousarray(active, dtype=np.bool_), float(access_intensity))
 
 
+@numba.njit(cache=True, nogil=True)
 def hidden_interferers(graph: np.ndarray, channels: np.ndarray, active: np.ndarray, airtime: np.ndarray,
                        airtime_weighting: float) -> np.ndarray:
     """``(B, K, J)`` weight with which AP ``j``'s signal counts as interference at AP ``k``'s stations.
 
     AP ``j`` interferes when it is active, on ``k``'s channel, ``j != k`` and not heard by ``k`` (it then
     transmits regardless of ``k``); its weight is ``(1 - w) + w * airtime_j``, ``w`` the table's
-    ``interference_airtime_weighting`` (0: always on). Zero elsewhere.
+    ``interference_airtime_weighting`` (0: always on). Zero elsewhere. Compiled (callable from compiled code).
     """
-    n_uavs = channels.shape[1]
-    co_channel = channels[:, :, None] == channels[:, None, :]
-    hidden = co_channel & ~graph & ~np.eye(n_uavs, dtype=bool) & active[:, None, :]
-    duty = (1.0 - airtime_weighting) + airtime_weighting * airtime  # (B, J)
-    return np.where(hidden, duty[:, None, :], 0.0)
+    n_worlds, n_uavs = channels.shape
+    weights = np.zeros((n_worlds, n_uavs, n_uavs))
+    for c in range(n_worlds):
+        for k in range(n_uavs):
+            for j in range(n_uavs):
+                if j != k and active[c, j] and channels[c, j] == channels[c, k] and not graph[c, k, j]:
+                    weights[c, k, j] = (1.0 - airtime_weighting) + airtime_weighting * airtime[c, j]
+    return weights

@@ -36,22 +36,28 @@ Examples:
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from uav_swarm.world.radio_config import RadioConfig
-from uav_swarm.world.wifi_airtime import carrier_sense_graph, csma_airtime, hidden_interferers
+from uav_swarm.world.wifi_airtime import (
+    carrier_sense_graph,
+    check_contenders,
+    hidden_interferers,
+    independent_set_airtime,
+)
+from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_phy import (
     ap_pair_power_dbm,
     dbm_to_mw,
-    mcs_index,
     noise_dbm,
-    phy_rate_mbps,
-    station_power_dbm,
+    rate_ladder_mbps,
+    station_power_mw,
 )
-from uav_swarm.world.wifi_tables import load_wifi_tables
+from uav_swarm.world.wifi_tables import WifiTables, load_wifi_tables
 
 __all__ = ["WifiLinks", "wifi_links", "uav_channels", "uav_altitudes_m", "channel_conflicts"]
 
@@ -74,6 +80,7 @@ class WifiLinks:
         airtime: (B, K) each AP's airtime share (pass 2; 0 for an AP without stations).
         channel: (B, K) each AP's channel number.
         throughput_per_user_mbps: (B, K) mean throughput of the AP's stations (0 without).
+        covered_users: (B,) users covered in each world.
         qos_s1: (B,) share of the world's users covered.
         qos_s2: (B,) share covered with at least ``min_user_rate_mbps``.
         mean_throughput_mbps: (B,) mean throughput over the world's users.
@@ -92,6 +99,7 @@ class WifiLinks:
     airtime: np.ndarray
     channel: np.ndarray
     throughput_per_user_mbps: np.ndarray
+    covered_users: np.ndarray
     qos_s1: np.ndarray
     qos_s2: np.ndarray
     mean_throughput_mbps: np.ndarray
@@ -120,9 +128,12 @@ def uav_altitudes_m(altitudes_m: np.ndarray | None, n_worlds: int, n_uavs: int, 
     """``(B, K)`` height of each UAV above the users: ``altitudes_m`` ((K,) or (B, K)), else the config's.
 
     Raises:
-        ValueError: A shape that is neither.
+        ValueError: A shape that is neither, or no altitude at all (None and ``config.altitude_m = 0``).
     """
     if altitudes_m is None:
+        if config.altitude_m <= 0.0:
+            raise ValueError("the 802.11 model needs the UAVs' altitudes: pass altitudes_m (each UAV's "
+                             "height above the users) or set RadioConfig.altitude_m")
         return np.full((n_worlds, n_uavs), config.altitude_m)
     heights = np.asarray(altitudes_m, dtype=np.float64)
     if heights.shape not in ((n_uavs,), (n_worlds, n_uavs)):
@@ -152,57 +163,203 @@ def channel_conflicts(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.n
     return power_dbm, carrier_sense_graph(power_dbm, same, config.ieee80211.cca_threshold_dbm)
 
 
-def _sinr_db(rx_mw: np.ndarray, copy_index: np.ndarray, weights: np.ndarray, noise_mw: float) -> np.ndarray:
-    """(N, K) SINR of every (user, AP) pair with the weighted hidden interferers of ``weights`` (B, K, J)."""
-    interference = np.full(rx_mw.shape, noise_mw)
-    if weights.any():
-        for j in range(rx_mw.shape[1]):
-            interference += rx_mw[:, j, None] * weights[copy_index, :, j]
-    return 10.0 * np.log10(rx_mw / interference)
+@numba.njit(cache=True, nogil=True)
+def _mcs(sinr: float, thresholds: np.ndarray) -> int:
+    """The highest MCS whose (linear, non-decreasing) threshold ``sinr`` reaches, -1 below MCS 0."""
+    best = -1
+    for m in range(thresholds.size):
+        if sinr < thresholds[m]:
+            break
+        best = m
+    return best
 
 
 @numba.njit(cache=True, nogil=True)
-def _admit(user_order: np.ndarray, ap_order: np.ndarray, in_range: np.ndarray, rate_mbps: np.ndarray,
-           copy_index: np.ndarray, airtime: np.ndarray, efficiency: float, min_rate_mbps: float,
-           airtime_fair: bool, rate_admission: bool, station_limit: int, previous: np.ndarray) -> np.ndarray:
-    """Step 4 of the module docstring; ``airtime`` is (B * K,), ``station_limit`` 0 for none."""
+def _disturbance_mw(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, noise_mw: float
+                    ) -> float:
+    """Noise plus the weighted hidden interferers at user ``n`` (world ``c``) for AP ``k`` (mW)."""
+    total = noise_mw
+    for j in range(power_mw.shape[1]):
+        if weights[c, k, j] > 0.0:
+            total += weights[c, k, j] * power_mw[n, j]
+    return total
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_rate_mbps(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, hidden: np.ndarray,
+                    noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray) -> float:
+    """PHY rate of user ``n`` (world ``c``) at AP ``k`` from its SINR (0 below MCS 0)."""
+    disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
+    return ladder_mbps[_mcs(power_mw[n, k] / disturbance_mw, thresholds) + 1]
+
+
+@numba.njit(cache=True, nogil=True)
+def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, copy_index: np.ndarray,
+           weights: np.ndarray, hidden: np.ndarray, noise_mw: float, thresholds: np.ndarray,
+           ladder_mbps: np.ndarray, airtime: np.ndarray, efficiency: float, min_rate_mbps: float,
+           airtime_fair: bool, rate_admission: bool, station_limit: int, previous: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Step 4: incumbents, then newcomers, at the pass-1 airtime and rates; ``airtime`` (B, K); limit 0: none.
+
+    An AP is *closed* once no newcomer could pass its test (even at the top rate): skipping it changes
+    nothing.
+    """
     n_users, n_uavs = in_range.shape
+    top_rate_mbps = ladder_mbps[-1]
     association = np.full(n_users, -1, np.int64)
-    count = np.zeros(airtime.size, np.int64)
-    slowest = np.full(airtime.size, np.inf)
-    inverse_sum = np.zeros(airtime.size)
+    count = np.zeros(airtime.shape, np.int64)
+    slowest = np.full(airtime.shape, np.inf)
+    inverse_sum = np.zeros(airtime.shape)
+    closed = np.zeros(airtime.shape, np.bool_)
+
+    def join(n: int, c: int, k: int, rate: float) -> None:
+        association[n] = k
+        count[c, k] += 1
+        slowest[c, k] = min(slowest[c, k], rate)
+        inverse_sum[c, k] += 1.0 / rate
+        full = station_limit > 0 and count[c, k] >= station_limit
+        if airtime_fair:
+            best = airtime[c, k] * efficiency * min(slowest[c, k], top_rate_mbps) / (count[c, k] + 1)
+        else:
+            best = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / top_rate_mbps)
+        closed[c, k] = full or (rate_admission and best < min_rate_mbps)
+
     for n in range(n_users):
         k = previous[n]
         if 0 <= k < n_uavs and in_range[n, k]:
-            slot = copy_index[n] * n_uavs + k
-            association[n] = k
-            count[slot] += 1
-            slowest[slot] = min(slowest[slot], rate_mbps[n, k])
-            inverse_sum[slot] += 1.0 / rate_mbps[n, k]
+            c = copy_index[n]
+            rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
+            join(n, c, k, rate)
+    tried = np.zeros(n_uavs, np.bool_)
     for n in user_order:
+        c = copy_index[n]
         if association[n] >= 0:
             continue
-        for j in range(n_uavs):
-            k = ap_order[n, j]
-            if not in_range[n, k]:
-                continue
-            slot = copy_index[n] * n_uavs + k
-            if station_limit > 0 and count[slot] >= station_limit:
-                continue
-            rate = rate_mbps[n, k]
+        tried[:] = False
+        while True:  # the strongest AP in range not tried yet (ties: the lower index)
+            k = -1
+            for j in range(n_uavs):
+                if not tried[j] and not closed[c, j] and in_range[n, j] \
+                        and (k < 0 or power_mw[n, j] > power_mw[n, k]):
+                    k = j
+            if k < 0:
+                break
+            tried[k] = True
+            rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
             if rate_admission:
                 if airtime_fair:
-                    share = airtime[slot] * efficiency * min(slowest[slot], rate) / (count[slot] + 1)
+                    share = airtime[c, k] * efficiency * min(slowest[c, k], rate) / (count[c, k] + 1)
                 else:
-                    share = airtime[slot] * efficiency / (inverse_sum[slot] + 1.0 / rate)
+                    share = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / rate)
                 if share < min_rate_mbps:
                     continue
-            association[n] = k
-            count[slot] += 1
-            slowest[slot] = min(slowest[slot], rate)
-            inverse_sum[slot] += 1.0 / rate
+            join(n, c, k, rate)
             break
-    return association
+    return association, count
+
+
+@numba.njit(cache=True, nogil=True)
+def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, channels: np.ndarray,
+           noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray, rho: float, weighting: float,
+           efficiency: float, min_rate_mbps: float, airtime_fair: bool, rate_admission: bool,
+           station_limit: int, previous: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                      np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Steps 3-5 of the module docstring for all worlds (powers and carrier-sense graph given).
+
+    Returns per user: association, in range, SINR (linear), MCS, rate, throughput; per AP: stations, airtime,
+    mean throughput of its stations; per world: users covered, users covered with the minimum rate, total
+    throughput.
+    """
+    n_users, n_uavs = power_mw.shape
+    n_worlds = graph.shape[0]
+    # 3. Pass 1: the APs some user reaches with an SNR of MCS 0 are active.
+    active = np.zeros((n_worlds, n_uavs), np.bool_)
+    for n in range(n_users):
+        for k in range(n_uavs):
+            if power_mw[n, k] >= noise_mw * thresholds[0]:
+                active[copy_index[n], k] = True
+    airtime = independent_set_airtime(graph, active, rho)
+    weights = hidden_interferers(graph, channels, active, airtime, weighting)
+    hidden = weights.sum(axis=2).sum(axis=1) > 0.0  # (B,) worlds with hidden interferers
+    in_range = np.zeros((n_users, n_uavs), np.bool_)  # the pass-1 SINR reaches MCS 0
+    strongest = np.zeros(n_users)  # the strongest received power among the APs in range
+    for n in range(n_users):
+        c = copy_index[n]
+        for k in range(n_uavs):
+            disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
+            if power_mw[n, k] >= thresholds[0] * disturbance_mw:
+                in_range[n, k] = True
+                strongest[n] = max(strongest[n], power_mw[n, k])
+    # 4. Association: strongest users first (a stable sort: the lower row first on ties).
+    user_order = np.argsort(-strongest, kind="mergesort")
+    association, stations = _admit(user_order, power_mw, in_range, copy_index, weights, hidden, noise_mw,
+                                   thresholds, ladder_mbps, airtime, efficiency, min_rate_mbps, airtime_fair,
+                                   rate_admission, station_limit, previous)
+    # 5. Pass 2: the APs with stations.
+    served = stations > 0
+    if np.any(served != active):
+        airtime = independent_set_airtime(graph, served, rho)
+        weights = hidden_interferers(graph, channels, served, airtime, weighting)
+    sinr = np.zeros(n_users)
+    mcs = np.full(n_users, -1, np.int64)
+    sharing = np.zeros((n_worlds, n_uavs), np.int64)  # stations with a rate
+    inverse_sum = np.zeros((n_worlds, n_uavs))
+    for n in range(n_users):
+        c = copy_index[n]
+        k = association[n]
+        if k < 0:  # the SINR at the strongest AP
+            k = 0
+            for j in range(1, n_uavs):
+                if power_mw[n, j] > power_mw[n, k]:
+                    k = j
+        if n_uavs == 0:
+            continue
+        sinr[n] = power_mw[n, k] / _disturbance_mw(power_mw, n, k, weights, c, noise_mw)
+        if association[n] >= 0:
+            mcs[n] = _mcs(sinr[n], thresholds)
+            if mcs[n] >= 0:
+                sharing[c, k] += 1
+                inverse_sum[c, k] += 1.0 / ladder_mbps[mcs[n] + 1]
+    rate = np.zeros(n_users)
+    throughput = np.zeros(n_users)
+    per_ap = np.zeros((n_worlds, n_uavs))
+    covered = np.zeros(n_worlds, np.int64)
+    fast = np.zeros(n_worlds, np.int64)
+    total_mbps = np.zeros(n_worlds)
+    for n in range(n_users):
+        if mcs[n] < 0:
+            continue
+        c, k = copy_index[n], association[n]
+        rate[n] = ladder_mbps[mcs[n] + 1]
+        if airtime_fair:
+            throughput[n] = airtime[c, k] * efficiency * rate[n] / sharing[c, k]
+        else:
+            throughput[n] = airtime[c, k] * efficiency / inverse_sum[c, k]
+        per_ap[c, k] += throughput[n]
+        total_mbps[c] += throughput[n]
+        covered[c] += 1
+        fast[c] += throughput[n] >= min_rate_mbps
+    for c in range(n_worlds):
+        for k in range(n_uavs):
+            if not served[c, k]:
+                airtime[c, k] = 0.0
+            elif sharing[c, k]:
+                per_ap[c, k] /= sharing[c, k]
+    in_range_any = np.zeros(n_users, np.bool_)
+    for n in range(n_users):
+        in_range_any[n] = strongest[n] > 0.0
+    return (association, in_range_any, sinr, mcs, rate, throughput, stations, airtime, per_ap, covered, fast,
+            total_mbps)
+
+
+@functools.lru_cache(maxsize=16)
+def _constants(wifi: Ieee80211Config) -> tuple[WifiTables, float, np.ndarray, np.ndarray, float, np.ndarray]:
+    """The tables, noise (mW), linear SINR thresholds, rate ladder, MAC efficiency and usable channels."""
+    tables = load_wifi_tables(wifi.tables_file)
+    efficiency = wifi.mac_efficiency if wifi.mac_efficiency is not None else tables.mac_efficiency
+    return (tables, float(dbm_to_mw(noise_dbm(wifi))), dbm_to_mw(tables.min_sinr_db),
+            rate_ladder_mbps(wifi, tables), efficiency, np.array(wifi.usable_channels, np.int64))
 
 
 def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
@@ -223,83 +380,32 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
         ValueError: A shape or a channel the model does not take (the message names it).
     """
     wifi = config.ieee80211
-    tables = load_wifi_tables(wifi.tables_file)
-    efficiency = wifi.mac_efficiency if wifi.mac_efficiency is not None else tables.mac_efficiency
-    users_m = np.asarray(users_m, dtype=np.float64).reshape(-1, 2)
-    copy_index = np.asarray(copy_index, dtype=np.int64)
-    uavs_m = np.asarray(uavs_m, dtype=np.float64)
+    tables, noise_mw, thresholds, ladder, efficiency, _ = _constants(wifi)
+    users_m = np.ascontiguousarray(users_m, dtype=np.float64).reshape(-1, 2)
+    copy_index = np.ascontiguousarray(copy_index, dtype=np.int64)
+    uavs_m = np.ascontiguousarray(uavs_m, dtype=np.float64)
     n_worlds, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
     n_all = len(users_m)
-    heights = uav_altitudes_m(altitudes_m, n_worlds, n_uavs, config)
-    plan = uav_channels(channels, n_worlds, n_uavs, config)
-    offsets = np.searchsorted(copy_index, np.arange(n_worlds + 1))
-    n_users = np.diff(offsets)
-    # 1. Powers: (N, K) user from AP, (B, K, K) AP from AP.
-    rx_dbm = station_power_dbm(np.hypot(uavs_m[copy_index, :, 0] - users_m[:, 0:1],
-                                        uavs_m[copy_index, :, 1] - users_m[:, 1:2]),
-                               heights[copy_index], wifi)
-    rx_mw = dbm_to_mw(rx_dbm)
-    ap_dbm = ap_pair_power_dbm(uavs_m, heights, wifi)
-    # 2. Carrier sense.
-    graph = carrier_sense_graph(ap_dbm, plan, wifi.cca_threshold_dbm)
-    noise = noise_dbm(wifi)
-    noise_mw = float(dbm_to_mw(noise))
-    weighting = tables.interference_airtime_weighting
-
-    def radio_state(active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        airtime = csma_airtime(graph, active, tables.access_intensity)
-        weights = hidden_interferers(graph, plan, active, airtime, weighting)
-        return airtime, _sinr_db(rx_mw, copy_index, weights, noise_mw)
-
-    # 3. Pass 1: every AP with a user whose SNR reaches MCS 0 is active.
-    reach = (rx_dbm - noise) >= tables.min_sinr_db[0]
-    slots = (copy_index[:, None] * n_uavs + np.arange(n_uavs)).ravel()
-    active = (np.bincount(slots[reach.ravel()], minlength=n_worlds * n_uavs) > 0).reshape(n_worlds, n_uavs)
-    airtime, sinr = radio_state(active)
-    rate_pairs = phy_rate_mbps(mcs_index(sinr, tables), wifi, tables)  # (N, K)
-    in_range_pairs = rate_pairs > 0.0
-    # 4. Association.
-    best_rx = np.where(in_range_pairs, rx_dbm, -np.inf).max(axis=1, initial=-np.inf)
-    user_order = np.lexsort((np.arange(n_all), -best_rx))
-    ap_order = np.argsort(-rx_dbm, axis=1, kind="stable")
-    limit = config.max_stations or 0
     before = np.full(n_all, -1, np.int64) if previous is None else np.asarray(previous, np.int64)
     if before.shape != (n_all,):
         raise ValueError(f"previous must have shape ({n_all},), got {before.shape}")
-    association = _admit(user_order, ap_order, in_range_pairs, rate_pairs, copy_index, airtime.ravel(),
-                         efficiency, config.min_user_rate_mbps, wifi.fairness == "airtime",
-                         wifi.rate_admission, limit, before)
-    # 5. Pass 2 with the APs that serve someone.
-    linked = association >= 0
-    serving = np.where(linked, association, rx_dbm.argmax(axis=1) if n_uavs else 0)
-    slot = copy_index * n_uavs + serving
-    stations = np.bincount(slot[linked], minlength=n_worlds * n_uavs)
-    served = stations.reshape(n_worlds, n_uavs) > 0
-    if not np.array_equal(served, active):
-        airtime, sinr = radio_state(served)
-    rows = np.arange(n_all)
-    sinr_db = sinr[rows, serving] if n_uavs else np.full(n_all, -np.inf)
-    mcs = np.where(linked, mcs_index(sinr_db, tables), -1)
-    rate = phy_rate_mbps(mcs, wifi, tables)
-    covered = mcs >= 0
-    share_of = np.bincount(slot[covered], minlength=n_worlds * n_uavs)
-    inverse = np.bincount(slot[covered], weights=1.0 / rate[covered], minlength=n_worlds * n_uavs)
-    ap_airtime = airtime.ravel()[slot]
-    if wifi.fairness == "airtime":
-        throughput = ap_airtime * efficiency * rate / np.maximum(share_of[slot], 1)
-    else:
-        throughput = ap_airtime * efficiency / np.where(covered, inverse[slot], 1.0)
-    throughput = np.where(covered, throughput, 0.0)
-    fast = covered & (throughput >= config.min_user_rate_mbps)
+    check_contenders(n_uavs)
+    heights = np.ascontiguousarray(uav_altitudes_m(altitudes_m, n_worlds, n_uavs, config))
+    plan = np.ascontiguousarray(uav_channels(channels, n_worlds, n_uavs, config))
+    offsets = np.searchsorted(copy_index, np.arange(n_worlds + 1)) if n_worlds > 1 else np.array([0, n_all])
+    n_users = np.diff(offsets)
+    # 1-2. Powers, (N, K) user from AP in mW; the carrier-sense graph.
+    power_mw = station_power_mw(users_m, copy_index, uavs_m, heights, wifi)
+    graph = carrier_sense_graph(ap_pair_power_dbm(uavs_m, heights, wifi), plan, wifi.cca_threshold_dbm)
+    # 3-5. Passes and association.
+    (association, in_range, sinr, mcs, rate, throughput, stations, airtime, per_ap, covered, fast,
+     total) = _links(
+        power_mw, copy_index, graph, plan, noise_mw, thresholds, ladder, tables.access_intensity,
+        tables.interference_airtime_weighting, efficiency, config.min_user_rate_mbps,
+        wifi.fairness == "airtime", wifi.rate_admission, config.max_stations or 0, before)
     denominator = np.maximum(n_users, 1)
-    per_ap = np.bincount(slot[covered], weights=throughput[covered], minlength=n_worlds * n_uavs)
     return WifiLinks(
-        association=association, covered=covered, in_range=np.asarray(in_range_pairs.any(axis=1)),
-        sinr_db=sinr_db, mcs=mcs, rate_mbps=rate, throughput_mbps=throughput, offsets=offsets,
-        n_users=n_users,
-        users_per_uav=stations.reshape(n_worlds, n_uavs), airtime=np.where(served, airtime, 0.0),
-        channel=np.array(plan),
-        throughput_per_user_mbps=(per_ap / np.maximum(share_of, 1)).reshape(n_worlds, n_uavs),
-        qos_s1=np.bincount(copy_index[covered], minlength=n_worlds) / denominator,
-        qos_s2=np.bincount(copy_index[fast], minlength=n_worlds) / denominator,
-        mean_throughput_mbps=np.bincount(copy_index, weights=throughput, minlength=n_worlds) / denominator)
+        association=association, covered=mcs >= 0, in_range=in_range, sinr_db=10.0 * np.log10(sinr), mcs=mcs,
+        rate_mbps=rate, throughput_mbps=throughput, offsets=offsets, n_users=n_users, users_per_uav=stations,
+        airtime=airtime, channel=plan, throughput_per_user_mbps=per_ap, covered_users=covered,
+        qos_s1=covered / denominator, qos_s2=fast / denominator, mean_throughput_mbps=total / denominator)

@@ -1,6 +1,6 @@
 """The 802.11 model's physical layer: path loss, received power, noise, SINR -> MCS -> PHY rate.
 
-All functions broadcast over any leading shape (worlds, users, UAVs). Formulas (docs/radio.md):
+Formulas (docs/radio.md):
 
 - free-space path loss, ``d`` the 3-D distance in metres (at least 1 m), ``f`` in Hz::
 
@@ -19,11 +19,20 @@ All functions broadcast over any leading shape (worlds, users, UAVs). Formulas (
 - MCS: the highest ``m`` with ``SINR >= min_sinr_db[m]`` (-1 below MCS 0: no usable rate); PHY rate
   ``rate_20mhz_1ss_mbps[m] * data tones(width) / 234 * streams``.
 
+The received power of every (user, UAV) pair (N x K x B at every step) is whole-array numpy, in milliwatts:
+``10^((EIRP - FSPL(1 m) - excess) / 10) / d^2``, the same formula. SINR and MCS are computed where they are
+used, in :mod:`uav_swarm.world.wifi_coverage`.
+
 Examples:
+    >>> config = Ieee80211Config()
     >>> round(float(free_space_loss_db(np.array(100.0), 5.18e9)), 2)
     86.73
-    >>> mcs_index(np.array([8.9, 9.0, 40.0]), load_wifi_tables()).tolist()
-    [-1, 0, 11]
+    >>> power_mw = station_power_mw(np.array([[0.0, 0.0]]), np.zeros(1, np.int64), np.array([[[30.0, 0.0]]]),
+    ...                             np.array([[20.0]]), config)  # 30 m away, 20 m up
+    >>> round(float(10 * np.log10(power_mw[0, 0])), 2), round(noise_dbm(config), 2)
+    (-62.09, -93.99)
+    >>> rate_ladder_mbps(config)[[0, 1, 12]].tolist()  # no MCS, MCS 0, MCS 11
+    [0.0, 8.6, 143.4]
 """
 
 from __future__ import annotations
@@ -35,47 +44,67 @@ import numpy as np
 from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_tables import WifiTables, load_wifi_tables
 
-__all__ = ["SPEED_OF_LIGHT_M_S", "free_space_loss_db", "los_probability", "air_to_ground_loss_db",
-           "station_power_dbm", "ap_power_dbm", "ap_pair_power_dbm", "noise_dbm", "mcs_index",
-           "phy_rate_mbps", "dbm_to_mw"]
+__all__ = ["SPEED_OF_LIGHT_M_S", "free_space_loss_db", "station_power_mw", "ap_pair_power_dbm", "noise_dbm",
+           "dbm_to_mw", "rate_ladder_mbps"]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
 MIN_DISTANCE_M = 1.0
 """Distances below 1 m count as 1 m (the far-field formulas mean nothing closer)."""
+BLOCK_USERS = 1024
+"""Users per block of :func:`station_power_mw`."""
+
+
+def _fspl_1m_db(frequency_hz: float) -> float:
+    """Free-space path loss at 1 m (dB)."""
+    return 20.0 * math.log10(frequency_hz) + 20.0 * math.log10(4.0 * math.pi / SPEED_OF_LIGHT_M_S)
 
 
 def free_space_loss_db(distance_m: np.ndarray, frequency_hz: float) -> np.ndarray:
     """Free-space path loss (dB) at ``distance_m`` (at least :data:`MIN_DISTANCE_M`)."""
-    constant_db = 20.0 * math.log10(frequency_hz) + 20.0 * math.log10(4.0 * math.pi / SPEED_OF_LIGHT_M_S)
-    return 20.0 * np.log10(np.maximum(distance_m, MIN_DISTANCE_M)) + constant_db
+    return 20.0 * np.log10(np.maximum(distance_m, MIN_DISTANCE_M)) + _fspl_1m_db(frequency_hz)
 
 
-def los_probability(elevation_deg: np.ndarray, a: float, b: float) -> np.ndarray:
-    """Al-Hourani's probability of line of sight at an elevation angle (degrees)."""
-    return 1.0 / (1.0 + a * np.exp(-b * (elevation_deg - a)))
+def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray,
+                     config: Ieee80211Config) -> np.ndarray:
+    """``(N, K)`` power (mW) each user receives from each UAV's AP of its own world (air to ground).
+
+    Computed as ``10^((EIRP - FSPL(1 m) - excess) / 10) / max(d^2, 1)``, the formula above in milliwatts, by
+    blocks of :data:`BLOCK_USERS` users (small temporaries stay in cache: many worlds at once are no slower
+    per user than one).
+
+    Args:
+        users_m: (N, 2) user positions, metres.
+        copy_index: (N,) each user's world.
+        uavs_m: (B, K, 2) UAV positions, metres.
+        heights_m: (B, K) each UAV's height above the users, metres.
+        config: The 802.11 settings.
+    """
+    power_mw = np.empty((len(users_m), uavs_m.shape[1]))
+    for start in range(0, len(users_m), BLOCK_USERS):
+        rows = slice(start, start + BLOCK_USERS)
+        power_mw[rows] = _block_power_mw(users_m[rows], copy_index[rows], uavs_m, heights_m, config)
+    return power_mw
 
 
-def air_to_ground_loss_db(horizontal_m: np.ndarray, height_m: np.ndarray, config: Ieee80211Config
-                          ) -> np.ndarray:
-    """Mean air-to-ground path loss (dB) of a UAV ``height_m`` above a user ``horizontal_m`` away."""
+def _block_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray,
+                    config: Ieee80211Config) -> np.ndarray:
     a, b, eta_los_db, eta_nlos_db = config.environment_parameters
-    elevation_deg = np.degrees(np.arctan2(height_m, horizontal_m))
-    p_los = los_probability(elevation_deg, a, b)
-    distance_m = np.hypot(horizontal_m, height_m)
-    return free_space_loss_db(distance_m, config.frequency_ghz * 1e9) + p_los * eta_los_db \
-        + (1.0 - p_los) * eta_nlos_db
-
-
-def station_power_dbm(horizontal_m: np.ndarray, height_m: np.ndarray, config: Ieee80211Config) -> np.ndarray:
-    """Power (dBm) a user receives from a UAV's AP."""
-    gains_db = config.tx_power_dbm + config.ap_antenna_gain_dbi + config.station_antenna_gain_dbi
-    return gains_db - air_to_ground_loss_db(horizontal_m, height_m, config)
-
-
-def ap_power_dbm(distance_m: np.ndarray, config: Ieee80211Config) -> np.ndarray:
-    """Power (dBm) one UAV's AP receives from another ``distance_m`` away (free space, both AP antennas)."""
-    gains_db = config.tx_power_dbm + 2.0 * config.ap_antenna_gain_dbi
-    return gains_db - free_space_loss_db(distance_m, config.frequency_ghz * 1e9)
+    eirp_dbm = config.tx_power_dbm + config.ap_antenna_gain_dbi + config.station_antenna_gain_dbi
+    if uavs_m.shape[0] == 1:  # one world: broadcast instead of gathering each user's UAVs
+        uav_x, uav_y, height = uavs_m[0, :, 0], uavs_m[0, :, 1], heights_m[0]
+    else:
+        uav_x, uav_y, height = uavs_m[copy_index, :, 0], uavs_m[copy_index, :, 1], heights_m[copy_index]
+    dx = uav_x - users_m[:, 0:1]
+    dy = uav_y - users_m[:, 1:2]
+    horizontal_sq = dx * dx
+    horizontal_sq += dy * dy
+    elevation_deg = np.arctan2(np.broadcast_to(height, horizontal_sq.shape), np.sqrt(horizontal_sq))
+    elevation_deg *= 180.0 / math.pi
+    p_los = 1.0 / (1.0 + a * np.exp(-b * (elevation_deg - a)))
+    excess_db = eta_nlos_db - (eta_nlos_db - eta_los_db) * p_los
+    distance_sq = np.maximum(horizontal_sq + height * height, MIN_DISTANCE_M * MIN_DISTANCE_M)
+    at_1m_db = eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9)
+    return np.exp((at_1m_db - excess_db) * (math.log(10.0) / 10.0)) / distance_sq
 
 
 def ap_pair_power_dbm(uavs_m: np.ndarray, altitudes_m: np.ndarray, config: Ieee80211Config) -> np.ndarray:
@@ -87,7 +116,10 @@ def ap_pair_power_dbm(uavs_m: np.ndarray, altitudes_m: np.ndarray, config: Ieee8
         config: The 802.11 settings.
     """
     positions = np.concatenate([uavs_m, altitudes_m[:, :, None]], axis=2)
-    return ap_power_dbm(np.linalg.norm(positions[:, :, None] - positions[:, None], axis=3), config)
+    offsets_m = positions[:, :, None] - positions[:, None]
+    distance_m = np.sqrt((offsets_m * offsets_m).sum(axis=3))
+    eirp_dbm = config.tx_power_dbm + 2.0 * config.ap_antenna_gain_dbi
+    return eirp_dbm - free_space_loss_db(distance_m, config.frequency_ghz * 1e9)
 
 
 def noise_dbm(config: Ieee80211Config) -> float:
@@ -100,14 +132,8 @@ def dbm_to_mw(power_dbm: np.ndarray | float) -> np.ndarray:
     return np.power(10.0, np.asarray(power_dbm, dtype=np.float64) / 10.0)
 
 
-def mcs_index(sinr_db: np.ndarray, tables: WifiTables) -> np.ndarray:
-    """The highest MCS whose threshold the SINR reaches, -1 below MCS 0 (int64, the shape of ``sinr_db``)."""
-    return np.searchsorted(tables.min_sinr_db, sinr_db, side="right").astype(np.int64) - 1
-
-
-def phy_rate_mbps(mcs: np.ndarray, config: Ieee80211Config, tables: WifiTables | None = None) -> np.ndarray:
-    """PHY rate (Mbps) of each MCS at the configured width and streams; 0 for -1 (no usable rate)."""
+def rate_ladder_mbps(config: Ieee80211Config, tables: WifiTables | None = None) -> np.ndarray:
+    """``(M + 1,)`` 0 (no usable rate), then the PHY rate of MCS 0..M-1 at the width and streams."""
     tables = tables or load_wifi_tables(config.tables_file)
     scale = tables.width_factor(config.channel_width_mhz) * config.spatial_streams
-    ladder = np.concatenate([[0.0], tables.rate_20mhz_1ss_mbps * scale])
-    return ladder[np.asarray(mcs) + 1]
+    return np.concatenate([[0.0], tables.rate_20mhz_1ss_mbps * scale])
