@@ -22,9 +22,9 @@ import numpy as np
 
 from uav_swarm.env import parallel_env
 from uav_swarm.env.batched import BatchedUAVSwarm
-from uav_swarm.planning.channel_plan import plan_channels
 from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.comms_batch import coverage_batch
+from uav_swarm.world.wifi_channels import plan_channels
 
 SCENARIO = {"n_groups_min": 6, "n_groups_max": 6, "group_size_min": 86, "group_size_max": 86}
 WIFI = {"propagation": "802.11"}

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask
-from uav_swarm.planning.channel_plan import plan_channels
 from uav_swarm.world.comms import evaluate_coverage
+from uav_swarm.world.wifi_channels import plan_channels
 
 __all__ = ["JUMP_M", "StaticReference", "static_reference", "reference_qos", "target_jumps",
            "metres_per_uav_minute", "flight_figures"]

@@ -40,7 +40,6 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.planning.channel_plan import plan_channels
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs import RunOutputs
@@ -50,6 +49,7 @@ from uav_swarm.runs.service import static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.runs.summary import ratios_learned_over_expert, reference_record, summarise_run
 from uav_swarm.world.comms import evaluate_coverage
+from uav_swarm.world.wifi_channels import plan_channels
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
