@@ -33,7 +33,9 @@ def with_flight_altitude(data: Mapping[str, Any]) -> Mapping[str, Any]:
     else is returned as it is (the configs' own checks judge it).
     """
     task = data.get("task")
-    radio = task.get("radio") if isinstance(task, Mapping) else None
+    if not isinstance(task, Mapping):
+        return data
+    radio = task.get("radio")
     if not isinstance(radio, Mapping) or radio.get("propagation") != "802.11" or radio.get("altitude_m"):
         return data
     uav = data.get("uav")

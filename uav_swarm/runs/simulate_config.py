@@ -94,12 +94,16 @@ class SimulateConfig(Config):
         return max(1, round(self.duration_s / self.dt_s))
 
     def env_config(self) -> EnvConfig:
-        """The ``uav_swarm_v0`` config of the sequence: waypoint mode, the task's world."""
+        """The ``uav_swarm_v0`` config of the sequence: waypoint mode, the task's world.
+
+        The environment gives the 802.11 radio each UAV's own altitude (``uav.altitudes_m``), never the
+        radio's ``altitude_m``, which the planners' experts use: the environment's radio has it at 0.
+        """
         side = self.task.size_px
         return EnvConfig(n_uavs=self.n_uavs, action_mode="waypoint", strategy=self.task.strategy,
                          max_cycles=self.n_steps, crowd_steps_per_env_step=1, density_shape=(side, side),
                          uav=self.uav, scenario=self.task.scenario, crowd=self.task.crowd,
-                         radio=self.task.radio)
+                         radio=self.task.radio.replace(altitude_m=0.0))
 
 
 def load_simulate_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None
