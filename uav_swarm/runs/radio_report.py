@@ -35,7 +35,7 @@ from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.wifi_coverage import channel_conflicts
 
 __all__ = ["MCS_BANDS", "RadioTrace", "RadioLog", "mcs_band_shares", "median_sinr_db", "sharing_pairs",
-           "radio_summary", "radio_line"]
+           "radio_summary", "radio_line", "telemetry_fields"]
 
 MCS_BANDS: tuple[tuple[str, int, int], ...] = (("not served", -1, -1), ("MCS 0-3", 0, 3), ("MCS 4-7", 4, 7),
                                                 ("MCS 8-11", 8, 11))
@@ -105,6 +105,11 @@ class RadioLog:
                            np.array(coverage.airtime, np.float64),
                            sharing_pairs(uavs_m, channels, self.radio, self.altitudes_m)))
 
+    @property
+    def latest_pairs(self) -> int | None:
+        """Co-channel pairs sharing airtime at the last observed step (None before the first)."""
+        return int(self._rows[-1][4].sum()) if self._rows else None
+
     def trace(self) -> RadioTrace:
         """Everything observed so far."""
         k = len(self.altitudes_m)
@@ -151,6 +156,24 @@ def radio_summary(trace: RadioTrace, dt_s: float, radio: RadioConfig) -> dict[st
                   "mcs_shares": trace.mcs_shares[last].tolist(), "airtime": trace.airtime[last].tolist(),
                   "co_channel_pairs": int(per_step[last])} if steps else None,
     }
+
+
+def telemetry_fields(coverage: Coverage, co_channel_pairs: int | None
+                     ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """The 802.11 fields of each UAV's telemetry state and of the QoS (:mod:`bridge.telemetry.schema`).
+
+    Returns:
+        ``(per_uav, qos)``: one dict per UAV (``wifi_channel``, ``airtime_share``, ``n_stations``) and the
+        QoS's (``median_sinr_db``, ``co_channel_pairs``); empty dicts under the paper's radio.
+    """
+    if coverage.channel is None or coverage.airtime is None or coverage.sinr_db is None:
+        return [{} for _ in coverage.users_per_uav], {}
+    rows = zip(coverage.channel, np.clip(coverage.airtime, 0.0, 1.0), coverage.users_per_uav, strict=True)
+    per_uav = [{"wifi_channel": int(channel), "airtime_share": float(airtime), "n_stations": int(stations)}
+               for channel, airtime, stations in rows]
+    sinr = median_sinr_db(coverage.sinr_db)
+    return per_uav, {"median_sinr_db": sinr if np.isfinite(sinr) else None,
+                     "co_channel_pairs": co_channel_pairs}
 
 
 def radio_line(radio: RadioConfig) -> str:

@@ -46,7 +46,7 @@ from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs import RunOutputs
-from uav_swarm.runs.radio_report import RadioLog, radio_line
+from uav_swarm.runs.radio_report import RadioLog, radio_line, telemetry_fields
 from uav_swarm.runs.records import Frame, SequenceRun
 from uav_swarm.runs.separation_watch import SeparationWatch
 from uav_swarm.runs.service import static_reference, target_jumps
@@ -77,27 +77,31 @@ class SimulationResult:
 
 
 def _telemetry(env: Any, targets_m: np.ndarray, altitudes_m: np.ndarray, step: int,
-               guard: tuple[np.ndarray, np.ndarray]) -> tuple[list[UavState], Qos]:
+               guard: tuple[np.ndarray, np.ndarray], radio_log: RadioLog | None
+               ) -> tuple[list[UavState], Qos]:
     """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them.
 
     ``guard``: each UAV's distance to its nearest other UAV and whether it is held (SeparationWatch.observe).
+    Under the 802.11 radio, each UAV's channel, airtime and stations and the users' median SINR too.
     """
     from bridge.telemetry.schema import Qos, UavState
 
     stamp_s = time.time()
     positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
     nearest, held = guard
+    cov = env.coverage
+    wifi_uavs, wifi_qos = telemetry_fields(cov, None if radio_log is None else radio_log.latest_pairs)
     states = [UavState(
         stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
         position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), float(altitudes_m[uav_id])),
         velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
         target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), float(altitudes_m[uav_id])),
         separation_held=bool(held[uav_id]),
-        nearest_uav_m=float(nearest[uav_id]) if np.isfinite(nearest[uav_id]) else None)
+        nearest_uav_m=float(nearest[uav_id]) if np.isfinite(nearest[uav_id]) else None, **wifi_uavs[uav_id])
         for uav_id in range(len(positions))]
-    cov = env.coverage
     qos = Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1), qos_s2=float(cov.qos_s2),
-              mean_throughput_mbps=float(cov.mean_throughput_mbps), n_users=int(cov.covered.shape[0]))
+              mean_throughput_mbps=float(cov.mean_throughput_mbps), n_users=int(cov.covered.shape[0]),
+              **wifi_qos)
     return states, qos
 
 
@@ -198,7 +202,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         if radio_log is not None:  # channels, SINR/MCS, airtime, co-channel sharing (runs.radio_report)
             radio_log.observe(cov, env.uav_positions_m)
         if outputs.active and step % config.telemetry_every == 0:
-            states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard)
+            states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard, radio_log)
             outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
             frames.append(Frame(
