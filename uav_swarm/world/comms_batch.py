@@ -183,7 +183,7 @@ def _wifi_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
                 channels: np.ndarray | None) -> CoverageBatch:
     """The 802.11 model of all worlds at once; ``associations`` (one per world) hold the incumbents."""
     n_copies, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
-    offsets = np.searchsorted(copy_index, np.arange(n_copies + 1))
+    offsets = np.searchsorted(copy_index, np.arange(n_copies + 1)) if n_copies > 1 else [0, len(users_m)]
     previous = None
     if associations is not None:
         if len(associations) != n_copies:

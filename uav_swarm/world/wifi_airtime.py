@@ -33,18 +33,23 @@ MAX_CONTENDERS = 16
 """The most APs per world: the airtime enumerates all 2^K subsets."""
 
 
+@numba.njit(cache=True, nogil=True)
 def carrier_sense_graph(ap_power_dbm: np.ndarray, channels: np.ndarray, cca_threshold_dbm: float
                         ) -> np.ndarray:
     """``(B, K, K)`` bool: APs ``i != j`` on the same channel that receive each other at >= the threshold.
 
     Args:
         ap_power_dbm: (B, K, K) power AP ``i`` receives from AP ``j`` (dBm).
-        channels: (B, K) channel number of each AP.
+        channels: (B, K) channel number of each AP (int64).
         cca_threshold_dbm: The carrier-sense threshold at the channel width.
     """
-    graph = (channels[:, :, None] == channels[:, None, :]) & (ap_power_dbm >= cca_threshold_dbm)
-    diagonal = np.arange(channels.shape[1])
-    graph[:, diagonal, diagonal] = False
+    n_worlds, n_uavs = channels.shape
+    graph = np.zeros((n_worlds, n_uavs, n_uavs), np.bool_)
+    for c in range(n_worlds):
+        for i in range(n_uavs):
+            for j in range(n_uavs):
+                graph[c, i, j] = i != j and channels[c, i] == channels[c, j] \
+                    and ap_power_dbm[c, i, j] >= cca_threshold_dbm
     return graph
 
 

@@ -20,10 +20,9 @@ Examples:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
-
-import numpy as np
 
 from typed_config import Config, ConfigError, param
 
@@ -106,7 +105,7 @@ class Ieee80211Config(Config):
     @property
     def cca_threshold_dbm(self) -> float:
         """Carrier-sense threshold at the configured width (dBm): ``cca_20 + 3 log2(width / 20)``."""
-        return self.cca_threshold_20mhz_dbm + 3 * int(np.log2(self.channel_width_mhz // 20))
+        return self.cca_threshold_20mhz_dbm + 3 * int(math.log2(self.channel_width_mhz // 20))
 
     @property
     def environment_parameters(self) -> tuple[float, float, float, float]:

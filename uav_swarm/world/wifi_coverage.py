@@ -111,16 +111,17 @@ def uav_channels(channels: np.ndarray | None, n_worlds: int, n_uavs: int, config
     Raises:
         ValueError: A shape that is neither, or a channel the config does not allow.
     """
-    usable = config.ieee80211.usable_channels
+    usable = _constants(config.ieee80211)[-1]
     if channels is None:
         return np.full((n_worlds, n_uavs), usable[0], np.int64)
     plan = np.asarray(channels, dtype=np.int64)
     if plan.shape not in ((n_uavs,), (n_worlds, n_uavs)):
         raise ValueError(f"channels must have shape ({n_uavs},) or ({n_worlds}, {n_uavs}), got {plan.shape}")
-    wrong = sorted(set(np.unique(plan).tolist()) - set(usable))
-    if wrong:
-        raise ValueError(f"channels {wrong} are not usable: allowed {list(usable)} (RadioConfig.ieee80211)")
-    return np.broadcast_to(plan, (n_worlds, n_uavs))
+    if not (plan[..., None] == usable).any(axis=-1).all():
+        wrong = sorted(set(plan.ravel().tolist()) - set(usable.tolist()))
+        raise ValueError(f"channels {wrong} are not usable: allowed {usable.tolist()} "
+                         "(RadioConfig.ieee80211)")
+    return plan if plan.ndim == 2 else np.broadcast_to(plan, (n_worlds, n_uavs))
 
 
 def uav_altitudes_m(altitudes_m: np.ndarray | None, n_worlds: int, n_uavs: int, config: RadioConfig
@@ -139,7 +140,7 @@ def uav_altitudes_m(altitudes_m: np.ndarray | None, n_worlds: int, n_uavs: int, 
     if heights.shape not in ((n_uavs,), (n_worlds, n_uavs)):
         raise ValueError(f"altitudes_m must have shape ({n_uavs},) or ({n_worlds}, {n_uavs}), "
                          f"got {heights.shape}")
-    return np.broadcast_to(heights, (n_worlds, n_uavs))
+    return heights if heights.ndim == 2 else np.broadcast_to(heights, (n_worlds, n_uavs))
 
 
 def channel_conflicts(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.ndarray | None = None

@@ -25,8 +25,9 @@ used, in :mod:`uav_swarm.world.wifi_coverage`.
 
 Examples:
     >>> config = Ieee80211Config()
-    >>> round(float(free_space_loss_db(np.array(100.0), 5.18e9)), 2)
-    86.73
+    >>> two = ap_pair_power_dbm(np.array([[[0.0, 0.0], [100.0, 0.0]]]), np.array([[10.0, 10.0]]), config)
+    >>> round(float(two[0, 0, 1]), 2)  # 20 dBm - FSPL(100 m) = 20 - 86.73
+    -66.73
     >>> power_mw = station_power_mw(np.array([[0.0, 0.0]]), np.zeros(1, np.int64), np.array([[[30.0, 0.0]]]),
     ...                             np.array([[20.0]]), config)  # 30 m away, 20 m up
     >>> round(float(10 * np.log10(power_mw[0, 0])), 2), round(noise_dbm(config), 2)
@@ -39,12 +40,13 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_tables import WifiTables, load_wifi_tables
 
-__all__ = ["SPEED_OF_LIGHT_M_S", "free_space_loss_db", "station_power_mw", "ap_pair_power_dbm", "noise_dbm",
+__all__ = ["SPEED_OF_LIGHT_M_S", "station_power_mw", "ap_pair_power_dbm", "noise_dbm",
            "dbm_to_mw", "rate_ladder_mbps"]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
@@ -59,52 +61,61 @@ def _fspl_1m_db(frequency_hz: float) -> float:
     return 20.0 * math.log10(frequency_hz) + 20.0 * math.log10(4.0 * math.pi / SPEED_OF_LIGHT_M_S)
 
 
-def free_space_loss_db(distance_m: np.ndarray, frequency_hz: float) -> np.ndarray:
-    """Free-space path loss (dB) at ``distance_m`` (at least :data:`MIN_DISTANCE_M`)."""
-    return 20.0 * np.log10(np.maximum(distance_m, MIN_DISTANCE_M)) + _fspl_1m_db(frequency_hz)
-
-
 def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray,
                      config: Ieee80211Config) -> np.ndarray:
     """``(N, K)`` power (mW) each user receives from each UAV's AP of its own world (air to ground).
 
-    Computed as ``10^((EIRP - FSPL(1 m) - excess) / 10) / max(d^2, 1)``, the formula above in milliwatts, by
-    blocks of :data:`BLOCK_USERS` users (small temporaries stay in cache: many worlds at once are no slower
-    per user than one).
+    Computed as ``10^((EIRP - FSPL(1 m) - excess) / 10) / max(d^2, 1)``, the formula above in milliwatts,
+    world by world in blocks of at most :data:`BLOCK_USERS` users (small temporaries stay in cache: many
+    worlds at once cost no more per user than one).
 
     Args:
-        users_m: (N, 2) user positions, metres.
-        copy_index: (N,) each user's world.
+        users_m: (N, 2) user positions, metres, stacked world by world.
+        copy_index: (N,) each user's world (non-decreasing).
         uavs_m: (B, K, 2) UAV positions, metres.
         heights_m: (B, K) each UAV's height above the users, metres.
         config: The 802.11 settings.
     """
+    if uavs_m.shape[0] == 1 and len(users_m) <= BLOCK_USERS:
+        return _block_power_mw(users_m, uavs_m[0], heights_m[0], config)
     power_mw = np.empty((len(users_m), uavs_m.shape[1]))
-    for start in range(0, len(users_m), BLOCK_USERS):
-        rows = slice(start, start + BLOCK_USERS)
-        power_mw[rows] = _block_power_mw(users_m[rows], copy_index[rows], uavs_m, heights_m, config)
+    bounds = np.append(np.flatnonzero(np.diff(copy_index, prepend=-1)), len(users_m)).tolist()  # worlds' rows
+    for first, end in zip(bounds[:-1], bounds[1:], strict=True):
+        c = int(copy_index[first])
+        for start in range(first, end, BLOCK_USERS):
+            rows = slice(start, min(start + BLOCK_USERS, end))
+            power_mw[rows] = _block_power_mw(users_m[rows], uavs_m[c], heights_m[c], config)
     return power_mw
 
 
-def _block_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray,
-                    config: Ieee80211Config) -> np.ndarray:
+def _block_power_mw(users_m: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray, config: Ieee80211Config
+                    ) -> np.ndarray:
+    """(n, K) powers of users of one world from its (K, 2) UAVs at (K,) heights.
+
+    The formula with its constants folded (few whole-array passes): ``P_LoS = 1 / (1 + exp(ln a + a b - b
+    theta))`` and ``P = exp(ln10 / 10 (EIRP - FSPL(1 m) - eta_NLoS + (eta_NLoS - eta_LoS) P_LoS)) / d^2``.
+    """
     a, b, eta_los_db, eta_nlos_db = config.environment_parameters
     eirp_dbm = config.tx_power_dbm + config.ap_antenna_gain_dbi + config.station_antenna_gain_dbi
-    if uavs_m.shape[0] == 1:  # one world: broadcast instead of gathering each user's UAVs
-        uav_x, uav_y, height = uavs_m[0, :, 0], uavs_m[0, :, 1], heights_m[0]
-    else:
-        uav_x, uav_y, height = uavs_m[copy_index, :, 0], uavs_m[copy_index, :, 1], heights_m[copy_index]
-    dx = uav_x - users_m[:, 0:1]
-    dy = uav_y - users_m[:, 1:2]
+    to_neper = math.log(10.0) / 10.0
+    dx = uavs_m[:, 0] - users_m[:, 0:1]
+    dy = uavs_m[:, 1] - users_m[:, 1:2]
     horizontal_sq = dx * dx
     horizontal_sq += dy * dy
-    elevation_deg = np.arctan2(np.broadcast_to(height, horizontal_sq.shape), np.sqrt(horizontal_sq))
-    elevation_deg *= 180.0 / math.pi
-    p_los = 1.0 / (1.0 + a * np.exp(-b * (elevation_deg - a)))
-    excess_db = eta_nlos_db - (eta_nlos_db - eta_los_db) * p_los
-    distance_sq = np.maximum(horizontal_sq + height * height, MIN_DISTANCE_M * MIN_DISTANCE_M)
-    at_1m_db = eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9)
-    return np.exp((at_1m_db - excess_db) * (math.log(10.0) / 10.0)) / distance_sq
+    distance_sq = horizontal_sq + heights_m * heights_m
+    np.maximum(distance_sq, MIN_DISTANCE_M * MIN_DISTANCE_M, out=distance_sq)
+    np.sqrt(horizontal_sq, out=horizontal_sq)
+    exponent = np.arctan2(np.broadcast_to(heights_m, horizontal_sq.shape), horizontal_sq)  # elevation, rad
+    exponent *= -b * 180.0 / math.pi
+    exponent += math.log(a) + a * b
+    np.exp(exponent, out=exponent)
+    exponent += 1.0
+    np.reciprocal(exponent, out=exponent)  # P_LoS
+    exponent *= (eta_nlos_db - eta_los_db) * to_neper
+    exponent += (eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9) - eta_nlos_db) * to_neper
+    np.exp(exponent, out=exponent)
+    exponent /= distance_sq
+    return exponent
 
 
 def ap_pair_power_dbm(uavs_m: np.ndarray, altitudes_m: np.ndarray, config: Ieee80211Config) -> np.ndarray:
@@ -115,11 +126,26 @@ def ap_pair_power_dbm(uavs_m: np.ndarray, altitudes_m: np.ndarray, config: Ieee8
         altitudes_m: (B, K) each UAV's altitude, metres.
         config: The 802.11 settings.
     """
-    positions = np.concatenate([uavs_m, altitudes_m[:, :, None]], axis=2)
-    offsets_m = positions[:, :, None] - positions[:, None]
-    distance_m = np.sqrt((offsets_m * offsets_m).sum(axis=3))
     eirp_dbm = config.tx_power_dbm + 2.0 * config.ap_antenna_gain_dbi
-    return eirp_dbm - free_space_loss_db(distance_m, config.frequency_ghz * 1e9)
+    return _ap_pair_kernel(np.ascontiguousarray(uavs_m, dtype=np.float64),
+                           np.ascontiguousarray(altitudes_m, dtype=np.float64),
+                           eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9))
+
+
+@numba.njit(cache=True, nogil=True)
+def _ap_pair_kernel(uavs_m: np.ndarray, altitudes_m: np.ndarray, at_1m_dbm: float) -> np.ndarray:
+    """``EIRP - FSPL(1 m) - 20 log10(max(d_ij, 1))`` for every pair of APs of each world (K x K is small)."""
+    n_worlds, n_uavs = altitudes_m.shape
+    power_dbm = np.empty((n_worlds, n_uavs, n_uavs))
+    for c in range(n_worlds):
+        for i in range(n_uavs):
+            for j in range(n_uavs):
+                dx = uavs_m[c, i, 0] - uavs_m[c, j, 0]
+                dy = uavs_m[c, i, 1] - uavs_m[c, j, 1]
+                dz = altitudes_m[c, i] - altitudes_m[c, j]
+                distance_m = max(math.sqrt(dx * dx + dy * dy + dz * dz), MIN_DISTANCE_M)
+                power_dbm[c, i, j] = at_1m_dbm - 20.0 * math.log10(distance_m)
+    return power_dbm
 
 
 def noise_dbm(config: Ieee80211Config) -> float:
