@@ -7,7 +7,7 @@ process so that a changing machine load hits both alike; the ratio of the median
 (``coverage_batch``) for 1 and 64 worlds. The 802.11 runs give the UAVs a channel plan (``plan_channels``,
 the nine default 20 MHz channels), as a deployment would.
 
-Usage: python benchmarks/radio_step.py [--steps 300] [--rounds 5] [--batched-steps 30]
+Usage: python benchmarks/radio_step.py [--steps 300] [--rounds 5 (0: the radio alone)] [--batched-steps 30]
 """
 
 from __future__ import annotations
@@ -71,24 +71,36 @@ def radio_alone_ms(worlds: int, steps: int) -> tuple[float, float]:
     copy = np.repeat(np.arange(worlds), 516)
     uavs = rng.uniform(40.0, 160.0, (worlds, 10, 2))
     heights = np.full(10, 10.0)
-    wifi = RadioConfig(propagation="802.11")
+    paper_radio, wifi = RadioConfig(), RadioConfig(propagation="802.11")
     plan = plan_channels(uavs, wifi, heights)
     coverage_batch(users, copy, uavs, wifi, altitudes_m=heights, channels=plan)
-    paper = median_ms(lambda: coverage_batch(users, copy, uavs, RadioConfig()), steps)
+    coverage_batch(users, copy, uavs, paper_radio)
+    paper = median_ms(lambda: coverage_batch(users, copy, uavs, paper_radio), steps)
     model = median_ms(lambda: coverage_batch(users, copy, uavs, wifi, altitudes_m=heights, channels=plan),
                       steps)
     return paper, model
 
 
+def report_envs(paper: list[float], model: list[float], paper_b: list[float], model_b: list[float], n: int,
+                qos: float) -> None:
+    """Print the environment rounds' medians and ratios."""
+    print(f"{n} pedestrians, 10 UAVs, one env: step median {np.median(paper):.3f} ms (paper's radio), "
+          f"{np.median(model):.3f} ms (802.11): ratio {np.median(model) / np.median(paper):.2f} "
+          f"(802.11 QoS S2 {qos:.3f})")
+    print(f"64 worlds (BatchedUAVSwarm): step median {np.median(paper_b):.2f} ms (paper's radio), "
+          f"{np.median(model_b):.2f} ms (802.11): ratio {np.median(model_b) / np.median(paper_b):.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=300)
-    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--rounds", type=int, default=5, help="environment rounds (0: the radio alone only)")
     parser.add_argument("--batched-steps", type=int, default=30)
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
           f"load average at start {os.getloadavg()}")
     paper, model, paper_b, model_b = [], [], [], []
+    n, qos = 0, 0.0
     for _ in range(args.rounds):
         ms, n, _ = env_step_ms({}, args.steps)
         paper.append(ms)
@@ -96,11 +108,8 @@ def main() -> None:
         model.append(ms)
         paper_b.append(batched_step_ms({}, args.batched_steps, 64))
         model_b.append(batched_step_ms(WIFI, args.batched_steps, 64))
-    print(f"{n} pedestrians, 10 UAVs, one env: step median {np.median(paper):.3f} ms (paper's radio), "
-          f"{np.median(model):.3f} ms (802.11): ratio {np.median(model) / np.median(paper):.2f} "
-          f"(802.11 QoS S2 {qos:.3f})")
-    print(f"64 worlds (BatchedUAVSwarm): step median {np.median(paper_b):.2f} ms (paper's radio), "
-          f"{np.median(model_b):.2f} ms (802.11): ratio {np.median(model_b) / np.median(paper_b):.2f}")
+    if args.rounds:
+        report_envs(paper, model, paper_b, model_b, n, qos)
     for worlds in (1, 64):
         alone_paper, alone_model = radio_alone_ms(worlds, args.batched_steps * 3)
         print(f"the radio alone, {worlds} world(s) x 516 users: coverage_batch {alone_paper:.3f} ms (paper), "

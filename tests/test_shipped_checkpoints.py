@@ -12,8 +12,9 @@ from learning.inference import predict_positions
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
 from uav_swarm.missions.registry import build_task
 
-SHIPPED = ("wifi-s1", "wifi-s2", "wifi-s2-groups", "wifi-s2-ac", "agp", "fp")
-"""Shipped files; ``wifi-s2-*`` are strategy 2 with other experts (group expert; admission control)."""
+SHIPPED = ("wifi-s1", "wifi-s2", "wifi-s2-groups", "wifi-s2-ac", "wifi-s2-80211", "agp", "fp")
+"""Shipped files; ``wifi-s2-*`` are strategy 2 with other experts (group expert; admission control; the
+802.11 radio's expert)."""
 N_SCENES = 12
 
 

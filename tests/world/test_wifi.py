@@ -1,5 +1,7 @@
 """The 802.11 radio model: carrier sense, airtime, hidden APs, fairness, admission on rate, settings."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -37,8 +39,9 @@ def test_two_co_channel_aps_5_m_apart_share_the_airtime_two_channels_double_it()
     np.testing.assert_allclose(apart.airtime, lone.airtime[0])
     total_shared, total_apart = shared.throughput_mbps.sum(), apart.throughput_mbps.sum()
     assert total_apart / total_shared == pytest.approx(2.0, rel=0.02)
-    # The 802.11 sum is below the paper's 200 Mbps per UAV: one 20 MHz AP delivers ~100 Mbps.
-    assert lone.throughput_mbps.sum() < 0.75 * 143.4
+    # The 802.11 sum is below the paper's 200 Mbps per UAV: one 20 MHz AP delivers at most its MAC efficiency
+    # times the top rate (ns-3: 128 Mbps to one MCS-11 station, benchmarks/README.md).
+    assert lone.throughput_mbps.sum() <= load_wifi_tables().mac_efficiency * 143.4 + 1e-9
 
 
 def test_an_ap_between_two_hidden_co_channel_aps_gets_sinr_limited_rates():
@@ -69,7 +72,7 @@ def test_an_ap_heard_by_two_aps_that_do_not_hear_each_other_is_starved():
 
 
 def test_throughput_fairness_shows_the_performance_anomaly():
-    users = [[3.0, 0.0], [60.0, 0.0]]  # a fast station and a slow one
+    users = [[3.0, 0.0], [75.0, 0.0]]  # a fast station and a slow one
     airtime_fair = snapshot(users, [[0.0, 0.0]])
     config = WIFI.replace(ieee80211=Ieee80211Config(fairness="throughput"))
     throughput_fair = snapshot(users, [[0.0, 0.0]], config)
@@ -200,11 +203,14 @@ def test_the_tables_loader_names_the_file_and_key(tmp_path):
         load_wifi_tables(str(tmp_path / "missing.toml"))
     refit = tmp_path / "refit.toml"
     shipped = load_wifi_tables().source
-    refit.write_text(open(shipped, encoding="utf-8").read().replace("efficiency = 0.7", "efficiency = 0.35"))
+    text = open(shipped, encoding="utf-8").read()
+    refit.write_text(re.sub(r"^efficiency = .*$", "efficiency = 0.35", text, count=1, flags=re.MULTILINE))
     refitted = WIFI.replace(ieee80211=Ieee80211Config(tables_file=str(refit)))
-    half = snapshot([[2.0, 0.0]], [[0.0, 0.0]], refitted)
+    scaled = snapshot([[2.0, 0.0]], [[0.0, 0.0]], refitted)
     full = snapshot([[2.0, 0.0]], [[0.0, 0.0]])
-    assert half.throughput_mbps[0] == pytest.approx(full.throughput_mbps[0] / 2)
+    shipped_efficiency = load_wifi_tables().mac_efficiency
+    assert shipped_efficiency != 0.35
+    assert scaled.throughput_mbps[0] == pytest.approx(full.throughput_mbps[0] * 0.35 / shipped_efficiency)
 
 
 def test_the_802_11_model_needs_the_altitudes():

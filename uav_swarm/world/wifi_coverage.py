@@ -29,9 +29,9 @@ Examples:
     >>> links = wifi_links(users, np.zeros(3, np.int64), np.zeros((1, 1, 2)), radio,
     ...                    altitudes_m=np.array([20.0]))
     >>> links.association.tolist(), links.mcs.tolist(), links.airtime.round(3).tolist()
-    ([0, 0, -1], [11, 7, -1], [[0.98]])
+    ([0, 0, -1], [11, 9, -1], [[0.998]])
     >>> links.throughput_mbps.round(1).tolist()  # airtime fairness: half the airtime each, at its own rate
-    [49.2, 29.5, 0.0]
+    [62.6, 50.1, 0.0]
 """
 
 from __future__ import annotations
@@ -292,8 +292,14 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
             if power_mw[n, k] >= thresholds[0] * disturbance_mw:
                 in_range[n, k] = True
                 strongest[n] = max(strongest[n], power_mw[n, k])
-    # 4. Association: strongest users first (a stable sort: the lower row first on ties).
-    user_order = np.argsort(-strongest, kind="mergesort")
+    # 4. Association: strongest users first (a stable sort: the lower row first on ties), world by world
+    # (worlds do not interact; each world's rows stay together in memory).
+    user_order = np.empty(n_users, np.int64)
+    first = 0
+    for n in range(1, n_users + 1):
+        if n == n_users or copy_index[n] != copy_index[first]:
+            user_order[first:n] = first + np.argsort(-strongest[first:n], kind="mergesort")
+            first = n
     association, stations = _admit(user_order, power_mw, in_range, copy_index, weights, hidden, noise_mw,
                                    thresholds, ladder_mbps, airtime, efficiency, min_rate_mbps, airtime_fair,
                                    rate_admission, station_limit, previous)

@@ -16,7 +16,7 @@ Schema (``schema = 1``)::
 Examples:
     >>> tables = load_wifi_tables()
     >>> float(tables.rate_20mhz_1ss_mbps[11]), float(tables.min_sinr_db[0]), tables.width_factor(40)
-    (143.4, 9.0, 2.0)
+    (143.4, 12.0, 2.0)
 """
 
 from __future__ import annotations
