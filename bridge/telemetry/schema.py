@@ -122,6 +122,11 @@ class UavState(_Payload, frozen=True, kw_only=True, gc=False, tag="state"):
             or its command was turned or braked to keep its distance), None when no guard runs.
         nearest_uav_m: Distance to the nearest other UAV in metres (3-D where the UAVs fly in altitude
             layers), None when unknown or the UAV flies alone.
+        wifi_channel: The 802.11 channel number of the UAV's access point, None when not known (the paper's
+            radio has no channels).
+        airtime_share: The share of time the UAV's access point holds the medium, in [0, 1] (co-channel
+            neighbours that hear it take the rest), None when not known.
+        n_stations: Users associated with the UAV's access point, None when not known.
     """
 
     kind: ClassVar[str] = "state"
@@ -136,6 +141,9 @@ class UavState(_Payload, frozen=True, kw_only=True, gc=False, tag="state"):
     mission_items_total: NonNegativeInt | None = None
     separation_held: bool | None = None
     nearest_uav_m: Annotated[float, msgspec.Meta(ge=0.0)] | None = None
+    wifi_channel: Annotated[int, msgspec.Meta(ge=1)] | None = None
+    airtime_share: Share | None = None
+    n_stations: NonNegativeInt | None = None
 
     def __post_init__(self) -> None:
         known = (self.position_enu_m is not None, self.velocity_enu_m_s is not None)
@@ -193,6 +201,10 @@ class Qos(_Payload, frozen=True, kw_only=True, gc=False, tag="qos"):
         qos_s2: Share of users covered with at least the minimum rate, in [0, 1].
         mean_throughput_mbps: Mean throughput over all users (uncovered count as 0), in Mbit/s.
         n_users: Number of users.
+        median_sinr_db: The users' median SINR in dB (802.11 radio: each user at its access point, or its
+            strongest one when it has none), None when not known.
+        co_channel_pairs: Pairs of UAVs on one channel that hear each other and so share airtime (802.11
+            radio), None when not known.
     """
 
     kind: ClassVar[str] = "qos"
@@ -200,6 +212,8 @@ class Qos(_Payload, frozen=True, kw_only=True, gc=False, tag="qos"):
     qos_s2: Share
     mean_throughput_mbps: Annotated[float, msgspec.Meta(ge=0.0)]
     n_users: NonNegativeInt
+    median_sinr_db: float | None = None
+    co_channel_pairs: NonNegativeInt | None = None
 
     def key(self, swarm: str) -> str:
         """``uav_swarm/<swarm>/qos``."""

@@ -31,6 +31,7 @@ from bridge.telemetry.schema import Plan, Presence, Qos, UavState
 from uav_swarm.cli import main
 from uav_swarm.runs.fly import fly
 from uav_swarm.runs.fly_config import load_fly_config
+from uav_swarm.world.radio_config import RadioConfig
 
 FAST = {"handshake_timeout_s": 0.3, "item_timeout_s": 0.1, "max_retries": 3}
 LINK_TIMEOUT_S = 2.0  # a healthy vehicle's heartbeats can stall for a second on a busy machine
@@ -346,5 +347,10 @@ def test_the_802_11_radio_judges_a_flight_at_the_vehicles_heights_on_planned_cha
         assert summary["association"].startswith("802.11")
         assert 0.0 <= summary["mean_qos_s2"] <= summary["mean_qos_s1"] <= 1.0
         assert summary["service"]["static_reference_qos"] is not None
+        rows = (tmp_path / "out" / "track.csv").read_text().splitlines()
+        channel = rows[0].split(",").index("wifi_channel")
+        usable = RadioConfig(propagation="802.11").ieee80211.usable_channels
+        channels = {row.split(",")[channel] for row in rows[1:]} - {""}  # empty: not flying under the planner
+        assert channels and {int(c) for c in channels} <= set(usable)
     finally:
         close_all(vehicles)

@@ -293,3 +293,29 @@ def test_the_802_11_radio_flies_with_a_channel_plan_and_its_static_reference(tmp
     assert np.all((run.qos_s2 >= 0) & (run.qos_s2 <= run.qos_s1 + 1e-12) & (run.qos_s1 <= 1))
     assert result.summary["planners"]["expert"]["association"].startswith("802.11")
     assert 0.0 <= result.summary["static_reference"]["mean_qos"] <= 1.0
+
+
+def test_the_command_prints_the_802_11_radio_and_its_figures(tmp_path, capsys):
+    config = tmp_path / "wifi.toml"
+    config.write_text('n_uavs = 3\nduration_s = 0.5\ngif = false\nstatic_reference = false\n'
+                      '[task]\nstrategy = 2\nwarmup_min_s = 1.0\nwarmup_max_s = 2.0\n'
+                      '[task.radio]\npropagation = "802.11"\n', encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["simulate", "--out", str(out), "--config", str(config), "--planner", "expert", "--no-expert",
+                 "--no-telemetry", "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    wifi = summary["planners"]["expert"]["wifi_80211"]
+    assert "radio: 802.11, urban air-to-ground, 5.18 GHz, 20 MHz" in printed
+    assert f"expert 802.11: median SINR {wifi['median_sinr_db']:.1f} dB" in printed
+    assert f"channels {wifi['channels_final']}" in printed and len(wifi["channels_final"]) == 3
+
+
+def test_a_radio_altitude_other_than_the_flight_altitude_exits_2_naming_the_field(tmp_path, capsys):
+    out = tmp_path / "never"
+    config = tmp_path / "high.toml"
+    config.write_text('[task.radio]\npropagation = "802.11"\naltitude_m = 30.0\n', encoding="utf-8")
+    assert main(["simulate", "--out", str(out), "--config", str(config), "--no-telemetry", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "task.radio.altitude_m = 30.0 differs from uav.alt_m = 10.0" in err and err.count("\n") == 1
+    assert not out.exists()

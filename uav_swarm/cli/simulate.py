@@ -105,9 +105,14 @@ def format_summary(summary: dict[str, Any]) -> str:
                      f"{s['min_qos_s2']:>6.3f} {s['mean_throughput_mbps']:>9.2f} "
                      f"{s['median_latency_ms']:>11.2f} {s['p95_latency_ms']:>8.2f}")
     first = next(iter(summary["planners"].values()), {})
+    if "radio" in summary:
+        lines.append(summary["radio"])
     if "association" in first:
         lines.append(f"radio association: {first['association']}")
         lines.extend(_why_s2_is_low(first["association"], summary.get("config", {}).get("task", {})))
+    for kind, s in summary["planners"].items():
+        if "wifi_80211" in s:
+            lines.append(_wifi_line(kind, s["wifi_80211"]))
     paper = {kind: s["mean_qos_s2_paper_radio"] for kind, s in summary["planners"].items()
              if "mean_qos_s2_paper_radio" in s}
     if paper:
@@ -157,6 +162,16 @@ def wrote_line(files: list[str], out: Path) -> str:
             folders[folder] = folders.get(folder, 0) + 1
     counted = [f"{folder}/ ({n} file{'' if n == 1 else 's'})" for folder, n in folders.items()]
     return f"wrote {', '.join(top + counted)} in {out}"
+
+
+def _wifi_line(kind: str, wifi: dict[str, Any]) -> str:
+    """One planner's 802.11 figures: SINR, MCS shares, final channels, co-channel sharing."""
+    sinr = "n/a" if wifi["median_sinr_db"] is None else f"{wifi['median_sinr_db']:.1f} dB"
+    shares = ", ".join(f"{name} {share:.0%}" for name, share in wifi["mcs_shares"].items())
+    pairs = "; ".join(f"{p['uavs'][0]}-{p['uavs'][1]} {p['seconds']:.1f} s" for p in wifi["co_channel_pairs"])
+    return (f"{kind} 802.11: median SINR {sinr}; users {shares}; channels {wifi['channels_final']} "
+            f"({wifi['channel_changes']} changes); co-channel pairs sharing airtime: "
+            f"{pairs or 'none'}")
 
 
 def _separation_line(kind: str, figures: dict[str, Any]) -> str:

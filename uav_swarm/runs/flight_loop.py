@@ -32,6 +32,7 @@ from uav_swarm.planning.planner import Planner, make_planner
 from uav_swarm.runs.flight_safety import FlightSafety
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.outputs import RunOutputs
+from uav_swarm.runs.radio_report import sharing_pairs, telemetry_fields
 from uav_swarm.runs.records import QosTrace
 from uav_swarm.world.comms import Association
 from uav_swarm.world.crowd import CrowdSim
@@ -435,8 +436,11 @@ class Flight:
         if self.outputs.active:
             from bridge.telemetry.schema import Qos
 
+            pairs = None if channels is None or heights is None else \
+                int(sharing_pairs(uavs, channels, radio, heights).sum())
             qos = Qos(stamp_s=time.time(), seq=seq, source="vehicle", qos_s1=rows[-1][0], qos_s2=rows[-1][1],
-                      mean_throughput_mbps=rows[-1][2], n_users=int(users.shape[0]))
+                      mean_throughput_mbps=rows[-1][2], n_users=int(users.shape[0]),
+                      **telemetry_fields(cov, pairs)[1])  # 802.11: median SINR, co-channel pairs
             self._record_step(qos, users, cov.covered, seq)
         for vehicle in self.vehicles:
             state = self._state(vehicle)
@@ -445,7 +449,8 @@ class Flight:
             target = vehicle.target_m or (None, None, None)
             track.append({"time_s": self._clock_s, "uav_id": vehicle.uav_id, "system_id": vehicle.system_id,
                           "status": vehicle.status, "x_m": state.x_m, "y_m": state.y_m, "z_m": state.z_m,
-                          "target_x_m": target[0], "target_y_m": target[1], "target_z_m": target[2]})
+                          "target_x_m": target[0], "target_y_m": target[1], "target_z_m": target[2],
+                          "wifi_channel": self._channels.get(vehicle.uav_id)})
 
     def _record_step(self, qos: Any, users: np.ndarray, covered: np.ndarray, seq: int) -> None:
         """Record each heard vehicle's state (with or without a position fix), the scene and the QoS."""

@@ -22,8 +22,8 @@ Telemetry (Zenoh, loopback by default): each vehicle's state on ``uav_swarm/<swa
 ``/plan``; the QoS of the measured positions over the simulated crowd on ``/qos``.
 
 The loop itself is :class:`uav_swarm.runs.flight_loop.Flight`. Outputs in ``out_dir``: ``qos.png``,
-``timeseries.csv`` (QoS over time), ``track.csv`` (each
-vehicle's measured track and target) and ``summary.json`` (events, failures, QoS, the config);
+``timeseries.csv`` (QoS over time), ``track.csv`` (each vehicle's measured track and target, and its
+channel under the 802.11 radio) and ``summary.json`` (events, failures, QoS, the config);
 with ``record``, an MCAP file of the flight at crowd time, and with ``live``, the same messages streamed
 to Foxglove as they happen (:mod:`uav_swarm.runs.recording`).
 """
@@ -104,7 +104,7 @@ def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
     from typed_config.files import write_bytes_atomic
 
     columns = ["time_s", "uav_id", "system_id", "status", "x_m", "y_m", "z_m", "target_x_m", "target_y_m",
-               "target_z_m"]
+               "target_z_m", "wifi_channel"]  # the channel: 802.11 radio only (empty otherwise)
 
     def text(value: Any) -> str:
         return "" if value is None else f"{value:.3f}" if isinstance(value, float) else str(value)

@@ -17,6 +17,7 @@ Examples:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -30,6 +31,7 @@ from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
 from uav_swarm.runs.flight_guard import GuardConfig
 from uav_swarm.runs.launch_plan import LaunchConfig, check_launch_grid
+from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, with_flight_altitude
 from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
@@ -67,8 +69,15 @@ class FlyConfig(Config):
     set_failsafe: bool = param(False, doc="set a vehicle's missing link-loss failsafe to return to launch "
                                           "(PARAM_SET, read back) instead of refusing it")
 
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> FlyConfig:
+        """As :meth:`Config.from_dict`; the 802.11 radio takes ``uav.alt_m`` when given no altitude."""
+        return super().from_dict(with_flight_altitude(data), where=where)
+
     def check(self) -> None:
-        """A bridge config; strategy 2 under admission control unless told; a 2-D radio; one separation.
+        """A bridge config; S2 takes admission control unless told; the radio's altitude; one separation.
+
+        The radio's altitude and admission: :mod:`uav_swarm.runs.radio_altitude`.
 
         The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area; a
         launch grid keeps it too.
@@ -76,15 +85,9 @@ class FlyConfig(Config):
         if not self.bridge_config:
             raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
-        if self.task.strategy == 2 and self.task.radio.station_limit is None:
-            # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);
-            # station_limit = "off" keeps the paper's model.
-            radio = self.task.radio.replace(station_limit="auto")
-            object.__setattr__(self, "task", self.task.replace(radio=radio))
+        object.__setattr__(self, "task", radio_for_run(self.task))
         check_launch_grid(self.launch, self.uav, 2)
-        if self.task.radio.altitude_m != 0.0:
-            raise ConfigError(f"FlyConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the flight's "
-                              "QoS uses 2-D radio distances at uav.alt_m; set altitude_m = 0")
+        check_radio_altitude(self.task, self.uav, "FlyConfig")
         fleet = self.n_uavs or MAX_UAVS  # 0: all the bridge's vehicles, at most MAX_UAVS
         object.__setattr__(self, "task", task_with_uav_separation(self.task, self.uav, fleet))
 

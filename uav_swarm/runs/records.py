@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from uav_swarm.runs.radio_report import RadioTrace
+
 __all__ = ["Frame", "QosTrace", "SequenceRun"]
 
 
@@ -56,6 +58,8 @@ class SequenceRun:
         uav_tracks_m: ``(T, n, 2)`` the UAVs' positions after each step.
         crowd_samples: ``(time_s, positions, velocities)`` of the crowd every ``static_every_s`` from 0, for
             the static reference (empty unless asked for).
+        radio: The 802.11 radio's figures after each step (channels, SINR/MCS, airtime, co-channel sharing);
+            None under the paper's radio.
     """
 
     planner: str
@@ -78,6 +82,7 @@ class SequenceRun:
     separation: dict = field(default_factory=dict)
     uav_tracks_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
     crowd_samples: list[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=list)
+    radio: RadioTrace | None = None
 
 
 @dataclass

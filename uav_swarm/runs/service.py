@@ -54,11 +54,13 @@ def _experts(task_config: WifiConfig, n_uavs: int) -> dict[str, WifiTask]:
     """The strategy's experts for ``n_uavs`` UAVs.
 
     Strategy 2 under admission control: the capacitated expert; on the paper's radio: the group and the
-    search expert; strategy 1: the search expert.
+    search expert; strategy 1: the search expert. Under the 802.11 radio: its own expert (``auto``).
     """
-    if task_config.strategy == 2:
+    if task_config.radio.propagation == "802.11":
+        methods: tuple[str, ...] = ("auto",)
+    elif task_config.strategy == 2:
         admission = task_config.radio.max_stations is not None
-        methods: tuple[str, ...] = ("capacitated",) if admission else ("groups", "search")
+        methods = ("capacitated",) if admission else ("groups", "search")
     else:
         methods = ("search",)
     tasks = {}

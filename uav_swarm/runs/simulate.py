@@ -15,12 +15,15 @@ simulated flight altitude ``uav.alt_m``.
 
 Outputs in ``out_dir`` (:mod:`uav_swarm.runs.plots` draws the pictures):
 
-- ``qos.png``: QoS S1 and S2 and mean user throughput over time, both planners on one figure;
+- ``qos.png``: QoS S1 and S2 and mean user throughput over time, both planners on one figure (802.11: the
+  users' median SINR and MCS shares, and each UAV's channel, of the flown planner);
 - ``scene.gif``: the flown planner's run (UAVs, coverage discs, pedestrians; utility map panel);
 - ``summary.json`` (atomic): per planner mean/min QoS S1 and S2, mean throughput, median/p95
   planning latency; learned/expert ratios; the resolved config; the learned planner's peak settings and
-  their source (``peaks``);
-- ``timeseries.csv``: the per-step values of every run;
+  their source (``peaks``); which radio ran (``radio``) and, under the 802.11 radio, each planner's
+  channels, SINR/MCS shares, airtime and co-channel sharing (``wifi_80211``,
+  :mod:`uav_swarm.runs.radio_report`);
+- ``timeseries.csv``: the per-step values of every run (802.11: median SINR, MCS shares, channels, airtime);
 - ``missions/vehicle_<id>.plan``: each UAV's mission to its final target (QGroundControl files);
   with a bridge config that lists vehicles, the missions are also uploaded
   (:class:`bridge.flight.fleet.Fleet`).
@@ -43,6 +46,7 @@ from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs import RunOutputs
+from uav_swarm.runs.radio_report import RadioLog, radio_line, telemetry_fields
 from uav_swarm.runs.records import Frame, SequenceRun
 from uav_swarm.runs.separation_watch import SeparationWatch
 from uav_swarm.runs.service import static_reference, target_jumps
@@ -73,27 +77,31 @@ class SimulationResult:
 
 
 def _telemetry(env: Any, targets_m: np.ndarray, altitudes_m: np.ndarray, step: int,
-               guard: tuple[np.ndarray, np.ndarray]) -> tuple[list[UavState], Qos]:
+               guard: tuple[np.ndarray, np.ndarray], radio_log: RadioLog | None
+               ) -> tuple[list[UavState], Qos]:
     """The UAVs' states and the QoS after ``step``, as telemetry publishes and a recording keeps them.
 
     ``guard``: each UAV's distance to its nearest other UAV and whether it is held (SeparationWatch.observe).
+    Under the 802.11 radio, each UAV's channel, airtime and stations and the users' median SINR too.
     """
     from bridge.telemetry.schema import Qos, UavState
 
     stamp_s = time.time()
     positions, velocities = env.uav_positions_m, env.uav_velocities_m_s
     nearest, held = guard
+    cov = env.coverage
+    wifi_uavs, wifi_qos = telemetry_fields(cov, None if radio_log is None else radio_log.latest_pairs)
     states = [UavState(
         stamp_s=stamp_s, seq=step, source="sim", uav_id=uav_id,
         position_enu_m=(float(positions[uav_id, 0]), float(positions[uav_id, 1]), float(altitudes_m[uav_id])),
         velocity_enu_m_s=(float(velocities[uav_id, 0]), float(velocities[uav_id, 1]), 0.0),
         target_enu_m=(float(targets_m[uav_id, 0]), float(targets_m[uav_id, 1]), float(altitudes_m[uav_id])),
         separation_held=bool(held[uav_id]),
-        nearest_uav_m=float(nearest[uav_id]) if np.isfinite(nearest[uav_id]) else None)
+        nearest_uav_m=float(nearest[uav_id]) if np.isfinite(nearest[uav_id]) else None, **wifi_uavs[uav_id])
         for uav_id in range(len(positions))]
-    cov = env.coverage
     qos = Qos(stamp_s=stamp_s, seq=step, source="sim", qos_s1=float(cov.qos_s1), qos_s2=float(cov.qos_s2),
-              mean_throughput_mbps=float(cov.mean_throughput_mbps), n_users=int(cov.covered.shape[0]))
+              mean_throughput_mbps=float(cov.mean_throughput_mbps), n_users=int(cov.covered.shape[0]),
+              **wifi_qos)
     return states, qos
 
 
@@ -139,7 +147,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     agents = list(env.possible_agents)
     steps, alt_m = config.n_steps, float(config.uav.alt_m)
     qos_s1, qos_s2, rate = (np.zeros(steps) for _ in range(3))
-    admission = env.radio.max_stations is not None
+    admission = env.radio.max_stations is not None and env.radio.propagation == "paper"
+    radio_log = RadioLog(env.radio, env.uav_altitudes_m) if env.radio.propagation == "802.11" else None
     paper_radio = env.radio.replace(station_limit="off")
     qos_s2_paper = np.zeros(steps if admission else 0)
     latencies: list[float] = []
@@ -191,8 +200,10 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         if admission:  # the same flight judged with the paper's radio, for the paper's table and qos.png
             qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
                                                    paper_radio).qos_s2
+        if radio_log is not None:  # channels, SINR/MCS, airtime, co-channel sharing (runs.radio_report)
+            radio_log.observe(cov, env.uav_positions_m)
         if outputs.active and step % config.telemetry_every == 0:
-            states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard)
+            states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard, radio_log)
             outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered,
                          association=cov.association, throughput_mbps=cov.throughput_mbps)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
@@ -209,7 +220,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
         target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
         association=cov.model, separation=watch.summary(), uav_tracks_m=watch.tracks_m,
-        crowd_samples=samples)
+        crowd_samples=samples, radio=None if radio_log is None else radio_log.trace())
 
 
 def _steered(targets_m: np.ndarray, steering: OperatorTargets | None) -> np.ndarray:
@@ -377,7 +388,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     summary: dict[str, Any] = {"planners": {kind: summarise_run(run, config, reference)
                                             for kind, run in runs.items()},
                                "flown": config.planner, "duration_s": config.n_steps * config.dt_s,
-                               "n_uavs": config.n_uavs, "seed": config.seed, "config": config.to_dict()}
+                               "n_uavs": config.n_uavs, "seed": config.seed, "config": config.to_dict(),
+                               "radio": radio_line(config.task.radio)}
     if reference is not None:
         summary["static_reference"] = reference_record(reference, config.task.strategy)
     if "learned" in runs and "expert" in runs:

@@ -20,16 +20,18 @@ Examples:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 from bridge.telemetry.config import TelemetryConfig
-from typed_config import Config, ConfigError, load_with_overrides, param
+from typed_config import Config, load_with_overrides, param
 from uav_swarm.env.config import MAX_UAVS, EnvConfig
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
+from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, with_flight_altitude
 from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
@@ -66,19 +68,19 @@ class SimulateConfig(Config):
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
     ros2: Ros2Config = param(Ros2Config(), doc="ROS 2 topics and operator targets ([ros2]); loopback only")
 
-    def check(self) -> None:
-        """Strategy 2 takes admission control unless told; the radio is 2-D; one minimum separation.
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> SimulateConfig:
+        """As :meth:`Config.from_dict`; the 802.11 radio takes ``uav.alt_m`` when given no altitude."""
+        return super().from_dict(with_flight_altitude(data), where=where)
 
-        The placements keep ``[uav] min_separation_m``, which the fleet must be able to keep in the area.
+    def check(self) -> None:
+        """Strategy 2 takes admission control unless told; the radio's altitude; one separation.
+
+        The radio's altitude and admission: :mod:`uav_swarm.runs.radio_altitude`. The placements keep
+        ``[uav] min_separation_m``, which the fleet must be able to keep in the area.
         """
-        if self.task.strategy == 2 and self.task.radio.station_limit is None:
-            # A deployed strategy-2 network limits its stations (docs/simulate.md, admission control);
-            # station_limit = "off" keeps the paper's model.
-            radio = self.task.radio.replace(station_limit="auto")
-            object.__setattr__(self, "task", self.task.replace(radio=radio))
-        if self.task.radio.altitude_m != 0.0:
-            raise ConfigError(f"SimulateConfig.task.radio.altitude_m = {self.task.radio.altitude_m}: the "
-                              "simulation flies at uav.alt_m with 2-D radio distances; set altitude_m = 0")
+        object.__setattr__(self, "task", radio_for_run(self.task))
+        check_radio_altitude(self.task, self.uav, "SimulateConfig")
         object.__setattr__(self, "task", task_with_uav_separation(self.task, self.uav, self.n_uavs))
 
     @property
@@ -92,12 +94,16 @@ class SimulateConfig(Config):
         return max(1, round(self.duration_s / self.dt_s))
 
     def env_config(self) -> EnvConfig:
-        """The ``uav_swarm_v0`` config of the sequence: waypoint mode, the task's world."""
+        """The ``uav_swarm_v0`` config of the sequence: waypoint mode, the task's world.
+
+        The environment gives the 802.11 radio each UAV's own altitude (``uav.altitudes_m``), never the
+        radio's ``altitude_m``, which the planners' experts use: the environment's radio has it at 0.
+        """
         side = self.task.size_px
         return EnvConfig(n_uavs=self.n_uavs, action_mode="waypoint", strategy=self.task.strategy,
                          max_cycles=self.n_steps, crowd_steps_per_env_step=1, density_shape=(side, side),
                          uav=self.uav, scenario=self.task.scenario, crowd=self.task.crowd,
-                         radio=self.task.radio)
+                         radio=self.task.radio.replace(altitude_m=0.0))
 
 
 def load_simulate_config(path: str | Path | None = None, overrides: dict[str, Any] | None = None

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from uav_swarm.runs.radio_report import radio_summary
 from uav_swarm.runs.records import QosTrace, SequenceRun
 from uav_swarm.runs.service import StaticReference, flight_figures, metres_per_uav_minute
 
@@ -43,7 +44,8 @@ def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
 
     With the run's ``config`` and the sequence's static ``reference``: the strategy's flown QoS over the
     static reference, target jumps per replan and metres flown per UAV-minute
-    (:mod:`uav_swarm.runs.service`).
+    (:mod:`uav_swarm.runs.service`). Under the 802.11 radio, ``wifi_80211``: channels, SINR/MCS, airtime
+    and co-channel sharing (:func:`uav_swarm.runs.radio_report.radio_summary`).
     """
     changes = float(run.target_changes.mean()) if run.target_changes.size else 0.0
     figures: dict[str, float | None] = {}
@@ -65,7 +67,9 @@ def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
             "n_replans": int(run.latency_ms.size), "n_pedestrians": run.n_pedestrians,
             "mean_target_changes_per_replan": changes, "association": run.association,
             **({"mean_qos_s2_paper_radio": float(run.qos_s2_paper.mean())} if run.qos_s2_paper.size else {}),
-            "separation": run.separation}
+            "separation": run.separation,
+            **({"wifi_80211": radio_summary(run.radio, config.dt_s, config.task.radio)}
+               if run.radio is not None and config is not None else {})}
 
 
 def ratios_learned_over_expert(learned: dict[str, Any], expert: dict[str, Any]) -> dict[str, float | None]:
