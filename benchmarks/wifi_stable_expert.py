@@ -4,7 +4,8 @@ On ``--n`` held-out crowds (``test`` seed namespace of ``--seed``, as ``uav-swar
 draws them), each expert places up to 10 UAVs on the crowd and on the crowd with every pedestrian
 moved by N(0, 5 cm) (generator ``(seed, i)``, as ``expert-stability --probe jitter``); the two
 placements are scored against each other by the paper's matching rule (corr, precision, same count),
-and the QoS of the first is judged on the crowd (strategy 2). Radios: the paper's (search against
+and the QoS of the first is judged on the crowd (strategy 2). Use one ``--out`` file per setting of
+``--copies`` and ``--jitter-m``: the table pools the rows of a file. Radios: the paper's (search against
 stable) and admission control (capacitated against stable). Each (radio, expert, scene) row is appended
 to ``--out`` (JSON lines) as it is measured, and a rerun skips the rows already there (resumable).
 
@@ -25,6 +26,7 @@ import numpy as np
 from learning.data import sample_seed
 from learning.metrics import MATCH_FRACTION, score_sample
 from uav_swarm.missions.registry import build_task
+from uav_swarm.missions.wifi.stable_expert import StableExpertConfig
 
 RADIOS = {"paper": ({}, ("search", "stable")),
           "admission": ({"radio": {"station_limit": "auto"}}, ("capacitated", "stable"))}
@@ -35,6 +37,9 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=50)
     parser.add_argument("--seed", type=int, default=20261207)
     parser.add_argument("--radios", nargs="+", choices=tuple(RADIOS), default=list(RADIOS))
+    parser.add_argument("--copies", type=int, default=StableExpertConfig().copies, help="the stable expert's")
+    parser.add_argument("--jitter-m", type=float, default=StableExpertConfig().jitter_m,
+                        help="the stable expert's")
     parser.add_argument("--out", required=True, help="JSON lines, appended (a rerun resumes)")
     args = parser.parse_args()
     out = Path(args.out)
@@ -43,15 +48,18 @@ def main() -> None:
     if out.is_file():
         for line in out.read_text().splitlines():
             row = json.loads(line)
-            done.add((row["radio"], row["expert"], row["scene"]))
+            done.add((row["radio"], row["expert"], row["scene"], row["stable"]["copies"],
+                      row["stable"]["jitter_m"]))
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; "
           f"load average at start {os.getloadavg()}", flush=True)
     for radio in args.radios:
         extra, experts = RADIOS[radio]
-        tasks = {m: build_task("wifi-s2", {"strategy": 2, **extra, "expert": {"method": m}}) for m in experts}
+        stable = {"copies": args.copies, "jitter_m": args.jitter_m}
+        tasks = {m: build_task("wifi-s2", {"strategy": 2, **extra, "expert": {"method": m, "stable": stable}})
+                 for m in experts}
         for i in range(args.n):
             for method, task in tasks.items():
-                if (radio, method, i) in done:
+                if (radio, method, i, args.copies, args.jitter_m) in done:
                     continue
                 scene = task.sample(np.random.default_rng(sample_seed(args.seed, "test", i)))
                 moved = task.jitter_scene(scene, np.random.default_rng((args.seed, i)), 0.05)  # type: ignore[attr-defined]
@@ -63,7 +71,7 @@ def main() -> None:
                 row = {"radio": radio, "expert": method, "scene": i, "seed": args.seed, "corr": score.corr,
                        "precision": score.precision, "same_count": len(placement) == len(other),
                        "qos": task.qos(scene, placement)["qos"], "solve_ms": solve_ms,
-                       "load": os.getloadavg()[0]}
+                       "load": os.getloadavg()[0], "stable": stable}
                 with out.open("a") as f:
                     f.write(json.dumps(row) + "\n")
     summarise(out)
