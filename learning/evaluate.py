@@ -46,8 +46,9 @@ from learning.checkpoint import checkpoint_label, load_checkpoint
 from learning.data import generate_dataset, load_arrays, sample_seed
 from learning.inference import utility_maps
 from learning.metrics import MATCH_FRACTION, SampleScore, aggregate, score_sample
+from learning.mission_calibration import COLUMNS
 from learning.model import with_memory_format
-from learning.operating_points import choose_peaks
+from learning.operating_points import choose_peaks, point_promises
 from learning.peaks import PeakConfig, find_peaks
 from learning.plots import plot_examples
 from learning.precision import resolve_precision
@@ -123,6 +124,8 @@ def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
         peaks = summary["peaks"]
         settings = ", ".join(f"{k} {v}" for k, v in peaks["settings"].items())
         table += f"\nPeaks: {settings}; from the {peaks['source']}.\n"
+    if "promises" in summary:
+        table += f"\n{promises_line(summary['promises'])}\n"
     if "refined" not in summary:
         return table
     rows = ["| Placement | Corr % | Precision % | QoS % | QoS rel. % | positions (x expert) "
@@ -145,6 +148,26 @@ def markdown_table(task_name: str, summary: dict[str, Any]) -> str:
     rows.append(f"| expert | 100.0 | 100.0 | {pct('qos', expert)} | 100.0 | {expert['n_positions']} (1.000x) "
                 f"| {expert['time_median_ms']:.2f} / {expert['time_p95_ms']:.2f} | 1.0x |")
     return table + "\n" + "\n".join(rows) + "\n"
+
+
+def promises_line(promises: dict[str, Any]) -> str:
+    """One line: the paper's columns the point promises, and how each held on these scenes.
+
+    >>> promises_line({"columns": ["corr"], "paper": {"corr": 0.75}, "basis": "b",
+    ...                "held": {"corr": {"value": 0.8, "met": True}}})
+    'Promises (b): corr >= 75.0 % (here 80.0 %, held).'
+    """
+    if not promises["columns"]:
+        return f"Promises: none of the paper's columns ({promises['basis']})."
+    held = promises.get("held", {})
+    parts = []
+    for column in promises["columns"]:
+        text = f"{column} >= {100 * promises['paper'][column]:.1f} %"
+        if column in held:
+            verdict = "held" if held[column]["met"] else "MISSED"
+            text += f" (here {100 * held[column]['value']:.1f} %, {verdict})"
+        parts.append(text)
+    return f"Promises ({promises['basis']}): {'; '.join(parts)}."
 
 
 def _learned(utility: np.ndarray, observation: np.ndarray, peaks: PeakConfig,
@@ -292,6 +315,11 @@ def evaluate(
         **aggregate(scores), **summarise_qos(samples),
         "max_matches": {"corr": max_summary["corr"], "precision": max_summary["precision"]},
     }
+    promises = point_promises(ckpt.payload.get("mission_calibration"), choice)
+    promises["held"] = {column: {"value": summary[COLUMNS[column]],
+                                 "met": bool(summary[COLUMNS[column]] >= promises["paper"][column] - 1e-12)}
+                        for column in promises["columns"]}
+    summary["promises"] = promises
     if check is not None:
         summary["check"] = check.settings()
     if refiner is not None:

@@ -9,19 +9,36 @@ mission sits elsewhere. :func:`calibrate_mission` scores a grid of peak settings
 from their seeds and cached, so a killed run resumes) with QoS judged exactly on each regenerated
 scene, and chooses by one rule:
 
-    the highest mean QoS among the points whose correspondence and precision both reach their
-    floors, where a metric's floor is the paper's figure for the task, or the balanced point's own
-    value where that is lower (so the balanced point itself always qualifies);
+    among the points whose correspondence and precision, each less its margin, both reach their
+    floors (a metric's floor is the paper's figure for the task, or the balanced point's own value
+    less its margin where that is lower, so the balanced point itself always qualifies), the point
+    that promises the most of the paper's columns, then the highest mean QoS;
 
-ties go to the higher correspondence + precision, then to the first grid point. The report holds
-every point, the balanced point's scores on the same scenes and the front of QoS against precision
-(the points no other point beats on both).
+ties go to the higher correspondence + precision, then to the first grid point.
+
+**The margin** keeps a choice made on validation scenes from falling short on held-out ones: a
+point's validation mean is a draw, and so is the held-out row it will be judged by. A column's margin
+is ``margin_z`` standard errors of the difference between two independent means over as many
+scenes as the validation: ``margin_z * sqrt(2) * se``, ``se`` the standard error of the point's
+validation mean (for QoS, of the per-scene difference to the expert, over the expert's mean QoS,
+since the QoS column is relative to the expert). The default ``margin_z = 2.0`` leaves a held-out
+row of as many scenes below a promised column in about 2.3 % of draws per column (a normal
+approximation); 0 gives the choice without a margin. A point **promises** a column (corr,
+precision, QoS) when its validation value less the margin is at least the paper's; ``evaluate``
+says which columns the point that ran promises.
+
+The report holds every point (with its standard errors), the balanced point's scores on the same
+scenes and the front of QoS against precision (the points no other point beats on both).
 
 Examples:
     >>> balanced = {"corr": 0.9, "precision": 0.9, "qos": 0.5}
     >>> rows = [{"corr": 0.92, "precision": 0.85, "qos": 0.7}, {"corr": 0.95, "precision": 0.8, "qos": 0.9}]
     >>> choose_mission_point(rows, {"corr": 0.91, "precision": 0.82}, balanced)["qos"]  # 0.8 < 0.82
     0.7
+    >>> row = {"corr": 0.93, "corr_se": 0.005, "precision": 0.83, "precision_se": 0.005,
+    ...        "qos_relative": 0.99, "qos_relative_se": 0.001}
+    >>> promised_columns(row, {"corr": 0.91, "precision": 0.82, "qos": 0.97}, margin_z=2.0)
+    ['corr', 'qos']
 """
 
 from __future__ import annotations
@@ -48,13 +65,19 @@ from learning.train import TrainConfig, split_indices
 from typed_config import Config, ConfigError, param
 from typed_config.files import atomic_path
 
-__all__ = ["MissionGrid", "score_grid", "choose_mission_point", "pareto_front", "validation_samples",
-           "calibrate_mission"]
+__all__ = ["MissionGrid", "MARGIN_Z", "COLUMNS", "score_grid", "margins", "promised_columns",
+           "floors", "choose_mission_point", "pareto_front", "validation_samples", "calibrate_mission"]
 
 log = logging.getLogger(__name__)
 
 _CHUNK = 100
 """Validation scenes per cache file."""
+
+MARGIN_Z = 2.0
+"""Default margin, in standard errors of a validation-against-held-out difference (module docstring)."""
+
+COLUMNS = {"corr": "corr", "precision": "precision", "qos": "qos_relative"}
+"""The paper's columns and the row key each is judged by (QoS relative to the expert)."""
 
 
 @dataclass(frozen=True)
@@ -93,12 +116,14 @@ def score_grid(task: Task, utilities: np.ndarray, arrays: Mapping[str, np.ndarra
 
     Returns:
         One row per config: its settings, ``corr``, ``precision`` (means over scenes, the paper's rule),
-        ``n_predicted``, ``qos`` (mean), ``expert_qos`` and ``qos_relative``.
+        ``n_predicted``, ``qos`` (mean), ``expert_qos``, ``qos_relative`` and the standard errors of
+        the means ``corr_se``, ``precision_se``, ``qos_relative_se`` (module docstring).
     """
     n = len(utilities)
     scenes = [task.sample(np.random.default_rng(int(arrays["seeds"][i]))) for i in range(n)]
     experts = [arrays["positions"][i][arrays["mask"][i]] for i in range(n)]
-    expert_qos = float(np.mean([task.qos(s, e)["qos"] for s, e in zip(scenes, experts, strict=True)]))
+    expert_each = np.array([task.qos(s, e)["qos"] for s, e in zip(scenes, experts, strict=True)])
+    expert_qos = float(np.mean(expert_each))
     eps_px = MATCH_FRACTION * task.mission_dimension_px
     judged: list[dict[bytes, float]] = [{} for _ in range(n)]  # the same placement is judged once
 
@@ -111,25 +136,70 @@ def score_grid(task: Task, utilities: np.ndarray, arrays: Mapping[str, np.ndarra
     rows = []
     for config in tqdm(configs, disable=None if progress else True, desc="grid", unit="point"):
         predicted = [find_peaks(u, config) for u in utilities]
-        summary = aggregate(score_sample(e, p, eps_px) for e, p in zip(experts, predicted, strict=True))
-        mean_qos = float(np.mean([qos(i, p) for i, p in enumerate(predicted)]))
+        scores = [score_sample(e, p, eps_px) for e, p in zip(experts, predicted, strict=True)]
+        summary = aggregate(scores)
+        each = np.array([qos(i, p) for i, p in enumerate(predicted)])
+        mean_qos = float(np.mean(each))
         rows.append({**config.to_dict(), "corr": summary["corr"], "precision": summary["precision"],
                      "n_predicted": summary["n_predicted"], "qos": mean_qos, "expert_qos": expert_qos,
-                     "qos_relative": mean_qos / expert_qos if expert_qos > 0 else 1.0})
+                     "qos_relative": mean_qos / expert_qos if expert_qos > 0 else 1.0,
+                     "corr_se": _standard_error([s.corr for s in scores]),
+                     "precision_se": _standard_error([s.precision for s in scores]),
+                     "qos_relative_se": _standard_error(each - expert_each) / expert_qos if expert_qos > 0
+                     else 0.0})
     return rows
 
 
-def choose_mission_point(rows: Sequence[Mapping[str, Any]], paper: Mapping[str, float],
-                         balanced: Mapping[str, Any]) -> Mapping[str, Any]:
-    """The row chosen by the module docstring's rule (``paper``: ``corr`` and ``precision`` floors).
+def _standard_error(values: Sequence[float] | np.ndarray) -> float:
+    """The standard error of the mean of ``values`` (0 for fewer than two)."""
+    values = np.asarray(values, dtype=np.float64)
+    return float(np.std(values, ddof=1) / np.sqrt(len(values))) if len(values) > 1 else 0.0
 
-    The balanced point is a candidate too (last), so the choice never has a lower QoS than it.
+
+def margins(row: Mapping[str, Any], margin_z: float) -> dict[str, float]:
+    """Each column's margin for ``row`` (module docstring); a row without standard errors has none.
+
+    >>> margins({"corr_se": 0.01, "precision_se": 0.0}, 2.0)["corr"]  # 2 * sqrt(2) * 0.01
+    0.028284271247461905
     """
-    floors = {key: min(paper[key], balanced[key]) for key in ("corr", "precision")}
-    candidates = [r for r in rows if all(r[key] >= floors[key] - 1e-12 for key in floors)] + [balanced]
+    return {column: margin_z * float(np.sqrt(2.0)) * float(row.get(f"{key}_se", 0.0))
+            for column, key in COLUMNS.items()}
+
+
+def promised_columns(row: Mapping[str, Any], paper: Mapping[str, float], margin_z: float) -> list[str]:
+    """The paper's columns (``corr``, ``precision``, ``qos``) that ``row``, less its margins, reaches."""
+    margin = margins(row, margin_z)
+    return [column for column, key in COLUMNS.items()
+            if column in paper and key in row and row[key] - margin[column] >= paper[column] - 1e-12]
+
+
+def floors(paper: Mapping[str, float], balanced: Mapping[str, Any], margin_z: float = 0.0
+           ) -> dict[str, float]:
+    """The corr and precision floors of the rule: the paper's, or the balanced point's less its margin."""
+    margin = margins(balanced, margin_z)
+    return {key: min(paper[key], balanced[key] - margin[key]) for key in ("corr", "precision")}
+
+
+def choose_mission_point(rows: Sequence[Mapping[str, Any]], paper: Mapping[str, float],
+                         balanced: Mapping[str, Any], margin_z: float = 0.0) -> Mapping[str, Any]:
+    """The row chosen by the module docstring's rule (``paper``: the floors and the promised columns).
+
+    The balanced point is a candidate too (last), so the choice never promises fewer columns than it,
+    nor, promising as many, has a lower QoS.
+    """
+    floor = floors(paper, balanced, margin_z)
+
+    def reaches(row: Mapping[str, Any]) -> bool:
+        margin = margins(row, margin_z)
+        return all(row[key] - margin[key] >= floor[key] - 1e-12 for key in floor)
+
+    def rank(row: Mapping[str, Any]) -> tuple[int, float, float]:
+        return len(promised_columns(row, paper, margin_z)), row["qos"], row["corr"] + row["precision"]
+
+    candidates = [r for r in rows if reaches(r)] + [balanced]
     best = candidates[0]
     for row in candidates[1:]:  # strictly better only: ties keep the earlier row
-        if (row["qos"], row["corr"] + row["precision"]) > (best["qos"], best["corr"] + best["precision"]):
+        if rank(row) > rank(best):
             best = row
     return best
 
@@ -180,7 +250,7 @@ def validation_samples(ckpt: Checkpoint, task: Task, n: int | None, cache_dir: s
 
 def calibrate_mission(ckpt: Checkpoint, task: Task, paper: Mapping[str, float], cache_dir: str | Path, *,
                       n: int | None = None, grid: MissionGrid | None = None, precision: str = "auto",
-                      progress: bool = True) -> dict[str, Any]:
+                      margin_z: float = MARGIN_Z, progress: bool = True) -> dict[str, Any]:
     """Score ``grid`` and the balanced point on the validation split and choose the mission point.
 
     Args:
@@ -191,12 +261,19 @@ def calibrate_mission(ckpt: Checkpoint, task: Task, paper: Mapping[str, float], 
         n: At most this many validation scenes (default: all).
         grid: The settings tried; default ``MissionGrid()``.
         precision: Network precision (``"auto"``: bfloat16 where native, as ``evaluate``).
+        margin_z: The margin, in standard errors (module docstring; 0: none).
         progress: Show progress bars (on a terminal only: none in a log or a pipe).
 
     Returns:
-        ``{"task", "checkpoint", "n_validation", "paper", "floors", "balanced", "mission", "front",
-        "rows"}``; ``mission`` and ``balanced`` are rows (settings and scores).
+        ``{"task", "checkpoint", "n_validation", "paper", "margin_z", "floors", "balanced", "mission",
+        "front", "rows"}``; ``mission`` and ``balanced`` are rows (settings and scores) with their
+        ``margins`` and the columns each ``promises``.
+
+    Raises:
+        ValueError: ``margin_z < 0``.
     """
+    if not margin_z >= 0.0:
+        raise ValueError(f"margin_z = {margin_z}: the margin must be >= 0 standard errors")
     grid = grid or MissionGrid()
     arrays = validation_samples(ckpt, task, n, cache_dir, progress)
     resolved = resolve_precision(precision, next(ckpt.model.parameters()).device)
@@ -204,12 +281,14 @@ def calibrate_mission(ckpt: Checkpoint, task: Task, paper: Mapping[str, float], 
     configs = grid.configs(ckpt.peak_config)
     balanced = score_grid(task, utilities, arrays, [ckpt.peak_config])[0]
     rows = score_grid(task, utilities, arrays, configs, progress)
-    mission = choose_mission_point(rows, paper, balanced)
-    floors = {key: min(paper[key], balanced[key]) for key in ("corr", "precision")}
+    mission = dict(choose_mission_point(rows, paper, balanced, margin_z))
+    for row in (mission, balanced):
+        row.update(margins=margins(row, margin_z), promises=promised_columns(row, paper, margin_z))
     log.info("%s: mission point %s (QoS %.3f) against balanced QoS %.3f", task.name,
              {k: mission[k] for k in ("threshold_abs", "min_contrast", "min_distance_px")}, mission["qos"],
              balanced["qos"])
     return {"task": task.name, "checkpoint": checkpoint_label(ckpt.path), "n_validation": len(utilities),
             "validation": {**ckpt.payload["data"], "indices": "the first n of split_indices (train_config)"},
-            "network_precision": resolved, "paper": dict(paper), "floors": floors, "balanced": balanced,
-            "mission": dict(mission), "front": [dict(r) for r in pareto_front(rows)], "rows": rows}
+            "network_precision": resolved, "paper": dict(paper), "margin_z": margin_z,
+            "floors": floors(paper, balanced, margin_z), "balanced": balanced, "mission": mission,
+            "front": [dict(r) for r in pareto_front(rows)], "rows": rows}

@@ -33,7 +33,7 @@ from typing import Any
 from learning.peaks import PeakConfig
 from typed_config import Config, ConfigError, param
 
-__all__ = ["OPERATING_POINTS", "PeakOverrides", "PeakChoice", "choose_peaks"]
+__all__ = ["OPERATING_POINTS", "PeakOverrides", "PeakChoice", "choose_peaks", "point_promises"]
 
 OPERATING_POINTS = ("mission", "balanced")
 """The operating points a checkpoint may carry (see the module docstring)."""
@@ -68,12 +68,14 @@ class PeakChoice:
         source: Where they come from, in words (``"checkpoint (mission point)"``, or the file or
             flags of the user's values over it).
         overridden: The fields the user's values set.
+        fixed: The fields another setting set (the rule check's threshold).
     """
 
     config: PeakConfig
     operating_point: str
     source: str
     overridden: tuple[str, ...] = ()
+    fixed: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """For ``summary.json`` and the planners' summaries."""
@@ -130,4 +132,44 @@ def choose_peaks(
     config = PeakConfig.from_dict({**base.to_dict(), **given, **{k: v for k, (v, _) in fixed.items()}},
                                   where=table)
     text += "".join(f"; {key} from {setter}" for key, (_, setter) in fixed.items())
-    return PeakChoice(config, point, text, tuple(sorted(given)))
+    return PeakChoice(config, point, text, tuple(sorted(given)), tuple(sorted(fixed)))
+
+
+def point_promises(calibration: Mapping[str, Any] | None, choice: PeakChoice) -> dict[str, Any]:
+    """Which of the paper's columns the settings that run promise, and why (none where they promise none).
+
+    A point promises a column when its validation figure less the calibration's margin reaches the
+    paper's (:mod:`learning.mission_calibration`); only the checkpoint's own point, run as calibrated,
+    promises anything.
+
+    Args:
+        calibration: The checkpoint's ``mission_calibration`` record, None where it has none.
+        choice: The settings that run.
+
+    Returns:
+        ``columns`` (the promised ones, in the paper's order), ``paper`` (its figures, where known),
+        ``margin_z`` (where known) and ``basis`` (in words).
+
+    >>> record = {"paper": {"corr": 0.75}, "margin_z": 2.0, "mission": {"promises": ["corr"]}}
+    >>> point_promises(record, PeakChoice(PeakConfig(), "mission", "checkpoint (mission point)"))["columns"]
+    ['corr']
+    >>> point_promises(None, PeakChoice(PeakConfig(), "balanced", "checkpoint (balanced point)"))["columns"]
+    []
+    """
+    none: dict[str, Any] = {"columns": [], "paper": {}, "margin_z": None}
+    if calibration is None:
+        return {**none, "basis": "the checkpoint was never calibrated for its mission (uav-swarm "
+                "calibrate-mission)"}
+    if choice.overridden or choice.fixed:
+        return {**none, "paper": dict(calibration.get("paper", {})),
+                "basis": "the settings that run differ from the calibrated point's"}
+    point = calibration.get(choice.operating_point, {})
+    if "promises" not in point:
+        return {**none, "paper": dict(calibration.get("paper", {})),
+                "basis": f"the {choice.operating_point} point was chosen without a margin (recalibrate with "
+                "uav-swarm calibrate-mission)"}
+    return {"columns": list(point["promises"]), "paper": dict(calibration["paper"]),
+            "margin_z": calibration["margin_z"],
+            "basis": f"the {choice.operating_point} point's validation figures less "
+                     f"{calibration['margin_z']} standard errors "
+                     f"({calibration.get('n_validation', '?')} validation scenes)"}

@@ -116,3 +116,29 @@ def test_evaluate_refuses_a_bad_peaks_value_and_writes_nothing(tmp_path, capsys)
                  "--out", str(tmp_path / "bad"), "--config", str(config)]) == 2
     assert "min_distance_px" in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()
+
+
+def test_evaluate_says_which_columns_the_point_promises_and_whether_they_held(tmp_path):
+    payload = torch.load(_shipped_agp(), map_location="cpu", weights_only=True)
+    assert "promises" not in payload["mission_calibration"]["mission"]  # calibrated before the margin
+    unmargined = _evaluate(tmp_path, "unmargined", _shipped_agp())["summary"]["promises"]
+    assert unmargined["columns"] == [] and "without a margin" in unmargined["basis"]
+    payload["peak_config_mission"] = MISSION.to_dict()
+    payload["mission_calibration"] = {  # a corr no row misses and a precision no row reaches
+        "paper": {"corr": 0.0, "precision": 1.01, "qos": 0.97}, "margin_z": 2.0, "n_validation": 10,
+        "mission": {"promises": ["corr", "precision"]}, "balanced": {"promises": []}}
+    promising = tmp_path / "promising.pt"
+    save_checkpoint(promising, payload)
+    summary = _evaluate(tmp_path, "mission", promising)["summary"]
+    promises = summary["promises"]
+    assert promises["columns"] == ["corr", "precision"] and promises["margin_z"] == 2.0
+    assert promises["held"]["corr"] == {"value": summary["corr"], "met": True}
+    assert promises["held"]["precision"] == {"value": summary["precision"], "met": False}
+    line = (tmp_path / "mission" / "results.md").read_text()
+    assert "Promises (the mission point's validation figures less 2.0 standard errors" in line
+    assert "precision >= 101.0 %" in line and "MISSED" in line
+    balanced = _evaluate(tmp_path, "balanced", promising, "--operating-point", "balanced")["summary"]
+    assert balanced["promises"]["columns"] == []
+    given = _evaluate(tmp_path, "given", promising, "--config",
+                      str(_agp_config(tmp_path, "given", "threshold_abs = 0.05")))["summary"]["promises"]
+    assert given["columns"] == [] and "differ from the calibrated point" in given["basis"]

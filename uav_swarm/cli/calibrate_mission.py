@@ -8,8 +8,10 @@ Example::
 Scores a grid of peak settings on the checkpoint's validation split (regenerated from the seeds of
 its training dataset and cached in ``--out``, so a killed run resumes), chooses the mission point
 (:mod:`learning.mission_calibration`: the highest QoS with correspondence and precision at least the
-paper's figures, or the balanced point's where those are lower) and writes ``calibration.json`` and
-``front.md`` (QoS against precision) into ``--out``. With ``--write-checkpoint`` the checkpoint is
+paper's figures, or the balanced point's where those are lower, each less a margin of ``--margin-z``
+standard errors, and among those the point that promises the most of the paper's columns) and writes
+``calibration.json`` and ``front.md`` (QoS against precision, with the columns each point promises)
+into ``--out``. With ``--write-checkpoint`` the checkpoint is
 written there (atomically) carrying both operating points; ``evaluate``, ``place`` and the planner
 then run the mission point unless asked for ``--operating-point balanced``.
 """
@@ -34,7 +36,7 @@ _GRID_HELP = "(default: %(default)s)"
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``calibrate-mission`` subcommand."""
-    from learning.mission_calibration import MissionGrid
+    from learning.mission_calibration import MARGIN_Z, MissionGrid
     from uav_swarm.cli.conventions import number
     from uav_swarm.missions.registry import TASKS
 
@@ -49,6 +51,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--out", required=True, help="folder for calibration.json, front.md and the cached scenes")
     add("--write-checkpoint", help="write the checkpoint with both operating points here (default: not "
                                    "written; it may be --checkpoint itself)")
+    add("--margin-z", type=number(float, ge=0.0), default=MARGIN_Z,
+        help="margin of the validation figures, in standard errors of a validation-against-held-out "
+             "difference (0: none) (default: %(default)s)")
     add("--thresholds", type=float, nargs="+", default=list(grid.thresholds),
         help=f"threshold_abs values tried {_GRID_HELP}")
     add("--contrasts", type=float, nargs="+", default=list(grid.contrasts),
@@ -64,16 +69,23 @@ def _pct(row: dict[str, Any], key: str) -> str:
 
 def front_table(report: dict[str, Any]) -> str:
     """The front of QoS against precision, the balanced and mission points marked, as markdown."""
+    from learning.mission_calibration import margins, promised_columns
+
     lines = [f"{report['task']}: {report['n_validation']} validation scenes; floors corr "
              f"{_pct(report['floors'], 'corr')} %, precision {_pct(report['floors'], 'precision')} % "
-             f"(paper {_pct(report['paper'], 'corr')} / {_pct(report['paper'], 'precision')})", "",
+             f"(paper {_pct(report['paper'], 'corr')} / {_pct(report['paper'], 'precision')}); margin "
+             f"{report['margin_z']} standard errors", "",
              "| point | threshold_abs | min_contrast | min_distance_px | corr % | precision % | QoS % "
-             "| QoS rel. % |", "|---|---|---|---|---|---|---|---|"]
+             "| QoS rel. % | margins corr / precision / QoS rel., points | promises |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     named = [("balanced", report["balanced"]), ("mission", report["mission"])]
     for name, row in named + [("front", row) for row in report["front"]]:
+        margin = margins(row, report["margin_z"])
+        promises = ", ".join(promised_columns(row, report["paper"], report["margin_z"])) or "none"
         lines.append(f"| {name} | {row['threshold_abs']} | {row['min_contrast']} | {row['min_distance_px']} "
                      f"| {_pct(row, 'corr')} | {_pct(row, 'precision')} | {_pct(row, 'qos')} "
-                     f"| {_pct(row, 'qos_relative')} |")
+                     f"| {_pct(row, 'qos_relative')} | {' / '.join(_pct(margin, k) for k in margin)} "
+                     f"| {promises} |")
     return "\n".join(lines) + "\n"
 
 
@@ -87,11 +99,13 @@ def _write_checkpoint(source: str, target: str, report: dict[str, Any]) -> None:
     mission = report["mission"]
     fields = PeakConfig().to_dict()
     payload["peak_config_mission"] = {key: mission[key] for key in fields}
+    kept = ("corr", "precision", "qos", "qos_relative", "margins", "promises")
     payload["mission_calibration"] = {
-        "rule": "highest validation QoS with corr and precision >= min(paper, balanced point)",
-        "n_validation": report["n_validation"], "paper": report["paper"], "floors": report["floors"],
-        "balanced": {k: report["balanced"][k] for k in ("corr", "precision", "qos", "qos_relative")},
-        "mission": {k: mission[k] for k in ("corr", "precision", "qos", "qos_relative")}}
+        "rule": "corr and precision less their margins >= min(paper, balanced point less its margins); "
+                "then the most promised columns, then the highest validation QoS",
+        "n_validation": report["n_validation"], "paper": report["paper"], "margin_z": report["margin_z"],
+        "floors": report["floors"], "balanced": {k: report["balanced"][k] for k in kept},
+        "mission": {k: mission[k] for k in kept}}
     save_checkpoint(target, payload)
 
 
@@ -121,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     out = Path(args.out)
     report = calibrate_mission(ckpt, task, PAPER_ROWS[args.task], out / "validation-scenes", n=args.n,
-                               grid=grid)
+                               grid=grid, margin_z=args.margin_z)
     write_json_atomic(out / "calibration.json", report)
     table = front_table(report)
     write_text_atomic(out / "front.md", table)

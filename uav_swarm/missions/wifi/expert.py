@@ -46,7 +46,11 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from typed_config import Config, ConfigError, param
-from uav_swarm.missions.wifi.capacitated import CapacitatedExpertConfig, place_uavs_capacitated
+from uav_swarm.missions.wifi.capacitated import (
+    CapacitatedExpertConfig,
+    complete_capacitated,
+    place_uavs_capacitated,
+)
 from uav_swarm.missions.wifi.group_expert import GroupExpertConfig, place_uavs_by_groups
 from uav_swarm.missions.wifi.ieee80211_expert import Ieee80211ExpertConfig
 from uav_swarm.missions.wifi.rules import (
@@ -58,6 +62,7 @@ from uav_swarm.missions.wifi.rules import (
     is_valid_placement,
     keep_separated,
 )
+from uav_swarm.missions.wifi.stable_expert import StableExpertConfig, place_uavs_stable
 
 __all__ = ["WifiExpertConfig", "CandidatePairs", "PlacementSearch", "separated_candidates", "place_uavs"]
 
@@ -75,25 +80,29 @@ class WifiExpertConfig(Config):
     branching: int = param(
         4, ge=1, le=50, doc="greedy fills try this many separated first candidates and keep the best")
     refine_passes: int = param(3, ge=0, le=100, doc="passes of the continuous centroid refinement")
-    method: Literal["auto", "search", "groups", "capacitated"] = param(
+    method: Literal["auto", "search", "groups", "capacitated", "stable"] = param(
         "auto", doc="'search' (greedy + ruin-and-recreate), 'groups' (strategy 2 only, "
         "uav_swarm.missions.wifi.group_expert), 'capacitated' (strategy 2 under admission control, "
-        "uav_swarm.missions.wifi.capacitated) or 'auto' (strategy 1: search; strategy 2: capacitated "
+        "uav_swarm.missions.wifi.capacitated), 'stable' (strategy 2 only: the consensus of jittered "
+        "solves of the capacitated expert under admission control, else of the search, "
+        "uav_swarm.missions.wifi.stable_expert) or 'auto' (strategy 1: search; strategy 2: capacitated "
         "under admission control, else groups); under the 802.11 radio the 802.11 expert runs "
         "(uav_swarm.missions.wifi.ieee80211_expert), which 'auto' picks")
     groups: GroupExpertConfig = param(GroupExpertConfig(), doc="the group expert ([task.expert.groups])")
     capacitated: CapacitatedExpertConfig = param(
         CapacitatedExpertConfig(), doc="the expert under admission control ([task.expert.capacitated])")
+    stable: StableExpertConfig = param(StableExpertConfig(), doc="the stable expert ([task.expert.stable])")
     ieee80211: Ieee80211ExpertConfig = param(
         Ieee80211ExpertConfig(), doc="the expert under the 802.11 radio ([task.expert.ieee80211])")
 
     def method_for(self, rules: CoverageRules) -> str:
-        """The method that runs under ``rules``: ``"search"`` or ``"groups"``.
+        """The method that runs under ``rules``: ``"search"``, ``"groups"``, ``"capacitated"``, ``"stable"``.
 
         Raises:
-            ConfigError: ``"groups"`` asked for strategy 1 (exclusive rules).
+            ConfigError: a strategy-2 method asked for strategy 1 (exclusive rules), or ``"capacitated"``
+                without admission control.
         """
-        if self.method in ("groups", "capacitated") and rules.exclusive:
+        if self.method in ("groups", "capacitated", "stable") and rules.exclusive:
             raise ConfigError(f"WifiExpertConfig.method = {self.method!r} is strategy 2's; strategy 1 uses "
                               "'search'")
         if self.method == "capacitated" and not rules.admission_control:
@@ -373,9 +382,40 @@ def place_uavs(
     if method == "groups":
         return place_uavs_by_groups(users_m, rules, config.groups, velocities_m_s)
     if method == "capacitated":
-        seed = _search_placement(users_m, rules, width_m, height_m, config, None)
-        return place_uavs_capacitated(users_m, rules, width_m, height_m, config.capacitated, seeds=[seed])
+        return _capacitated_placement(users_m, rules, width_m, height_m, config)
+    w, h = width_m, height_m
+    if method == "stable" and rules.admission_control:
+        return place_uavs_stable(
+            users_m, config.stable, lambda crowd: _capacitated_placement(crowd, rules, w, h, config),
+            lambda crowd, uavs: complete_capacitated(crowd, uavs, rules, w, h, config.capacitated))
+    if method == "stable":
+        return place_uavs_stable(
+            users_m, config.stable, lambda crowd: _search_placement(crowd, rules, w, h, config, None),
+            lambda crowd, uavs: _adopted(crowd, uavs, rules, w, h, config))
     return _search_placement(users_m, rules, width_m, height_m, config, candidates_m)
+
+
+def _capacitated_placement(users_m: np.ndarray, rules: CoverageRules, width_m: float, height_m: float,
+                           config: WifiExpertConfig) -> np.ndarray:
+    """The capacitated expert's placement, seeded with the search expert's."""
+    seed = _search_placement(users_m, rules, width_m, height_m, config, None)
+    return place_uavs_capacitated(users_m, rules, width_m, height_m, config.capacitated, seeds=[seed])
+
+
+def _adopted(users_m: np.ndarray, uavs_m: np.ndarray, rules: CoverageRules, width_m: float, height_m: float,
+             config: WifiExpertConfig) -> np.ndarray:
+    """``uavs_m`` made valid over ``users_m`` (paper's association), then improved by the search's steps."""
+    if len(users_m) < rules.min_users or rules.max_uavs == 0:
+        return np.zeros((0, 2))
+    candidates_m, _ = candidate_grid(width_m, height_m, config.grid_step_m)
+    search = PlacementSearch(users_m, rules, CandidatePairs(users_m, candidates_m, rules))
+    search.adopt(uavs_m)
+    search.branching = config.branching
+    search.refine(config.refine_passes)
+    search.greedy()
+    search.refine(config.refine_passes)
+    adopted = search.uavs_m
+    return adopted[np.lexsort((adopted[:, 0], adopted[:, 1]))] if len(adopted) else np.zeros((0, 2))
 
 
 def _search_placement(users_m: np.ndarray, rules: CoverageRules, width_m: float, height_m: float,
