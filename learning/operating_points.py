@@ -150,11 +150,14 @@ def point_promises(calibration: Mapping[str, Any] | None, choice: PeakChoice) ->
         ``columns`` (the promised ones, in the paper's order), ``paper`` (its figures, where known),
         ``margin_z`` (where known) and ``basis`` (in words).
 
-    >>> record = {"paper": {"corr": 0.75}, "margin_z": 2.0, "mission": {"promises": ["corr"]}}
-    >>> point_promises(record, PeakChoice(PeakConfig(), "mission", "checkpoint (mission point)"))["columns"]
-    ['corr']
-    >>> point_promises(None, PeakChoice(PeakConfig(), "balanced", "checkpoint (balanced point)"))["columns"]
-    []
+    Examples:
+        >>> record = {"paper": {"corr": 0.75}, "margin_z": 2.0, "mission": {"promises": ["corr"]}}
+        >>> mission = PeakChoice(PeakConfig(), "mission", "checkpoint (mission point)")
+        >>> point_promises(record, mission)["columns"]
+        ['corr']
+        >>> balanced = PeakChoice(PeakConfig(), "balanced", "checkpoint (balanced point)")
+        >>> point_promises(None, balanced)["columns"]
+        []
     """
     none: dict[str, Any] = {"columns": [], "paper": {}, "margin_z": None}
     if calibration is None:

@@ -10,11 +10,12 @@ own random stream from ``seed``) and parameter values. Only loopback endpoints a
 :func:`fleet_bridge_config` writes the bridge config of a new fleet: ``n`` vehicles on free UDP ports of
 127.0.0.1 around the default home, with a roomy geofence.
 
->>> from bridge.config import BridgeConfig
->>> config = BridgeConfig.from_dict({"vehicles": [{"system_id": 1, "url": "udpin:127.0.0.1:14590"}]})
->>> with SimulatedFleet("px4", config) as fleet:
-...     [(v.system_id, type(v).__name__, v.url) for v in fleet.vehicles]
-[(1, 'Px4Copter', 'udpout:127.0.0.1:14590')]
+Examples:
+    >>> from bridge.config import BridgeConfig
+    >>> config = BridgeConfig.from_dict({"vehicles": [{"system_id": 1, "url": "udpin:127.0.0.1:14590"}]})
+    >>> with SimulatedFleet("px4", config) as fleet:
+    ...     [(v.system_id, type(v).__name__, v.url) for v in fleet.vehicles]
+    [(1, 'Px4Copter', 'udpout:127.0.0.1:14590')]
 """
 
 from __future__ import annotations

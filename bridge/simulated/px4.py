@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 from bridge.geo import Home, geodetic_to_enu
 from bridge.missions.items import DEG_E7
@@ -91,7 +92,7 @@ class Px4Copter(ArduCopter):
             ``params``).
     """
 
-    def __init__(self, url: str, system_id: int, *, home: Home | None = None, **options) -> None:
+    def __init__(self, url: str, system_id: int, *, home: Home | None = None, **options: Any) -> None:
         self.mode = POSCTL
         self.texts: list[str] = []
         self.landed_in: list[tuple[int, int]] = []
