@@ -63,7 +63,10 @@ class FlightVehicle:
 
 
 class FlightVehicles:
-    """The vehicle table and the state the flight's parts share (set by :class:`~.flight_loop.Flight`)."""
+    """The vehicle table and the state the flight's parts share.
+
+    Every attribute is set by :class:`~uav_swarm.runs.flight_loop.Flight`, which builds the flight.
+    """
 
     config: FlyConfig
     bridge: BridgeConfig
