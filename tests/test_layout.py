@@ -100,3 +100,28 @@ def test_every_package_says_what_lives_there():
             continue
         doc = ast.get_docstring(ast.parse(init.read_text()))
         assert doc and len(doc) > 40, f"{init.relative_to(REPO)} has no docstring"
+
+
+def _skipped_by_mypy(pyproject: dict) -> list[str]:
+    """The modules a ``[[tool.mypy.overrides]]`` table with ``ignore_errors`` keeps from the checker."""
+    skipped: list[str] = []
+    for table in pyproject.get("tool", {}).get("mypy", {}).get("overrides", []):
+        if table.get("ignore_errors"):
+            module = table.get("module", [])
+            skipped += [module] if isinstance(module, str) else module
+    return skipped
+
+
+def test_mypy_checks_every_package_module():
+    import tomllib
+
+    pyproject = tomllib.loads((REPO / "pyproject.toml").read_text())
+    assert set(pyproject["tool"]["mypy"]["files"]) == set(PACKAGES)
+    assert _skipped_by_mypy(pyproject) == []
+
+
+def test_skipped_modules_are_seen():
+    overrides = {"tool": {"mypy": {"overrides": [{"module": ["a.b", "c"], "ignore_errors": True},
+                                                 {"module": "d", "ignore_errors": True},
+                                                 {"module": "e", "ignore_missing_imports": True}]}}}
+    assert _skipped_by_mypy(overrides) == ["a.b", "c", "d"]

@@ -236,7 +236,8 @@ class Fleet(FleetVehicles):
         try:
             deliveries = self.deliver(builders, verify=verify, strict=strict, force=force)
         except FleetError as exc:
-            missions = {sid: delivery.mission for sid, delivery in exc.results.items()}
+            missions = {sid: delivery.mission for sid, delivery in exc.results.items()
+                        if isinstance(delivery, Delivery)}  # deliver's results: every one a Delivery
             raise FleetError("upload", exc.errors, missions) from None
         return {sid: delivery.mission for sid, delivery in deliveries.items()}
 

@@ -25,7 +25,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, TypeGuard
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -81,7 +81,7 @@ class FlightError(BridgeError):
         super().__init__(f"vehicle {system_id}: {message}")
 
 
-def has_position(state: VehicleState | None) -> bool:
+def has_position(state: VehicleState | None) -> TypeGuard[VehicleState]:
     """True when the vehicle reports a position fix (:attr:`VehicleState.has_fix`)."""
     return state is not None and state.has_fix
 

@@ -29,12 +29,14 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from bridge.config import ProtocolConfig
 from bridge.errors import BridgeError, HomeUnknownError
 from bridge.flight.vehicle_home import HomeWatcher, ReportedHome
+from bridge.link.frames import MavMessage
 from bridge.link.mavlink import MavlinkLink
 from bridge.link.vehicle_state import VehicleStateTracker
 
@@ -65,9 +67,14 @@ def request_streams(link: MavlinkLink, system_id: int, position_rate_hz: float) 
     for message_id, rate_hz in rates.items():
         if rate_hz <= 0:
             continue
-        link.send(lambda mav, message_id=message_id, rate_hz=rate_hz: mav.command_long_send(
-            system_id, _AUTOPILOT_COMPONENT, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
-            float(message_id), 1e6 / rate_hz, 0.0, 0.0, 0.0, 0.0, 0.0))
+        link.send(_message_interval(system_id, message_id, rate_hz))
+
+
+def _message_interval(system_id: int, message_id: int, rate_hz: float) -> Callable[[MavMessage], None]:
+    """The send action of one ``MAV_CMD_SET_MESSAGE_INTERVAL`` (``message_id`` at ``rate_hz``)."""
+    return lambda mav: mav.command_long_send(
+        system_id, _AUTOPILOT_COMPONENT, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+        float(message_id), 1e6 / rate_hz, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 def request_message(link: MavlinkLink, system_id: int, message_id: int) -> None:
@@ -124,7 +131,7 @@ def wait_ready(link: MavlinkLink, tracker: VehicleStateTracker, homes: HomeWatch
             home, source = homes.first_fix(system_id, since_s), "GLOBAL_POSITION_INT"
         missing = ([] if fixed or not need_fix else ["position fix"]) + (
             [] if home is not None else ["home (HOME_POSITION" + (", or a fix)" if fix_stands_in else ")")])
-        if not missing:
+        if home is not None and not missing:
             return ReportedHome(home, source)
         if now_s >= deadline_s:
             raise HomeUnknownError(system_id, timeout_s, " and ".join(missing),

@@ -33,6 +33,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the command imports the bridge on use, not at start-up
+    from collections.abc import Iterable
+
     from bridge.config import BridgeConfig
     from bridge.flight.fleet import Fleet, MissionBuilder
     from bridge.missions.items import Mission
@@ -227,7 +229,7 @@ def _check_separation(plans: dict[int, list[list[float]]], config: BridgeConfig,
                     "altitudes)")
 
 
-def _check_ids(ids: object, config: BridgeConfig) -> None:
+def _check_ids(ids: Iterable[int], config: BridgeConfig) -> None:
     """Refuse vehicle ids the bridge config lacks, naming the configured ones."""
     configured = sorted(v.system_id for v in config.vehicles)
     unknown = sorted(set(ids) - set(configured))
@@ -350,7 +352,7 @@ def _file_builder(path: Path, config: BridgeConfig) -> MissionBuilder:
 
 
 def _upload(args: argparse.Namespace, config: BridgeConfig) -> int:
-    from bridge.flight.fleet import Fleet, FleetError
+    from bridge.flight.fleet import Delivery, Fleet, FleetError
 
     plans = _plans(args)
     if bool(plans) == (args.from_dir is not None):
@@ -368,7 +370,8 @@ def _upload(args: argparse.Namespace, config: BridgeConfig) -> int:
             done, errors = fleet.deliver(builders, verify=not args.no_verify, strict=args.strict,
                                          force=args.force), {}
         except FleetError as exc:
-            done, errors = exc.results, exc.errors
+            done = {sid: d for sid, d in exc.results.items() if isinstance(d, Delivery)}  # all are
+            errors = exc.errors
     for sid, delivery in sorted(done.items()):
         verified = ("not verified (--no-verify)" if delivery.verify_s is None
                     else f"verified (download and compare) in {delivery.verify_s:.3f} s")
@@ -382,6 +385,7 @@ def _upload(args: argparse.Namespace, config: BridgeConfig) -> int:
 def _download(args: argparse.Namespace, config: BridgeConfig) -> int:
     from bridge.flight.fleet import Fleet, FleetError
     from bridge.missions.files import save_mission
+    from bridge.missions.items import Mission
 
     if args.out is None:
         raise ValueError("download needs --out")
@@ -391,7 +395,8 @@ def _download(args: argparse.Namespace, config: BridgeConfig) -> int:
         try:
             missions = fleet.download(ids) if ids else {}
         except FleetError as exc:
-            missions, errors = exc.results, {**errors, **exc.errors}
+            missions = {sid: m for sid, m in exc.results.items() if isinstance(m, Mission)}  # all are
+            errors = {**errors, **exc.errors}
     args.out.mkdir(parents=True, exist_ok=True)
     for sid, mission in sorted(missions.items()):
         path = args.out / f"vehicle_{sid}{_SUFFIX[args.format]}"

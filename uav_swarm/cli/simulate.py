@@ -104,6 +104,7 @@ def format_summary(summary: dict[str, Any]) -> str:
         lines.append(f"{kind:<8} {s['mean_qos_s1']:>11.3f} {s['min_qos_s1']:>6.3f} {s['mean_qos_s2']:>11.3f} "
                      f"{s['min_qos_s2']:>6.3f} {s['mean_throughput_mbps']:>9.2f} "
                      f"{s['median_latency_ms']:>11.2f} {s['p95_latency_ms']:>8.2f}")
+    first: dict[str, Any]  # the first planner's figures (none: an empty table)
     first = next(iter(summary["planners"].values()), {})
     if "radio" in summary:
         lines.append(summary["radio"])

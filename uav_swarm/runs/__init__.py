@@ -2,7 +2,10 @@
 
 - :mod:`~uav_swarm.runs.simulate`, :mod:`~uav_swarm.runs.simulate_config`: the main loop and its TOML config.
 - :mod:`~uav_swarm.runs.fly`, :mod:`~uav_swarm.runs.fly_config`, :mod:`~uav_swarm.runs.flight_loop`:
-  closed-loop guided flight through :mod:`bridge.flight.fleet`.
+  closed-loop guided flight through :mod:`bridge.flight.fleet`; the loop's parts:
+  :mod:`~uav_swarm.runs.flight_vehicles` (the vehicle table), :mod:`~uav_swarm.runs.flight_step`
+  (planning and guard), :mod:`~uav_swarm.runs.flight_launch` (launch and links),
+  :mod:`~uav_swarm.runs.flight_end` (the end and the returns).
 - :mod:`~uav_swarm.runs.records`: what a run records (the types the plots and the animation draw).
 - :mod:`~uav_swarm.runs.plots`, :mod:`~uav_swarm.runs.animation`: QoS figures, CSV and the scene GIF.
 - :mod:`~uav_swarm.runs.recording`, :mod:`~uav_swarm.runs.foxglove_scene`, :mod:`~uav_swarm.runs.live_view`:

@@ -114,6 +114,12 @@ def _write_track(track: list[dict[str, Any]], path: Path) -> Path:
     return path
 
 
+def _stop_when_set(stop_event: threading.Event, flight: Flight) -> None:
+    """End ``flight`` once ``stop_event`` is set (the watcher thread of :func:`fly`)."""
+    stop_event.wait()
+    flight.stop()
+
+
 def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event | None = None,
         record: str | Path | None = None, live: LiveView | None = None,
         planner: Planner | None = None) -> FlightResult:
@@ -178,7 +184,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
             flight = Flight(config, bridge, fleet, outputs, planner, steering)
             watcher = None
             if stop_event is not None:
-                watcher = threading.Thread(target=lambda: (stop_event.wait(), flight.stop()), daemon=True)
+                watcher = threading.Thread(target=_stop_when_set, args=(stop_event, flight), daemon=True)
                 watcher.start()
             try:
                 trace, track = flight.run()

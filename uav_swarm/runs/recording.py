@@ -54,6 +54,7 @@ from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -284,8 +285,8 @@ class RunRecorder:
             placed[state.uav_id] = (state.position_enu_m, state.target_enu_m)
             fix = state.position_wgs84
             if fix is not None:
-                self._log(f"/uav/{state.uav_id}/location", _LOCATION_CHANNEL, time_s, lambda i=state.uav_id,
-                          f=fix: fox.location_fix(time_s, i, f.lat_deg, f.lon_deg, f.alt_m))
+                self._log(f"/uav/{state.uav_id}/location", _LOCATION_CHANNEL, time_s, partial(
+                    fox.location_fix, time_s, state.uav_id, fix.lat_deg, fix.lon_deg, fix.alt_m))
         self._log("/tf", _RUN_CHANNELS["/tf"], time_s,
                   lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
         held = [bool(s.separation_held) for s in states if s.position_enu_m is not None]
@@ -350,8 +351,8 @@ def open_recorder(scene: SceneInfo, *, record: str | Path | None = None, live: L
                 "config": json.dumps(config or {}, sort_keys=True)})
         live_context = foxglove.Context() if live is not None else None
         recorder = RunRecorder(scene, contexts + ([live_context] if live_context else []), live_context, live)
-        if live is not None:
-            stack.callback(_stop_live, _start_live(live, live_context, recorder, command))  # type: ignore[arg-type]
+        if live is not None and live_context is not None:  # the context exists whenever live is given
+            stack.callback(_stop_live, _start_live(live, live_context, recorder, command))
         yield recorder
     if record is not None:
         logger.info("recorded %d messages on %d topics in %s", sum(recorder.counts.values()),
@@ -364,9 +365,10 @@ def _start_live(live: LiveView, context: foxglove.Context, recorder: RunRecorder
     listener = LiveListener([_SCENE], recorder.resend_static_scene)
     recorder.advertise()  # a client can subscribe to every run-wide channel before the first step
     try:
-        server = foxglove.start_server(name=f"uav-swarm {command}".strip(), host=live.host, port=live.port,
-                                       context=context, server_listener=listener,
-                                       message_backlog_size=LIVE_BACKLOG_MESSAGES)
+        server = foxglove.start_server(
+            name=f"uav-swarm {command}".strip(), host=live.host, port=live.port, context=context,
+            server_listener=listener,  # type: ignore[arg-type]  # the SDK calls only the callbacks it has
+            message_backlog_size=LIVE_BACKLOG_MESSAGES)
     except RuntimeError as exc:
         raise ConfigError(f"--live {live.host}:{live.port}: the live view cannot listen there: "
                           f"{exc}") from exc

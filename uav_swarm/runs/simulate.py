@@ -43,7 +43,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.planning.planner import Planner, default_checkpoint, make_planner
+from uav_swarm.planning.planner import LearnedPlanner, Planner, default_checkpoint, make_planner
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.radio_report import RadioLog, radio_line, telemetry_fields
@@ -207,6 +207,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
             outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered,
                          association=cov.association, throughput_mbps=cov.throughput_mbps)
         if frame_every and (step % frame_every == 0 or step == steps - 1):
+            assert result is not None  # planned at step 0 (every replan_every steps from it)
             frames.append(Frame(
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
                 covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=np.array(flown),
@@ -371,14 +372,14 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                 logger.warning("no telemetry subscriber after %.1f s: flying anyway",
                                config.wait_for_subscriber_s)
         for kind, planner in planners.items():
-            flown = kind == config.planner
-            with open_recorder(scene, record=record if flown else None, live=live if flown else None,
+            is_flown = kind == config.planner
+            with open_recorder(scene, record=record if is_flown else None, live=live if is_flown else None,
                                command="simulate", config=config.to_dict()) as recorder:
-                outputs = RunOutputs(publisher, recorder, ros) if flown else None
-                sample_every_s = config.static_every_s if flown and config.static_reference else 0.0
+                outputs = RunOutputs(publisher, recorder, ros) if is_flown else None
+                sample_every_s = config.static_every_s if is_flown and config.static_reference else 0.0
                 runs[kind] = run_sequence(config, planner, kind, outputs=outputs,
-                                          steering=steering if flown else None,
-                                          frame_every=frame_every if flown else 0,
+                                          steering=steering if is_flown else None,
+                                          frame_every=frame_every if is_flown else 0,
                                           sample_every_s=sample_every_s, progress=progress)
     reference = (static_reference(runs[config.planner].crowd_samples, config.task, config.n_uavs,
                                   config.static_every_s, config.uav.altitudes_m(config.n_uavs))
@@ -396,15 +397,15 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
         summary["ratios_learned_over_expert"] = ratios_learned_over_expert(summary["planners"]["learned"],
                                                                            summary["planners"]["expert"])
     learned = planners.get("learned")
-    if learned is not None:
-        summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)  # type: ignore[attr-defined]
-        summary["network_precision"] = learned.precision  # type: ignore[attr-defined]
-        summary["inference_engine"] = learned.engine  # type: ignore[attr-defined]
-        summary["peaks"] = learned.peak_choice.to_dict()  # type: ignore[attr-defined]
+    if isinstance(learned, LearnedPlanner):  # make_planner's learned planner
+        summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)
+        summary["network_precision"] = learned.precision
+        summary["inference_engine"] = learned.engine
+        summary["peaks"] = learned.peak_choice.to_dict()
         if config.planning.refine:
             summary["refinement"] = {  # which settings ran: [planning.refinement], else the strategy's own
                 "source": "[planning.refinement]" if config.planning.refinement else "strategy defaults",
-                "settings": learned.refinement.to_dict()}  # type: ignore[attr-defined]
+                "settings": learned.refinement.to_dict()}
     files = [write_qos_figure(runs, out_dir / "qos.png", reference, config.task.strategy),
              write_timeseries(runs, out_dir / "timeseries.csv")]
     flown = runs[config.planner]

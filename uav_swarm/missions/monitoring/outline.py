@@ -102,7 +102,8 @@ class Outline:
         if polygon.area <= 0.0:
             raise OutlineError(f"{name}: the outline encloses no area (degenerate)")
         polygon = shapely.orient_polygons(polygon)
-        walls, following = [], []
+        walls: list[np.ndarray] = []
+        following: list[np.ndarray] = []
         for ring in [polygon.exterior, *polygon.interiors]:
             xy = np.asarray(ring.coords)[:-1]
             keep = np.any(xy != np.roll(xy, 1, axis=0), axis=1)  # drop repeated vertices
@@ -264,6 +265,7 @@ def visibility(outline: Outline, guards_m: np.ndarray, targets: Witnesses, min_c
     if len(guards) == 0 or len(targets) == 0:
         return np.zeros((len(guards), len(targets)), dtype=bool)
     targets = targets.prepared(outline, min_clearance_m, region)
+    assert targets.near is not None and targets.codes is not None  # prepared() computes both
     bound = max(min_clearance_m, TOUCH_M)
     far_limit = bound - TOUCH_M if min_clearance_m > TOUCH_M else TOUCH_M
     guard_codes = _codes(outline, region, guards, bound)
