@@ -16,7 +16,7 @@ from uav_swarm.missions.registry import TASKS
 UNIT_SUFFIXES = ("-s", "-m", "-m-s", "-hz", "-deg", "-px", "-mbps", "-minutes", "-steps")
 """What a numeric flag of a physical quantity ends with (docs/cli.md)."""
 
-DIMENSIONLESS = {"--lr", "--qos-floor", "--speedup", "--focal-weight", "--thresholds", "--contrasts",
+DIMENSIONLESS = {"--lr", "--qos-floor", "--margin-z", "--speedup", "--focal-weight", "--thresholds", "--contrasts",
                  "--command-loss"}
 """Float flags that are ratios or weights, without a unit (docs/cli.md lists them)."""
 

@@ -79,6 +79,7 @@ CASES: list[tuple[list[str], str]] = [
     (["fly", "--out", "out"], "--bridge-config"),
     (["fly", "--bridge-config", "missing.toml", "--out", "out"], "missing.toml"),
     (["fly", "--bridge-config", BRIDGE, "--replan-every-s", "0", "--out", "out"], "--replan-every-s"),
+    (["telemetry", "ros2-topics", "--duration-s", "0"], "--duration-s"),
     (["vehicles", "--autopilot", "ardupilot", "--n", "0", "--out", "out"], "--n"),
     (["vehicles", "--autopilot", "px4", "--command-loss", "2", "--out", "out"], "--command-loss"),
     (["vehicles", "--autopilot", "px4", "--param", "WPNAV_SPEED", "--out", "out"], "--param"),
