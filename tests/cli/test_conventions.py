@@ -16,8 +16,8 @@ from uav_swarm.missions.registry import TASKS
 UNIT_SUFFIXES = ("-s", "-m", "-m-s", "-hz", "-deg", "-px", "-mbps", "-minutes", "-steps")
 """What a numeric flag of a physical quantity ends with (docs/cli.md)."""
 
-DIMENSIONLESS = {"--lr", "--qos-floor", "--margin-z", "--speedup", "--focal-weight", "--thresholds", "--contrasts",
-                 "--command-loss"}
+DIMENSIONLESS = {"--lr", "--qos-floor", "--margin-z", "--speedup", "--focal-weight", "--thresholds",
+                 "--contrasts", "--command-loss"}
 """Float flags that are ratios or weights, without a unit (docs/cli.md lists them)."""
 
 TIME_WORDS = ("every", "duration", "timeout", "wait", "period", "interval", "delay", "refresh")
