@@ -167,8 +167,8 @@ class FlightSafety:
 
     # -- take-off -------------------------------------------------------------------------------
     def takeoff_gate(self, system_id: int) -> Callable[[], AbstractContextManager[None]]:
-        """The vehicle's turn to arm, take off and climb (one at a time, from a clear column)."""
-        return self._gate.for_vehicle(system_id, self._uav_of[system_id])
+        """The vehicle's turn to arm, take off and climb (from a clear column)."""
+        return self._gate.for_vehicle(system_id)
 
     def _column_clear(self, system_id: int) -> bool:
         """No airborne vehicle closer to its home than ``uav.min_separation_m``, the pre-flight check's rule.
