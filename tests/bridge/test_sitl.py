@@ -222,11 +222,18 @@ def test_two_px4_fly_60_s_in_mission_mode(tmp_path):
         assert "MISSION" in values["modes_seen"] and "RTL" in values["modes_seen"], (sid, values)
 
 
+WEATHER = {"SIM_WIND_SPD": 8.0, "SIM_WIND_TURB": 4.0, "SIM_WIND_DIR": 90.0, "SIM_GPS_LAG_MS": 400.0}
+"""8 m/s of gusting wind across the launch line and GPS positions 400 ms late."""
+
+
 @needs_ardupilot
-def test_five_arducopters_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
+@pytest.mark.parametrize("weather", [pytest.param({}, id="quiet"), pytest.param(WEATHER, id="wind-and-late-gps")])
+def test_five_arducopters_on_homes_6_m_apart_launch_fly_60_s_and_return(tmp_path, weather):
+    """Five real ArduCopters on homes 6 m apart (a real launch line) at a 5 m minimum: all launch, fly the
+    planner's targets, return and land by themselves, never closer than the minimum on their own reports."""
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(5):
-            sitl.start_arducopter(AP_ROOT, i, home=home_apart(CMAC_HOME, i))
+            sitl.start_arducopter(AP_ROOT, i, home=home_apart(CMAC_HOME, i, spacing_m=6.0), params=weather)
         time.sleep(2.0)  # the TCP ports open
         observers = {i + 1: Observer(_ardupilot_url(i, serial=0), ask=(i + 1,)) for i in range(5)}
         try:
