@@ -227,7 +227,8 @@ WEATHER = {"SIM_WIND_SPD": 8.0, "SIM_WIND_TURB": 4.0, "SIM_WIND_DIR": 90.0, "SIM
 
 
 @needs_ardupilot
-@pytest.mark.parametrize("weather", [pytest.param({}, id="quiet"), pytest.param(WEATHER, id="wind-and-late-gps")])
+@pytest.mark.parametrize("weather", [pytest.param({}, id="quiet"),
+                                     pytest.param(WEATHER, id="wind-and-late-gps")])
 def test_five_arducopters_on_homes_6_m_apart_launch_fly_60_s_and_return(tmp_path, weather):
     """Five real ArduCopters on homes 6 m apart (a real launch line) at a 5 m minimum: all launch, fly the
     planner's targets, return and land by themselves, never closer than the minimum on their own reports."""

@@ -132,7 +132,7 @@ class FleetGuard:
         Its first decision sends it ``point_m`` (state ``"on"``), so that every point it flies to was sent.
         """
         with self._lock:
-            chain = [np.asarray(p, dtype=np.float64) for p in earlier_m] + [np.asarray(point_m, dtype=np.float64)]
+            chain = [np.asarray(p, dtype=np.float64) for p in (*earlier_m, point_m)]
             hold = Commitment(chain[0], bounds, now_s, radius_m)
             for later in chain[1:]:
                 hold.sent(later, now_s)
@@ -173,7 +173,8 @@ class FleetGuard:
             if home_m is not None:
                 self._homes[i] = np.asarray(home_m, dtype=np.float64)
 
-    def obstacle(self, i: int, centre_m: np.ndarray, radius_m: float, home_m: np.ndarray | None = None) -> None:
+    def obstacle(self, i: int, centre_m: np.ndarray, radius_m: float,
+                 home_m: np.ndarray | None = None) -> None:
         """Vehicle ``i`` is not steered by the guard: a disc the others keep away from, until it joins.
 
         ``home_m``: the column over its home is kept clear as well (it will land there: RTL).
@@ -283,8 +284,7 @@ class FleetGuard:
         """(N, N) each pair's least gap: required when apart, its floor when inside (module docstring)."""
         n = centres.shape[0]
         required = self.required_m[owner[:, None], owner[None]]
-        with np.errstate(invalid="ignore"):
-            gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
+        gaps = _gaps_m(centres, radii)
         floors = required.copy()
         for a in range(n):
             for b in range(a + 1, n):
@@ -314,7 +314,8 @@ class FleetGuard:
             if self._hold[i] is not None or i in self._obstacle:
                 centres[i], radii[i] = self.centre_m(i), self.radius_m(i)
         for m, i in enumerate(homes):
-            bounds = self._hold[i].bounds if self._hold[i] is not None else None
+            hold = self._hold[i]
+            bounds = hold.bounds if hold is not None else None
             centres[k + m] = self._homes[i]
             radii[k + m] = 0.0 if bounds is None else float(bounds.radius_m(np.zeros(2), np.array(0.0)))
         present = np.isfinite(radii) | (radii == np.inf)
@@ -334,11 +335,11 @@ class FleetGuard:
                 goals[i] = via
         waited = np.array([now_s - self._held_since.get(i, now_s) for i in range(k)] + [0.0] * len(homes))
         detour = waited >= self.detour_after_s
-        apart = present[:, None] & present[None] & (owner[:, None] != owner[None])  # a vehicle and its home: one
+        apart = present[:, None] & present[None] & (owner[:, None] != owner[None])  # not one's own home
         required = np.where(apart, self.required_m[owner[:, None], owner[None]], -np.inf)
-        floors = np.where(apart, self._floors_m(centres, np.where(present, radii, 0.0), present, owner), -np.inf)
-        with np.errstate(invalid="ignore"):
-            gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
+        shown = np.where(present, radii, 0.0)
+        floors = np.where(apart, self._floors_m(centres, shown, present, owner), -np.inf)
+        gaps = _gaps_m(centres, radii)
         parting = apart & np.isfinite(gaps) & (gaps < required)
         for i in range(k):  # parts only a vehicle near rest and not closing on the other
             towards = centres - centres[i]
@@ -405,3 +406,9 @@ class FleetGuard:
             return Decision("on" if not arrived else "idle")
         self._held_since.setdefault(i, now_s)
         return Decision("held", None, blocker)
+
+
+def _gaps_m(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """(N, N) the distance between each pair of discs (NaN or -inf with an unknown one)."""
+    with np.errstate(invalid="ignore"):
+        return np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
