@@ -80,10 +80,6 @@ class GuardConfig(Config):
                                         "(wind, gusts), metres")
     sidestep_after_s: float = param(2.0, ge=0.0, le=60.0,
                                     doc="a vehicle held this long may step round what blocks it, seconds")
-    slack_m: float = param(1.0, ge=0.0, le=10.0,
-                           doc="a pair closer than the guard can certify (homes a few metres apart, a "
-                               "vehicle taken back) may come this much closer than it was, on a step that "
-                               "parts it, metres")
     max_step_m: float = param(16.0, ge=1.0, le=64.0,
                               doc="the farthest ahead a vehicle is committed at a time, metres (shorter: "
                                   "smaller certified discs, slower vehicles)")
@@ -110,7 +106,7 @@ class FlightGuard:
         required = required_distances_m(min_separation_m, altitudes_m, n_vehicles)
         required = np.where(required > 0, required + config.margin_m, 0.0)
         self.fleet = FleetGuard(required, detour_after_s=config.sidestep_after_s, detour_m=self.need_m,
-                                area_m=area_m, slack_m=config.slack_m, max_step_m=config.max_step_m)
+                                area_m=area_m, max_step_m=config.max_step_m)
         self.homes_m: dict[int, tuple[float, float]] = {}
         """Each vehicle's home (East, North) by row, where its RTL or failsafe lands it."""
         self._bounds = [self._stated() for _ in range(n_vehicles)]

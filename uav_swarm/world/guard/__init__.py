@@ -73,11 +73,11 @@ and the column over its home; only a vehicle known to be on the ground leaves. O
 guard's calls.
 
 **Pairs inside** (discs closer than required: homes a few metres apart, a vehicle taken back, a bound
-broken) are outside the invariant from the start; the guard keeps their gap above a floor (the gap they
-came inside with, less ``slack_m``) and lets them part by short steps along which the distance to the
-other's centre never shrinks, taken only by a vehicle near rest and not closing on the other. Such a
-vehicle flies along its step (an autopilot at rest flying to a point flies the segment to it); the swing
-off the segment caused by the velocity it still has is bounded in simulation, not by this proof.
+broken) are outside the invariant from the start; the guard lets them only part, by short steps along
+which the distance to the other's centre never shrinks, taken only by a vehicle near rest at its point
+and not closing on the other. Such a vehicle flies along its step (an autopilot at rest flying to a point
+flies the segment to it); the swing off the segment caused by the velocity it still has is bounded in
+simulation, not by this proof. Every pair apart keeps the proved rule.
 
 **Outside the bounds** nothing is promised; what can be seen is reported and answered
 (:class:`FleetGuard`): a position older than ``position_age_s`` (the vehicle is sent nothing new: its
