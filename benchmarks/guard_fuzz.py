@@ -8,9 +8,10 @@ acceleration 2-5 m/s^2, command latency 0-1.5 s (5 % of commands lost in half th
 for each vehicle every 1-10 s; the guard decides 10 times a second on the reports and is told the limits
 the vehicles report. With events (the default), five flights in six add one event for one vehicle: silent
 (link down both ways) or without a fix for 5-20 s, joined in flight, stale first rows, or a reversal while
-still accelerating away. Then the named cases (:data:`uav_swarm.runs.guard_trial.NAMED_TRIALS`), each
-with every worst bound, and a share of the flights outside the bounds (the autopilots brake at 60 % of what
-the guard is told): whether the guard detected it, and how close the vehicles came.
+still accelerating away. Then the named cases (:data:`uav_swarm.runs.guard_trial.NAMED_TRIALS` and
+:data:`~uav_swarm.runs.guard_trial.EVENT_TRIALS`), each with every worst bound, and a share of the
+flights outside the bounds (the autopilots brake at 60 % of what the guard is told): whether the guard
+detected it, and how close the vehicles came.
 
 The judge (:func:`uav_swarm.runs.guard_trial.fly_trial`): true positions every 0.05 s; pairs that came
 under the minimum (``scipy.spatial.distance.pdist``); vehicles found outside the set the guard certified
@@ -41,6 +42,7 @@ import numpy as np  # noqa: E402
 
 from uav_swarm.runs.guard_trial import (  # noqa: E402
     AUTOPILOTS,
+    EVENT_TRIALS,
     EVENTS,
     NAMED_TRIALS,
     WORST_BOUNDS,
@@ -125,7 +127,7 @@ def main() -> None:
     start = time.perf_counter()
     named: dict[str, object] = {}
     all_named = []
-    for case_name, case in NAMED_TRIALS.items():
+    for case_name, case in {**NAMED_TRIALS, **EVENT_TRIALS}.items():
         flown = [fly_trial(Trial(**{**case.__dict__, **worst, "autopilot": args.autopilot}))
                  for worst in WORST_BOUNDS.values()]
         all_named += flown

@@ -63,8 +63,8 @@ from bridge.simulated.jerk_limited import (
 from uav_swarm.world.guard import Bounds, FleetGuard
 from uav_swarm.world.separation import draw_apart_m, max_spread_m
 
-__all__ = ["AUTOPILOTS", "EVENTS", "NAMED_TRIALS", "Trial", "TrialResult", "WORST_BOUNDS", "event_of",
-           "fly_trial", "random_trial"]
+__all__ = ["AUTOPILOTS", "EVENTS", "EVENT_TRIALS", "NAMED_TRIALS", "Trial", "TrialResult", "WORST_BOUNDS",
+           "event_of", "fly_trial", "random_trial"]
 
 _DT_S = 0.05  # the judge's step (20 Hz) and the integration step
 _GUARD_EVERY = 2  # a guard decision every 2 steps (10 Hz)
@@ -432,19 +432,21 @@ NAMED_TRIALS: dict[str, Trial] = {
     "turn-at-12-m-s-beside-a-hover": _TURN,
     "crossing-at-15-m-s": _CROSS,
     "held-with-overshoot": _OVERSHOOT,
+}
+"""Scripted flights (goals by time) that brought an earlier guard under the minimum: a turn at 12 m/s
+beside a hovering vehicle, a crossing at 15 m/s, a vehicle held on its way with overshoot."""
+EVENT_TRIALS: dict[str, Trial] = {
     "reversal-at-12-m-s": _REVERSAL,
     "silent-for-12-s": Trial(**_PASSING, silent=((0, 3.0, 15.0),)),  # type: ignore[arg-type]
     "no-fix-for-12-s": Trial(**_PASSING, no_fix=((0, 3.0, 15.0),)),  # type: ignore[arg-type]
     "join-in-flight": _JOIN,
     "stale-first-rows": _STALE,
 }
-"""Scripted flights (goals by time, events): a turn at 12 m/s beside a hovering vehicle, a crossing at
-15 m/s, a vehicle held on its way with overshoot (which brought an earlier guard under the minimum); a
-point behind a vehicle still accelerating away at 12 m/s (its goal 100 m ahead: the guard's point ahead
-is close enough for a point behind it to follow in one step); a vehicle silent, or
-without a fix, for 12 s while the others cross its way; a vehicle taken under the guard while it flies
-at a vehicle hovering ahead; a hovering vehicle whose first 4 s of reports are too old, another sent
-through it."""
+"""Scripted flights with an event each: a point behind a vehicle still accelerating away at 12 m/s (its
+goal 100 m ahead: the guard's point ahead is close enough for a point behind it to follow in one step);
+a vehicle silent, or without a fix, for 12 s while the others cross its way; a vehicle taken under the
+guard while it flies at a vehicle hovering ahead; a hovering vehicle whose first 4 s of reports are too
+old, another sent through it."""
 WORST_BOUNDS: dict[str, dict[str, float]] = {
     "braking-2.5": {"accel_m_s2": 2.5},
     "braking-2": {"accel_m_s2": 2.0},
@@ -452,7 +454,7 @@ WORST_BOUNDS: dict[str, dict[str, float]] = {
     "round-trip-1.5-s": {"latency_s": 1.5},
     "all-at-once": {"accel_m_s2": 2.0, "age_s": 1.0, "latency_s": 1.5, "loss": 0.2, "rate_hz": 5.0},
 }
-"""The worst bounds each named case is flown with."""
+"""The worst bounds each named case (and event case) is flown with."""
 
 
 def random_trial(rng: np.random.Generator, seed: int, duration_s: float = 60.0, autopilot: str = "pointmass",
