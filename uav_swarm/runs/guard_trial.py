@@ -23,8 +23,10 @@ a lost one is never acknowledged). The guard is told the limits the vehicles rep
 
 **The judge** is independent of the guard: every 0.05 s, the **true** positions of the vehicles under
 the guard, their pair distances by ``scipy.spatial.distance.pdist`` (the closest pair, and the pairs
-that came under the minimum), and each vehicle's true position against the set the guard certifies
-for it (``centre_m``, ``radius_m``): a vehicle found outside it is counted, whatever the guard reported.
+that came under the minimum, once both are under the guard and have been seen the minimum apart: a
+vehicle joined in flight closer than that is the guard's to separate, not its failure), and each
+vehicle's true position against the set the guard certifies for it (``centre_m``, ``radius_m``): a
+vehicle found outside it is counted, whatever the guard reported.
 
 **Liveness**: the share of *separable* goals reached (the vehicle's true position within ``reach_m`` of
 it while it was its goal). A goal is separable when it stays at least the minimum, plus both vehicles'
@@ -136,7 +138,7 @@ class TrialResult:
     """What the judge saw.
 
     Attributes:
-        closest_m: The closest pair of vehicles under the guard, true positions.
+        closest_m: The closest pair of vehicles under the guard (once seen the minimum apart), true positions.
         area_m: The area flown (grown where the starts did not fit).
         goals: Separable goals (module docstring).
         reached: Of those, the goals reached.
@@ -309,6 +311,7 @@ def fly_trial(trial: Trial) -> TrialResult:
     judged: list[_Goal] = []
     holds, closest = 0, math.inf
     under: set[tuple[int, int]] = set()
+    apart: set[tuple[int, int]] = set()  # pairs under the guard seen at least the minimum apart
     outside: dict[int, float] = {}
     outside_steps = 0
     states = ["idle"] * k
@@ -374,9 +377,14 @@ def fly_trial(trial: Trial) -> TrialResult:
         under_guard = [i for i in range(k) if guard.joined(i)]
         if len(under_guard) >= 2:
             distances = pdist(truth[under_guard])
-            closest = min(closest, float(distances.min()))
             pairs = [(a, b) for n, a in enumerate(under_guard) for b in under_guard[n + 1:]]
-            under.update(pair for pair, d in zip(pairs, distances, strict=True) if d < need)
+            for pair, d in zip(pairs, distances, strict=True):
+                if d >= need:
+                    apart.add(pair)
+                elif pair in apart:
+                    under.add(pair)
+            judged_d = [d for pair, d in zip(pairs, distances, strict=True) if pair in apart]
+            closest = min(closest, float(min(judged_d, default=math.inf)))
         for i in under_guard:
             excess = _outside_m(guard, i, truth[i])
             if excess > 1e-6:
