@@ -24,15 +24,12 @@ from uav_swarm.runs.guard_trial import (
     random_trial,
 )
 
-_NOT_YET = {
-    ("stale-first-rows", "pointmass"): "a vehicle never measured is passed through (its radius is inf)",
-    ("stale-first-rows", "arducopter"): "a vehicle never measured is passed through (its radius is inf)",
-    ("stale-first-rows", "px4"): "a vehicle never measured is passed through (its radius is inf)",
-    ("join-in-flight", "pointmass"): "join takes the measured position as the point in effect",
-    ("join-in-flight", "arducopter"): "join takes the measured position as the point in effect",
-    ("join-in-flight", "px4"): "join takes the measured position as the point in effect",
-    ("reversal-at-12-m-s", "px4"): "PX4's per-axis acceleration and its jerk run-on leave the disc",
+_NOT_YET: dict[tuple[str, str], str] = {
+    ("join-in-flight", "px4"): "joined flying at 7.5 m/s straight at one hovering 22 m ahead: the PX4-like "
+                               "stop (latency, per-axis limits, jerk) ends 4.6 m from it; the hovering one "
+                               "yields, not far enough",
 }
+"""(case, autopilot) the guard does not cover yet, with why (strict xfail)."""
 
 
 def _cases() -> list[object]:

@@ -17,7 +17,7 @@ a lost one is never acknowledged). The guard is told the limits the vehicles rep
   acknowledgements lost) while it flies on to the last point it got;
 - *no fix*: its reports carry no position for a while (the guard is given nothing); commands still arrive;
 - *join in flight*: a vehicle flies to a point sent outside the guard and is taken under the guard
-  (``join`` at its measured position) while still flying there;
+  (``join`` at its measured position, with the point it flies to) while still flying there;
 - *stale first rows*: a vehicle's reports are older than the guard's ``position_age_s`` for its first seconds;
 - *reversal*: when a vehicle first reaches a speed, its goal moves behind it (it is still accelerating away).
 
@@ -197,9 +197,12 @@ def _copter(trial: Trial, start_m: np.ndarray, rng: np.random.Generator) -> Poin
 
 
 # -- the guard's interface, in one place --------------------------------------------------------
-def _join(guard: FleetGuard, i: int, report: PositionReport, bounds: Bounds, now_s: float) -> None:
-    """Take vehicle ``i`` under the guard where its report puts it (as ``fly`` does)."""
-    guard.join(i, np.asarray(report.position_m[:2]), bounds, now_s=now_s)
+def _join(guard: FleetGuard, i: int, report: PositionReport, bounds: Bounds, now_s: float,
+          flying_to_m: np.ndarray | None = None) -> None:
+    """Take vehicle ``i`` under the guard where its report puts it, with the point it may still be flying to
+    (as ``fly`` does: where its take-off left it, or the point it was last sent)."""
+    earlier = () if flying_to_m is None else (np.asarray(flying_to_m, dtype=np.float64),)
+    guard.join(i, np.asarray(report.position_m[:2]), bounds, now_s=now_s, earlier_m=earlier)
 
 
 def _measure(guard: FleetGuard, i: int, report: PositionReport | None, now_s: float) -> None:
@@ -345,10 +348,10 @@ def fly_trial(trial: Trial) -> TrialResult:
                 del reversals[i]
                 behind = copters[i].position_m[:2] - velocity / float(np.hypot(*velocity)) * back
                 set_goal(i, np.clip(behind, 0.0, np.asarray(trial.area_m)), now_s)
-        for i, (join_s, _) in list(joining.items()):
+        for i, (join_s, point) in list(joining.items()):
             if now_s >= join_s - 1e-9:
                 del joining[i]
-                _join(guard, i, copters[i].report(), bounds, now_s)
+                _join(guard, i, copters[i].report(), bounds, now_s, point)
         for due in [a for a in acks if a[0] <= now_s + 1e-9]:
             acks.remove(due)
             if due[3] and not _in(trial.silent, due[1], now_s):

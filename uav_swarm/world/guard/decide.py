@@ -11,7 +11,10 @@ if it is sent nothing: that is its hold). A pair already closer than that (homes
 guard can certify, a vehicle taken back, a bound broken) may only part: against such a pair
 (``parting``) a short step passes when every point of it is at least as far from the other's centre as
 the vehicle is (its distance grows along the whole step: the vehicle, at rest, flies along it), whatever
-it does to the discs; no other step passes. A disc of unknown radius (a vehicle never
+it does to the discs; no other step passes. Where no step towards its goal passes, or first where the
+discs overlap, such a vehicle **yields**: it is offered a step straight away from each vehicle it is
+inside with (a vehicle hovering makes room for one that came too close: taken back in flight, outside
+its bounds). A disc of unknown radius (a vehicle never
 measured) refuses every offer.
 No point passes: the vehicle is **held**: it is sent nothing and keeps flying to the point it has,
 inside its disc. No point is set further than ``max_step_m`` from the disc's centre, nor from where the
@@ -102,20 +105,31 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
     others = ~np.eye(k, dtype=bool)
     for i in (range(k) if order is None else (int(j) for j in order)):
         goal = goals_m[i]
-        if not may_send[i] or not np.all(np.isfinite(goal)) or not math.isfinite(radii[i]):
+        if not may_send[i] or not math.isfinite(radii[i]):
             continue
-        offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m, max_step_m)
+        offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m, max_step_m) \
+            if np.all(np.isfinite(goal)) else np.zeros((0, 2))
         if positions_m is not None and np.all(np.isfinite(positions_m[i])):
             offers = offers[np.hypot(*(offers - positions_m[i]).T) <= max_step_m + 1e-9]
+        if parting is not None and parting[i].any():  # then yield: straight away from each one inside
+            base = positions_m[i] if positions_m is not None and np.all(np.isfinite(positions_m[i])) \
+                else centres[i]
+            away = base - centres[parting[i]]
+            away = away / np.maximum(np.hypot(*away.T), 1e-9)[:, None] * min(parting_step_m, max_step_m)
+            overlap = np.hypot(*(centres[i] - centres[parting[i]]).T) < radii[i] + radii[parting[i]]
+            first = overlap.any()  # a disc overlapping its own: making room comes before its goal
+            offers = np.vstack([base + away, offers] if first else [offers, base + away])
         if offers.shape[0] == 0:
             continue
         grown = radii[i] + np.hypot(*(offers - centres[i]).T)  # (M,)
         apart = np.hypot(*(offers[:, None] - centres[None]).transpose(2, 0, 1)) - grown[:, None] - radii[None]
         ok = (apart >= threshold[i][None]) | ~others[i][None]  # (M, K)
         if parting is not None and parting[i].any():
-            step = offers - centres[i]  # (M, 2): parting when every point of it is farther from the other
-            away = step @ (centres[i] - centres).T >= 0.0  # (M, K): the distance grows along the whole step
-            short = np.hypot(*step.T) <= parting_step_m
+            base = positions_m[i] if positions_m is not None and np.all(np.isfinite(positions_m[i])) \
+                else centres[i]  # it flies from where it is to the offer
+            step = offers - base  # (M, 2): parting when every point of it is farther from the other
+            away = step @ (base - centres).T >= 0.0  # (M, K): the distance grows along the whole step
+            short = np.hypot(*step.T) <= parting_step_m + 1e-9
             ok = np.where(parting[i][None], away & short[:, None], ok)
         fine = ok.all(axis=1)
         if not fine[0]:

@@ -314,12 +314,15 @@ class FleetGuard:
         required = np.where(apart, self.required_m[owner[:, None], owner[None]], -np.inf)
         gaps = _gaps_m(centres, radii)
         parting = apart & np.isfinite(gaps) & (gaps < required)
-        for i in range(k):  # parts only a vehicle near rest at its point, not closing on the other
-            towards = centres - centres[i]
+        for i in range(k):  # parts a vehicle at rest at its point, or already flying straight away
+            towards = centres - self._position[i]
             with np.errstate(invalid="ignore", divide="ignore"):
-                closing = (towards @ self._velocity[i]) / np.hypot(*towards.T)
-            at_point = float(np.hypot(*(self._position[i] - centres[i]))) <= _AT_POINT_M
-            parting[i] &= at_point & (np.hypot(*self._velocity[i]) <= self.parting_speed_m_s) & ~(closing > 0.5)
+                closing = (towards @ self._velocity[i]) / np.hypot(*towards.T)  # its speed towards each
+            speed = float(np.hypot(*self._velocity[i]))
+            at_rest = (float(np.hypot(*(self._position[i] - centres[i]))) <= _AT_POINT_M
+                       and speed <= self.parting_speed_m_s)
+            fleeing = -closing >= 0.9 * speed  # its velocity points away from that one
+            parting[i] &= (at_rest & ~(closing > 0.5)) | (fleeing & (speed > self.parting_speed_m_s))
         parting[k:] = False
         order = np.argsort(-waited, kind="stable")  # the longest held first, then by index
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
