@@ -199,8 +199,10 @@ def _copter(trial: Trial, start_m: np.ndarray, rng: np.random.Generator) -> Poin
 # -- the guard's interface, in one place --------------------------------------------------------
 def _join(guard: FleetGuard, i: int, report: PositionReport, bounds: Bounds, now_s: float,
           flying_to_m: np.ndarray | None = None) -> None:
-    """Take vehicle ``i`` under the guard where its report puts it, with the point it may still be flying to
-    (as ``fly`` does: where its take-off left it, or the point it was last sent)."""
+    """Take vehicle ``i`` under the guard where its report puts it, with the point it may still fly to.
+
+    As ``fly`` does: where its take-off left it, or the point it was last sent.
+    """
     earlier = () if flying_to_m is None else (np.asarray(flying_to_m, dtype=np.float64),)
     guard.join(i, np.asarray(report.position_m[:2]), bounds, now_s=now_s, earlier_m=earlier)
 

@@ -23,11 +23,11 @@ which needs no measurement (:meth:`FleetGuard.silent`), and the column over its 
 link-loss failsafe may take it home. Only a vehicle known to be on the ground leaves
 (:meth:`FleetGuard.leave`). A vehicle joins with the points it may still be flying to
 (:meth:`FleetGuard.join`'s ``earlier_m``) and an unknown radius until measured; an unknown disc
-refuses every offer near it. A pair closer than required (homes a few metres apart, a vehicle taken back) may only
-**part**: a vehicle at rest at its point steps at most ``parting_step_m`` along a segment whose every
-point is at least as far from the other's centre as it is (:func:`~uav_swarm.world.guard.decide.choose_points`).
-Decisions go to the vehicle held longest first
-(priority rotates to who waits), and no point is committed more than ``max_step_m`` ahead. One lock
+refuses every offer near it. A pair closer than required (homes a few metres apart, a vehicle
+taken back) may only **part** or **yield**: a vehicle at rest at its point (or already flying straight
+away) steps at most ``parting_step_m`` along a segment whose every point is at least as far from the
+other's centre as it is (:func:`~uav_swarm.world.guard.decide.choose_points`). Decisions go to the
+vehicle held longest first (priority rotates to who waits), and no point is committed more than ``max_step_m`` ahead. One lock
 serialises every call (the flight's loop and its sending threads).
 
 Examples:
@@ -157,7 +157,7 @@ class FleetGuard:
             self._joining.discard(i)
             self._stale.discard(i)
             self._outside.pop(i, None)
-    
+
     def silent(self, i: int, home_m: np.ndarray | None = None) -> None:
         """Vehicle ``i`` is heard no more, or has no position: it keeps its disc and is sent nothing.
 
@@ -329,7 +329,8 @@ class FleetGuard:
                                             detour, self.detour_m, self.area_m, order=order,
                                             max_step_m=self.max_step_m, parting=parting,
                                             parting_step_m=self.parting_step_m,
-                                            positions_m=np.vstack([self._position, np.full((n - k, 2), np.nan)]))
+                                            positions_m=np.vstack([self._position, np.full((n - k, 2),
+                                                                                           np.nan)]))
         blockers = np.where(blockers >= k, owner[np.maximum(blockers, 0)], blockers)
         decisions = []
         for i in range(k):
