@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from uav_swarm.world.crowd import CrowdSim
+from uav_swarm.world.crowd import CrowdSim, _Scratch, _wall_reach_m
 from uav_swarm.world.scenario import Scenario
 from uav_swarm.world.walls import SKIN_M
 from uav_swarm.world.walls_batch import BatchedWalls, walls_near_cells
@@ -189,6 +189,7 @@ class BatchedCrowd(CrowdSim):
         self.max_speeds_m_s = np.concatenate([sim.max_speeds_m_s for sim in parts])
         for array in (self.desired_speeds_m_s, self.max_speeds_m_s):
             array.flags.writeable = False
+        self._wall_reach_m = _wall_reach_m(self.max_speeds_m_s, self.dt_s)
         positions, velocities, route_position, reached, time_s = zip(*states, strict=True)
         self._positions = np.concatenate(positions).reshape(-1, 2)
         self._velocities = np.concatenate(velocities).reshape(-1, 2)
@@ -200,6 +201,7 @@ class BatchedCrowd(CrowdSim):
         self._walls = self._batched_walls(parts)
         self._world_starts = self.offsets
         self._sweep_order = np.arange(self.offsets[-1], dtype=np.int64)
+        self._scratch = _Scratch(self._route_length[self.group_ids])
 
     def _batched_walls(self, parts: list[CrowdSim]) -> BatchedWalls:
         """The walls of ``parts``, with the cell lists of the crowds seen before taken from the cache."""
