@@ -43,9 +43,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("uav_swarm", "typed_config", "learning", "bridge")
-CROWD_FILES = ("uav_swarm/world/crowd.py", "uav_swarm/world/crowd_batch.py")  # replaced by their old versions
 KERNEL = "uav_swarm/world/pair_forces.py"
+PACKAGES = ("uav_swarm", "typed_config", "learning", "bridge")
+CROWD_FILES = ("uav_swarm/world/crowd.py", "uav_swarm/world/crowd_batch.py", "uav_swarm/world/walls.py",
+               "uav_swarm/world/walls_batch.py", KERNEL)  # replaced by their old versions (if they existed)
 N_UAVS = 10
 GROUPS = {200: 5, 516: 6, 1000: 10}  # pedestrians -> groups of equal size
 Clocks = tuple[dict[str, list[float]], dict[str, list[float]]]  # wall, CPU seconds per step and round
@@ -196,7 +197,8 @@ def before_tree(rev: str | None, folder: Path) -> str:
             if (ROOT / package).is_dir():
                 shutil.copytree(ROOT / package, folder / package, ignore=shutil.ignore_patterns("*.pyc"))
         for name in CROWD_FILES:
-            (folder / name).write_text(git("show", f"{commit}:{name}") + "\n", encoding="utf-8")
+            if git("ls-tree", "--name-only", commit, "--", name):
+                (folder / name).write_text(git("show", f"{commit}:{name}") + "\n", encoding="utf-8")
     except subprocess.CalledProcessError as error:
         raise SystemExit(f"--before {rev}: {error.stderr.strip()}") from None
     return commit[:10]
