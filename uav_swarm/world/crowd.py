@@ -1,4 +1,4 @@
-"""Vectorised social-force crowd in the spirit of libpedsim (Pedsim): pedestrians walk their group's route.
+"""Compiled social-force crowd in the spirit of libpedsim (Pedsim): pedestrians walk their group's route.
 
 Each step (explicit Euler, ``dt_s``) sums, per pedestrian ``i`` (accelerations in m/s²):
 
@@ -20,6 +20,10 @@ loses its normal component (the pedestrian slides along the wall); a move that s
 few corrections is cancelled. A pedestrian switches to the next waypoint of its route once inside the
 current waypoint's circle; routes loop. Dynamics are deterministic: the generator is used only at
 construction (spawn positions, desired speeds).
+
+The step is a few numba loops over the pedestrians of every world (goals, walls, pair forces, cohesion,
+then the Euler step with the walls' corrections and the route bookkeeping), into buffers kept between
+steps; :class:`~uav_swarm.world.crowd_batch.BatchedCrowd` runs the same loops over B stacked worlds.
 """
 
 from __future__ import annotations
@@ -98,7 +102,7 @@ class CrowdConfig(Config):
 
 
 class CrowdSim:
-    """The crowd of a :class:`Scenario`, stepped with a vectorised social-force model.
+    """The crowd of a :class:`Scenario`, stepped with a compiled social-force model.
 
     Args:
         scenario: Obstacles, waypoints and groups; pedestrians spawn uniformly in their group's

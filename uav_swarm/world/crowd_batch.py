@@ -6,10 +6,9 @@ bit for bit as the same crowd stepped alone (same equations, same operations in 
 - pedestrians of all copies are stacked, copy by copy, in one ``(N, 2)`` array (``copy_index``,
   ``offsets``); group, waypoint and route indices are made global by offsets;
 - every copy's walls (obstacles, the four area bounds, then padding) get global indices; each copy's
-  area is cut into square cells that list the walls within reach, so wall distances are ``(K, N)``
-  arrays (K: the most walls near one cell) gathered per pedestrian
-  (:class:`~uav_swarm.world.walls_batch.BatchedWalls`): the cost is linear in B and does not grow with
-  the number of walls far away;
+  area is cut into square cells that list the walls within reach, and a pedestrian meets only the walls
+  of its cell (:class:`~uav_swarm.world.walls_batch.BatchedWalls`): the cost is linear in B and does not
+  grow with the number of walls far away;
 - the pair forces come from the compiled kernel :func:`~uav_swarm.world.pair_forces.pair_forces` that
   :class:`CrowdSim` calls for one world, here over the B copies (``offsets``): it never pairs two copies,
   and sums each pedestrian's pair forces in an order fixed by its own copy.
