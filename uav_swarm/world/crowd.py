@@ -255,7 +255,7 @@ class CrowdSim:
         walls.steer_around(p, s.target, s.goal_m, s.direction)
         pair_forces_into(p, s.direction, self._world_starts, self._sweep_order, cfg.neighbour_cutoff_m,
                          cfg.ped_repulsion_m_s2, cfg.ped_repulsion_range_m, cfg.pedestrian_radius_m,
-                         cfg.ped_anisotropy, s.pair_force, s.rows, s.pairs)
+                         cfg.ped_anisotropy, s.pair_force, s.rows, s.sorted_m, s.pairs)
         if cfg.group_cohesion_m_s2 == 0:
             s.cohesion[:] = 0.0
         else:
@@ -286,7 +286,8 @@ class _Scratch:
         self.route_length = route_length
         self.target = np.empty(n, dtype=np.int64)
         self.goal_m, self.direction, self.pair_force, self.cohesion = np.empty((4, n, 2))
-        self.rows = np.empty(n, dtype=np.int64)
+        self.rows = np.empty((2, n), dtype=np.int64)
+        self.sorted_m = np.empty((2, n))
         self.pairs = np.empty((2, PAIRS_AT_ONCE), dtype=np.int64)
         self._retired: list[np.ndarray] = []  # the positions and velocities replaced at the last step
 

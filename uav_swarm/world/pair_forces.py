@@ -125,7 +125,8 @@ def pair_forces(positions_m: np.ndarray, directions: np.ndarray, world_starts: n
     n = positions_m.shape[0]
     out = np.empty((n, 2))
     pair_forces_into(positions_m, directions, world_starts, order, cutoff_m, strength_m_s2, range_m, radius_m,
-                     anisotropy, out, np.empty(n, np.int64), np.empty((2, PAIRS_AT_ONCE), np.int64))
+                     anisotropy, out, np.empty((2, n), np.int64), np.empty((2, n)),
+                     np.empty((2, PAIRS_AT_ONCE), np.int64))
     return out
 
 
@@ -133,11 +134,12 @@ def pair_forces(positions_m: np.ndarray, directions: np.ndarray, world_starts: n
 def pair_forces_into(positions_m: np.ndarray, directions: np.ndarray, world_starts: np.ndarray,
                      order: np.ndarray, cutoff_m: float, strength_m_s2: float, range_m: float,
                      radius_m: float, anisotropy: float, out: np.ndarray, rows: np.ndarray,
-                     pairs: np.ndarray) -> None:
+                     sorted_m: np.ndarray, pairs: np.ndarray) -> None:
     """:func:`pair_forces` written into ``out`` ``(N, 2)``, allocating nothing.
 
-    ``rows`` ``(N,)`` int64 and ``pairs`` ``(2, PAIRS_AT_ONCE)`` int64 are buffers (the pairs found,
-    whose forces are then added in the order found).
+    Buffers: ``rows`` ``(2, N)`` int64 (each pedestrian's row, and the rows in sweep order), ``sorted_m``
+    ``(2, N)`` (the positions in sweep order), ``pairs`` ``(2, PAIRS_AT_ONCE)`` int64 (the close pairs
+    found, whose forces are then added in the order found).
     """
     n = positions_m.shape[0]
     out[:] = 0.0
@@ -149,39 +151,39 @@ def pair_forces_into(positions_m: np.ndarray, directions: np.ndarray, world_star
     front = anisotropy + half
     capacity = pairs.shape[1]
     p = positions_m
+    row_of, rs, xs, ys = rows[0], rows[1], sorted_m[0], sorted_m[1]
     for k in range(n):
-        rows[k] = math.floor(p[k, 1] * row_scale)
+        row_of[k] = math.floor(p[k, 1] * row_scale)
     for w in range(world_starts.shape[0] - 1):
         start, end = world_starts[w], world_starts[w + 1]
-        _sort_world(order, rows, p, start, end)
+        _sort_world(order, row_of, p, start, end)
+        for a in range(start, end):  # the sweep reads contiguous copies
+            rs[a], xs[a], ys[a] = row_of[order[a]], p[order[a], 0], p[order[a], 1]
         q = start  # first of the next row within the window of the current pedestrian
         count = 0  # pairs found, their forces not added yet
         for a in range(start, end):
             i = order[a]
-            row, x, y = rows[i], p[i, 0], p[i, 1]
+            row, x, y = rs[a], xs[a], ys[a]
             b = a + 1
-            while b < end and rows[order[b]] == row and p[order[b], 0] - x <= window:
+            while b < end and rs[b] == row and xs[b] - x <= window:
                 if count == capacity:
                     _add_pairs(p, directions, pairs, count, start, strength_m_s2, range_m, contact_m, front,
                                half, out)
                     count = 0
-                j = order[b]
-                dx, dy = x - p[j, 0], y - p[j, 1]
-                pairs[0, count], pairs[1, count] = i, j
+                dx, dy = x - xs[b], y - ys[b]
+                pairs[0, count], pairs[1, count] = i, order[b]
                 count += dx * dx + dy * dy <= cutoff2  # kept only if close: no branch to mispredict
                 b += 1
-            while q < end and (rows[order[q]] <= row or (rows[order[q]] == row + 1
-                                                          and p[order[q], 0] < x - window)):
+            while q < end and (rs[q] <= row or (rs[q] == row + 1 and xs[q] < x - window)):
                 q += 1
             b = q
-            while b < end and rows[order[b]] == row + 1 and p[order[b], 0] <= x + window:
+            while b < end and rs[b] == row + 1 and xs[b] <= x + window:
                 if count == capacity:
                     _add_pairs(p, directions, pairs, count, start, strength_m_s2, range_m, contact_m, front,
                                half, out)
                     count = 0
-                j = order[b]
-                dx, dy = x - p[j, 0], y - p[j, 1]
-                pairs[0, count], pairs[1, count] = i, j
+                dx, dy = x - xs[b], y - ys[b]
+                pairs[0, count], pairs[1, count] = i, order[b]
                 count += dx * dx + dy * dy <= cutoff2
                 b += 1
         _add_pairs(p, directions, pairs, count, start, strength_m_s2, range_m, contact_m, front, half, out)
