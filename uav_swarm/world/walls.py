@@ -13,15 +13,14 @@
 
 A pedestrian's candidate walls are those its cell lists (:class:`Walls` has one cell listing every wall;
 :class:`~uav_swarm.world.walls_batch.BatchedWalls` cuts each copy's area into cells listing the walls
-within reach); the per-pedestrian work is compiled (numba), one loop over the pedestrians of every world,
-the operations being those of the numpy version before it, in the same order (the exponentials are
-numpy's: a pedestrian moves to the bit as it did). A pedestrian meets its candidate walls in ascending
-order, so its forces sum alike whatever the cells.
+within reach); the per-pedestrian work is compiled (numba), one loop over the pedestrians of every world
+(the exponentials of the repulsion are numpy's, taken between two compiled loops). A pedestrian meets its
+candidate walls in ascending order, so its forces sum alike whatever the cells.
 
 Examples:
-    >>> from uav_swarm.world.scenario import Group, Scenario, Waypoint
+    >>> from uav_swarm.world.scenario import AgentGroup, Scenario, Waypoint
     >>> scenario = Scenario(10.0, 10.0, np.array([[5.0, 0.0, 5.0, 8.0]]), (Waypoint("g", 9.0, 5.0, 1.0),),
-    ...                     (Group(1, (1.0, 4.0, 2.0, 6.0), ("g",)),))
+    ...                     (AgentGroup(1.5, 5.0, 1.0, 2.0, 1, ("g",)),))
     >>> walls = Walls(scenario, 1)
     >>> p, reach = np.array([[4.0, 5.0]]), np.array([1.52])
     >>> force = walls.repulsion(p, 10.0, 0.2, 0.25, 1.5, reach)
