@@ -4,10 +4,11 @@ For each crowd size (default 200 pedestrians per copy, 5 groups of 40; 516, the 
 6 groups of 86; 1,000, 10 groups of 100) and 10 UAVs, in one run:
 
 - ``copies`` copies (default 64): one ``BatchedUAVSwarm(copies)`` and ``copies`` separate ``uav_swarm_v0``
-  parallel envs stepped in a Python loop, both with the current crowd and with the crowd before its pair
-  forces were compiled ("before": ``uav_swarm/world/crowd.py`` and ``crowd_batch.py`` as they were at
-  ``--before``, by default the commit before ``uav_swarm/world/pair_forces.py`` was added, put over a
-  copy of the current packages in a temporary folder); with ``--vmas``, also VMAS's ``navigation``
+  parallel envs stepped in a Python loop, both with the current crowd and with the crowd of another commit
+  ("before": the crowd's files, ``uav_swarm/world/crowd.py``, ``crowd_batch.py``, ``walls.py``,
+  ``walls_batch.py`` and ``pair_forces.py``, as they were at ``--before`` (those it had), by default the
+  commit before ``uav_swarm/world/pair_forces.py`` was added, put over a copy of the current packages in a
+  temporary folder); with ``--vmas``, also VMAS's ``navigation``
   scenario with ``num_envs=copies`` and 10 agents on the CPU (the ``bench`` extra);
 - one env (``uav_swarm_v0``, one copy) with the current crowd and with the one before.
 
@@ -306,6 +307,7 @@ def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> N
         rate = copies * N_UAVS / statistics.fmean(clocks[1]["batched"])
         report("batched/separate now", "separate", "batched", clocks, f"   ({rate:.0f} agent-steps/CPU-s)")
         report("batched/separate before", "separate before", "batched before", clocks)
+        report("batched now/separate before", "separate before", "batched", clocks)
         report("batched now/before", "batched before", "batched", clocks, "   as fast")
         report("separate now/before", "separate before", "separate", clocks, "   as fast")
         if args.vmas:
