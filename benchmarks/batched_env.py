@@ -73,7 +73,11 @@ def stepper(kind: str, copies: int, pedestrians: int) -> Callable[[], None]:
         batch = BatchedUAVSwarm(copies, n_uavs=N_UAVS, scenario=crowd_of(pedestrians), max_cycles=10**6)
         batch.reset(seed=0)
         assert (batch.crowd.counts() == pedestrians).all()
-        return lambda: batch.step(rng.uniform(-1.0, 1.0, size=(copies, N_UAVS, 2)))
+
+        def step_batch() -> None:
+            batch.step(rng.uniform(-1.0, 1.0, size=(copies, N_UAVS, 2)))
+
+        return step_batch
     if kind == "separate":
         from uav_swarm.env.parallel import parallel_env
 
