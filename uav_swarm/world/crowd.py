@@ -357,13 +357,12 @@ def _goals(p: np.ndarray, group_ids: np.ndarray, route_start: np.ndarray, route_
 
 @numba.njit(cache=True, nogil=True)
 def _advance(p: np.ndarray, v: np.ndarray, direction: np.ndarray, desired_m_s: np.ndarray,
-             max_m_s: np.ndarray,
-             pair: np.ndarray, wall: np.ndarray, cohesion: np.ndarray, relaxation_s: float, dt_s: float,
-             goal_m: np.ndarray, target: np.ndarray, waypoint_radius_m: np.ndarray, has_route: np.ndarray,
-             route_length: np.ndarray, route_position: np.ndarray, waypoints_reached: np.ndarray,
-             start: np.ndarray, contact_wall: np.ndarray, dist2: np.ndarray, wall_a: np.ndarray,
-             wall_unit: np.ndarray, wall_length: np.ndarray, positions: np.ndarray,
-             v_new: np.ndarray) -> None:
+             max_m_s: np.ndarray, pair: np.ndarray, wall: np.ndarray, cohesion: np.ndarray,
+             relaxation_s: float, dt_s: float, goal_m: np.ndarray, target: np.ndarray,
+             waypoint_radius_m: np.ndarray, has_route: np.ndarray, route_length: np.ndarray,
+             route_position: np.ndarray, waypoints_reached: np.ndarray, start: np.ndarray,
+             contact_wall: np.ndarray, dist2: np.ndarray, wall_a: np.ndarray, wall_unit: np.ndarray,
+             wall_length: np.ndarray, positions: np.ndarray, v_new: np.ndarray) -> None:
     """One explicit Euler step under the summed forces, speeds capped, moves kept off the walls; compiled.
 
     Writes the new positions and velocities into ``positions`` and ``v_new``; a pedestrian that reaches
