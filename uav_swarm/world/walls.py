@@ -68,7 +68,6 @@ class Walls:
         self.segments = np.vstack([scenario.obstacles, bounds])
         self.segments.flags.writeable = False
         self.n_obstacles: int | np.ndarray = len(scenario.obstacles)  # (B,) in BatchedWalls
-        self._obstacles = scenario.obstacles
         self._is_obstacle = np.arange(len(self.segments)) < self.n_obstacles
         self._a = self.segments[:, :2].copy()
         self._w = self.segments[:, 2:] - self._a
