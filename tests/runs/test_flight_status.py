@@ -111,11 +111,11 @@ def test_the_take_off_gate_names_whose_turn_it_is_and_what_blocks_a_column(fligh
     others = [threading.Thread(target=take_off, args=(sid,), daemon=True) for sid in (2, 3)]
     for thread in others:
         thread.start()
-    assert _eventually(lambda: "vehicle 3 in the take-off gate" in status.line(time.monotonic()))
+    assert _eventually(lambda: "vehicle 3 waits its turn" in status.line(time.monotonic()))
     line = status.line(time.monotonic())
-    assert "vehicle 1 arming (its turn in the take-off gate)" in line
-    assert "vehicle 2 in the take-off gate: its turn, after vehicle 1 taking off, then" not in line
-    assert "vehicle 3 in the take-off gate: its turn, after vehicle 1 taking off, then vehicle 2" in line
+    assert "vehicle 1 arming (its turn to take off)" in line
+    assert "vehicle 2 waits its turn to take off, after vehicle 1 (taking off);" in line
+    assert "vehicle 3 waits its turn to take off, after vehicles 1 (taking off), 2;" in line
     # vehicle 1 hovers 3 m from vehicle 2's home: when its turn is over, vehicle 2's column is not clear
     hovering = VehicleState(system_id=1, armed=True, x_m=13.0, y_m=0.0, z_m=10.0, relative_alt_m=10.0,
                             lat_deg=0.0, lon_deg=0.0, position_time_s=time.time())
@@ -123,9 +123,9 @@ def test_the_take_off_gate_names_whose_turn_it_is_and_what_blocks_a_column(fligh
     release.set()
     first.join(5.0)
     need_m = safety.guard.need_m
-    assert _eventually(lambda: f"vehicle 2 in the take-off gate: its column clear (vehicle 1 3.0 m from its "
-                               f"home, {need_m:g} m needed)" in status.line(time.monotonic()))
-    assert "vehicle 3 in the take-off gate: its turn, after vehicle 2" in status.line(time.monotonic())
+    assert _eventually(lambda: f"vehicle 2 waits for its column to clear: vehicle 1 3.0 m from its home "
+                               f"({need_m:g} m needed)" in status.line(time.monotonic()))
+    assert "vehicle 3 waits its turn to take off, after vehicle 2;" in status.line(time.monotonic())
     flight.stop()
     for thread in others:
         thread.join(5.0)
@@ -151,7 +151,7 @@ def test_holds_are_counted_and_timed_per_vehicle_and_reason():
     assert totals == {(1, ("held", 2)): (2, 3.0), (1, ("held", 3)): (1, 0.5), (2, ("stale", None)): (1, 0.5)}
     assert holds.holding(1) == (("held", 2), 4.0) and holds.holding(2) is None
     assert holds_text(holds.to_dict(now_s=5.0)[1]) == (
-        "held 3 times, 3.5 s: held for vehicle 2 2 times 3.0 s, held for vehicle 3 once 0.5 s")
+        "held 3 times, 3.5 s in all: for vehicle 2 2 times 3.0 s, for vehicle 3 once 0.5 s")
 
 
 def test_the_end_report_names_a_vehicle_never_launched_and_the_closest_pair_in_flight():
@@ -163,7 +163,7 @@ def test_the_end_report_names_a_vehicle_never_launched_and_the_closest_pair_in_f
             {"system_id": 2, "uav_id": 1, "status": "ended", "launched": True, "outcome": "ended (RTL sent)",
              "launches": 1, "command_failures": 1, "holds": []},
             {"system_id": 3, "uav_id": 2, "status": "ended", "launched": False,
-             "outcome": "not launched (the flight ended before its take-off: in the take-off gate: its turn)",
+             "outcome": "not launched (the flight ended before its take-off: waits its turn to take off)",
              "launches": 1, "command_failures": 0, "holds": []}],
         "separation": {"min_separation_m": 5.0, "closest_m": 6.0, "closest_pair": [0, 1], "closest_t_s": 0.0,
                        "closest_in_flight_m": 8.31, "closest_in_flight_pair": [0, 1],
@@ -174,12 +174,11 @@ def test_the_end_report_names_a_vehicle_never_launched_and_the_closest_pair_in_f
         "service": {"flown_qos": 0.5, "static_reference_qos": 0.8, "flown_over_static": 0.625},
         "static_reference": {"strategy": 1}}
     assert end_report(summary) == [
-        "vehicle 1 (uav 0): ended (RTL sent), 1 launch, 0 command failures; held 4 times, 12.5 s: held for "
-        "vehicle 2 4 times 12.5 s",
+        "vehicle 1 (uav 0): ended (RTL sent), 1 launch, 0 command failures; held 4 times, 12.5 s in all: "
+        "for vehicle 2 4 times 12.5 s",
         "vehicle 2 (uav 1): ended (RTL sent), 1 launch, 1 command failure; not held",
-        "vehicle 3 (uav 2): not launched (the flight ended before its take-off: in the take-off gate: its "
-        "turn)",
+        "vehicle 3 (uav 2): not launched (the flight ended before its take-off: waits its turn to take off)",
         "separation (minimum 5 m): closest pair in flight 8.3 m (vehicles 1 and 2 at 12.0 s), 0 conflicts, "
         "0.0 s below the minimum, 4 holds by the guard",
-        "30 s flown with expert: QoS S1 0.500 against 0.800 for the static reference (62 % of it); "
-        "mean QoS S1 0.500, S2 0.250, mean throughput 2.00 Mbps (paper)"]
+        "30 s flown with expert: mean QoS S1 0.500 against 0.800 for the static reference (62 % of it); "
+        "S2 0.250, mean throughput 2.00 Mbps (paper)"]

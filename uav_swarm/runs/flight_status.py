@@ -25,7 +25,7 @@ Examples:
     >>> holds.to_dict(now_s=13.0)[2]
     [{'reason': 'held', 'for_vehicle': 3, 'holds': 1, 'held_s': 3.0}]
     >>> holds_text(holds.to_dict(now_s=13.0)[4])
-    'held once, 0.5 s: stale position once 0.5 s'
+    'held once, 0.5 s in all: stale position once 0.5 s'
 """
 
 from __future__ import annotations
@@ -133,12 +133,17 @@ def holds_text(entries: Sequence[Mapping[str, Any]]) -> str:
         return "not held"
     n = sum(e["holds"] for e in entries)
     total_s = sum(e["held_s"] for e in entries)
-    parts = ", ".join(f"{reason_text((e['reason'], e['for_vehicle']))} {_times(e['holds'])} "
-                      f"{e['held_s']:.1f} s" for e in entries)
-    return f"held {_times(n)}, {total_s:.1f} s: {parts}"
+    parts = ", ".join(f"{_short((e['reason'], e['for_vehicle']))} {_times(e['holds'])} {e['held_s']:.1f} s"
+                      for e in entries)
+    return f"held {_times(n)}, {total_s:.1f} s in all: {parts}"
 
 
-def _ids(sids: Sequence[int]) -> str:
+def _short(reason: Reason) -> str:
+    """``"for vehicle 3"``, ``"stale position"``, ``"outside its disc"``."""
+    return reason_text(reason).removeprefix("held ") or "held"
+
+
+def _ids(sids: Sequence[int | str]) -> str:
     return ("vehicle " if len(sids) == 1 else "vehicles ") + ", ".join(str(s) for s in sids)
 
 
@@ -228,7 +233,7 @@ class FlightStatus:
 
     def _note_armed(self) -> None:
         for vehicle in self._flight.vehicles:
-            if vehicle.system_id in self.launched or vehicle.status in ("waiting", "not found", "failed"):
+            if vehicle.system_id in self.launched or vehicle.status in ("waiting", "not found"):
                 continue
             state = self._flight._state(vehicle)
             if state is not None and state.armed:
@@ -252,7 +257,7 @@ class FlightStatus:
             parts.append(counts)
         held = self._holds_since_last(time.time())
         if held:
-            parts.append(f"guard holds in the last {self.every_s:g} s: {held}")
+            parts.append(f"held in the last {self.every_s:g} s: {held}")
         return "; ".join(parts)
 
     def _counts(self) -> str:
@@ -263,13 +268,21 @@ class FlightStatus:
         return ", ".join(f"{len(by[s])} {s}" for s in order if s in by)
 
     def _holds_since_last(self, now_s: float) -> str:
+        """Each vehicle held since the last line: seconds held and for what (``vehicle 2 4.8 s (for 3)``)."""
         totals = self._flight.safety.holds.totals(now_s)
-        parts = []
-        for (sid, reason), (n, s) in sorted(totals.items(), key=lambda kv: (kv[0][0], -kv[1][1])):
+        by: dict[int, list[tuple[float, Reason]]] = {}
+        for (sid, reason), (n, s) in totals.items():
             n0, s0 = self._last_holds.get((sid, reason), (0, 0.0))
             if n > n0 or s - s0 >= 0.05:
-                parts.append(f"vehicle {sid} {reason_text(reason)} {s - s0:.1f} s")
+                by.setdefault(sid, []).append((s - s0, reason))
         self._last_holds = totals
+        parts = []
+        for sid, held in sorted(by.items()):
+            reasons = [r for _, r in sorted(held, key=lambda h: -h[0])]
+            blockers = [str(b) for state, b in reasons if state == "held" and b is not None]
+            named = (["for " + ", ".join(blockers)] if blockers else []) + [
+                _short(r) for r in reasons if r[0] != "held"]
+            parts.append(f"vehicle {sid} {sum(h for h, _ in held):.1f} s ({'; '.join(named) or 'held'})")
         return ", ".join(parts)
 
     def _wait_of(self, vehicle: FlightVehicle) -> str:
@@ -299,12 +312,12 @@ class FlightStatus:
         stage = self._stage.get(sid)
         if stage == "turn":
             if state is None or not state.armed:
-                return "arming (its turn in the take-off gate)"
+                return "arming (its turn to take off)"
             alt_m = self._flight.safety.cruise_alt_m[sid]
             height = "?" if state.relative_alt_m is None else f"{state.relative_alt_m:.1f}"
             return f"climbing ({height} of {alt_m:g} m)"
         if stage == "queued":
-            return "in the take-off gate: " + self._gate_wait(vehicle)
+            return self._gate_wait(vehicle)
         if state is None or not state.has_fix:
             return "its position fix"
         return "its guided mode"
@@ -315,27 +328,31 @@ class FlightStatus:
         climbing = [s for s, st in stages.items() if st == "turn"]
         ahead = sorted((s for s, st in stages.items() if st == "queued" and ranks[s] < vehicle.uav_id),
                        key=ranks.__getitem__)
-        if climbing:
-            after = f", then {_ids(ahead)}" if ahead else ""
-            return f"its turn, after {_ids(climbing)} taking off{after}"
-        if ahead:
-            return f"its turn, after {_ids(ahead)}"
+        if climbing or ahead:
+            first = [f"{s} (taking off)" for s in climbing]
+            return f"waits its turn to take off, after {_ids(first + [str(s) for s in ahead])}"
         safety = self._flight.safety
         blockers = safety.column_blockers(vehicle.system_id)
         if not blockers:
-            return "its column clear"
+            return "has its turn to take off"
         near = ", ".join(f"vehicle {s} {d:.1f} m" for s, d in blockers)
-        return f"its column clear ({near} from its home, {safety.guard.need_m:g} m needed)"
+        return f"waits for its column to clear: {near} from its home ({safety.guard.need_m:g} m needed)"
 
     def _return_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
-        sid = self._flight.safety.homes_m
-        home = sid.get(vehicle.system_id)
+        home = self._flight.safety.homes_m.get(vehicle.system_id)
         if home is None or state is None or state.x_m is None or state.y_m is None:
-            return "its return home (no position)"
-        away_m = math.hypot(state.x_m - home[0], state.y_m - home[1])
+            return "returning home (no position)"
+        away = f"{math.hypot(state.x_m - home[0], state.y_m - home[1]):.1f} m from home"
         hold = self._flight.safety.holds.holding(vehicle.system_id)
-        held = "" if hold is None else f", {reason_text(hold[0])} for {time.time() - hold[1]:.0f} s"
-        return f"its return home ({away_m:.1f} m away{held})"
+        if hold is None:
+            return away
+        (state_held, blocker), since_s = hold
+        text = reason_text((state_held, blocker))
+        other = self._flight._by_sid.get(blocker) if blocker is not None else None
+        if other is not None and other.status in ("ending", "ended"):
+            text += " (landing in RTL)"
+        held_s = time.time() - since_s
+        return f"{away}, {text}" + (f" for {held_s:.0f} s" if held_s >= 1.0 else "")
 
 
 # -- the end report ---------------------------------------------------------------------------------
@@ -403,13 +420,14 @@ def end_report(summary: Mapping[str, Any]) -> list[str]:
     if "mean_qos_s1" in summary:
         service = summary.get("service", {})
         strategy = summary.get("static_reference", {}).get("strategy", 1)
-        flown, static = service.get("flown_qos"), service.get("static_reference_qos")
-        ratio = service.get("flown_over_static")
-        qos = f"QoS S{strategy} {flown:.3f}" if flown is not None else f"QoS S1 {summary['mean_qos_s1']:.3f}"
+        other = 2 if strategy == 1 else 1
+        flown = service.get("flown_qos", summary[f"mean_qos_s{strategy}"])
+        static, ratio = service.get("static_reference_qos"), service.get("flown_over_static")
+        qos = f"mean QoS S{strategy} {flown:.3f}"
         if static is not None:
             qos += f" against {static:.3f} for the static reference"
             qos += f" ({100 * ratio:.0f} % of it)" if ratio is not None else ""
-        lines.append(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: {qos}; mean QoS S1 "
-                     f"{summary['mean_qos_s1']:.3f}, S2 {summary['mean_qos_s2']:.3f}, mean throughput "
+        lines.append(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: {qos}; S{other} "
+                     f"{summary[f'mean_qos_s{other}']:.3f}, mean throughput "
                      f"{summary['mean_throughput_mbps']:.2f} Mbps ({summary['association']})")
     return lines
