@@ -189,7 +189,7 @@ def test_a_vehicle_without_a_link_loss_failsafe_is_refused_before_arming_unless_
         assert not (tmp_path / "out").exists()
         assert main([*argv, "--set-failsafe"]) == 0
         out = capsys.readouterr().out
-        assert "separation: closest pair" in out
+        assert "separation (minimum 5 m): closest pair in flight" in out
     finally:
         close_all(vehicles)
     assert vehicles[1].param("NAV_DLL_ACT") == 2.0 and ("NAV_DLL_ACT", 2.0) in vehicles[1].param_sets
