@@ -206,7 +206,7 @@ class FlightStatus:
 
         The line names the vehicles whose jobs still run, waiting for ``what``.
         """
-        pending = [(sid, job) for sid, job in jobs if job is not None]
+        pending = [(sid, job) for sid, job in jobs if job is not None and not job.done()]
         self._pending_what = what
         try:
             while pending:
