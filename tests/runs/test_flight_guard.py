@@ -49,12 +49,12 @@ def test_a_late_position_holds_the_vehicle_and_is_reported():
 
 def test_an_unacknowledged_point_stays_possible_and_is_reported():
     guard = FlightGuard(GuardConfig(command_delay_s=1.0), min_separation_m=5.0, n_vehicles=2)
-    rows = _rows([(0.0, 0.0), (60.0, 0.0)], [(20.0, 0.0), (60.0, 0.0)])
+    rows = _rows([(0.0, 0.0), (60.0, 0.0)], [(12.0, 0.0), (60.0, 0.0)])
     _joined(guard, rows, now_s=0.05)
     first = guard.decide(rows, now_s=0.1)
-    assert first[0].point_m == (20.0, 0.0)
+    assert first[0].point_m == (12.0, 0.0)
     guard.unacknowledged(0, first[0].seq, now_s=1.1)
-    assert guard.fleet.centre_m(0).tolist() == [20.0, 0.0]  # it may have arrived: the disc still covers it
+    assert guard.fleet.centre_m(0).tolist() == [12.0, 0.0]  # it may have arrived: the disc still covers it
     assert [kind for _, _, kind in guard.fleet.events] == ["command_unacknowledged"]
 
 

@@ -21,7 +21,7 @@ __all__ = ["FlightEnd"]
 
 logger = logging.getLogger(__name__)
 
-_HOME_M = 2.0  # a vehicle returning this close to its home (horizontally) is sent RTL
+_HOME_M = 3.0  # a vehicle returning this close to its home (horizontally) is sent RTL
 
 
 class FlightEnd(FlightLaunch):
@@ -46,8 +46,17 @@ class FlightEnd(FlightLaunch):
         if action == "rtl":
             self._return_home()
             status.enter("end")
-        heard = [v for v in self.vehicles
-                 if self._state(v) is not None and v.status not in ("landed", "ended")]
+        heard = []
+        for vehicle in self.vehicles:
+            state = self._state(vehicle)
+            if state is None or vehicle.status in ("landed", "ended"):
+                continue
+            if state.armed is False:  # on the ground: nothing to end (an RTL would be refused)
+                if vehicle.status != "live":
+                    self._event("not_launched", vehicle, vehicle.status)
+                    logger.warning("vehicle %d was not launched (%s)", vehicle.system_id, vehicle.status)
+                continue
+            heard.append(vehicle)
         jobs = [(v.system_id, self._pool.submit(self._end_one, v, action)) for v in heard]
         status.wait(jobs, f"the answer to its {action.upper()}")
         for _, job in jobs:

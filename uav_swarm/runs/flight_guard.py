@@ -6,7 +6,9 @@ times a second (``[guard] rate_hz``, at least 5) it takes each vehicle's measure
 judged from that; the time it was true is taken as ``position_age_s`` earlier, the soonest it may have
 been), and decides each steered vehicle's next
 point; a vehicle not steered (climbing, landing, flying home in RTL) is a disc the others keep away
-from. Each vehicle is planned with the smaller of ``[guard] accel_m_s2`` / ``jerk_m_s3`` and what it
+from, with the column over its home where it lands. A vehicle steered before that goes unheard, loses
+its fix or is being taken back keeps its disc (and its home column: its failsafe may take it home)
+until it is measured again; only one known to be on the ground leaves the guard. Each vehicle is planned with the smaller of ``[guard] accel_m_s2`` / ``jerk_m_s3`` and what it
 reports (:func:`bridge.flight.limits.read_horizontal_limits`, read before arming); the guard's limits
 are its own, apart from the env's ``[uav]`` kinematics.
 
@@ -78,6 +80,13 @@ class GuardConfig(Config):
                                         "(wind, gusts), metres")
     sidestep_after_s: float = param(2.0, ge=0.0, le=60.0,
                                     doc="a vehicle held this long may step round what blocks it, seconds")
+    slack_m: float = param(1.0, ge=0.0, le=10.0,
+                           doc="a pair closer than the guard can certify (homes a few metres apart, a vehicle "
+                               "taken back) may come this much closer than it was, on a step that parts it, "
+                               "metres")
+    max_step_m: float = param(16.0, ge=1.0, le=64.0,
+                              doc="the farthest ahead a vehicle is committed at a time, metres (shorter: "
+                                  "smaller certified discs, slower vehicles)")
     return_timeout_s: float = param(120.0, ge=0.0, le=3600.0,
                                     doc="at the end (RTL), vehicles fly home through the guard at most this "
                                         "long; then every one still away is sent RTL at once, seconds")
@@ -101,7 +110,9 @@ class FlightGuard:
         required = required_distances_m(min_separation_m, altitudes_m, n_vehicles)
         required = np.where(required > 0, required + config.margin_m, 0.0)
         self.fleet = FleetGuard(required, detour_after_s=config.sidestep_after_s, detour_m=self.need_m,
-                                area_m=area_m)
+                                area_m=area_m, slack_m=config.slack_m, max_step_m=config.max_step_m)
+        self.homes_m: dict[int, tuple[float, float]] = {}
+        """Each vehicle's home (East, North) by row, where its RTL or failsafe lands it."""
         self._bounds = [self._stated() for _ in range(n_vehicles)]
         self.limits: dict[int, HorizontalLimits] = {}
         self.states: dict[int, str] = {}
@@ -125,7 +136,7 @@ class FlightGuard:
         return self._bounds[row]
 
     def forget(self, row: int) -> None:
-        """Drop a vehicle (it landed, or was lost): it joins again where it is when steered again."""
+        """Drop a vehicle known to be on the ground (disarmed): it joins again when it flies again."""
         self.fleet.leave(row)
         self.states.pop(row, None)
 
@@ -134,13 +145,17 @@ class FlightGuard:
         apart = float(np.hypot(*(self.fleet.centre_m(a) - self.fleet.centre_m(b))))
         return apart - self.fleet.radius_m(a) - self.fleet.radius_m(b)
 
-    def decide(self, measured: Sequence[Measured], now_s: float, busy: Sequence[int] = ()) -> list[Decision]:
-        """One decision per row of ``measured`` (the rows absent are not flying).
+    def decide(self, measured: Sequence[Measured], now_s: float, busy: Sequence[int] = (),
+               returning: Sequence[int] = ()) -> list[Decision]:
+        """One decision per row of ``measured``; a row steered before and absent now keeps its disc.
 
         Args:
             measured: Each flying vehicle's measurement, goal and whether the guard steers it.
             now_s: The guard's clock (the stamps' clock), seconds.
             busy: Rows whose previous command is still being sent (they are sent nothing new).
+            returning: Rows flying home under their autopilot (RTL): a disc on their position and the
+                column over their home (the others not steered are climbing: a disc on their position,
+                or, taken back in flight, the disc they had).
         """
         fleet, k = self.fleet, len(self._bounds)
         goals = np.full((k, 2), np.nan)
@@ -149,20 +164,28 @@ class FlightGuard:
         for row, (x, y), (vx, vy), received_s, goal, steerable in measured:
             stamp_s = received_s - lag_s
             position, velocity = np.array([x, y]), np.array([vx, vy])
+            home = self.homes_m.get(row)
+            home_m = None if home is None else np.array(home)
+            if not steerable and row not in returning and fleet.joined(row):
+                fleet.silent(row, home_m)  # taken back in flight: still flying to a point it was sent
+                continue
             if not steerable:
                 bounds = self._bounds[row]
                 reach = float(bounds.radius_m(np.zeros(2), np.hypot(vx, vy)))
-                fleet.obstacle(row, position, reach)
+                fleet.obstacle(row, position, reach, home_m if row in returning else None)
                 continue
-            if not fleet.joined(row):
-                fleet.join(row, position, self._bounds[row], now_s=stamp_s)
+            if not fleet.joined(row):  # after its take-off it may still fly to where it took off
+                fleet.join(row, position, self._bounds[row], now_s=stamp_s,
+                           earlier_m=() if home_m is None else (home_m,))
             fleet.measure(row, position, velocity, stamp_s, now_s, received_s)
             steered.add(row)
             if goal is not None:
                 goals[row] = goal
+        listed = {m[0] for m in measured}
         for row in range(k):
-            if row not in steered and fleet.joined(row) and all(m[0] != row for m in measured):
-                fleet.leave(row)
+            if row not in listed:  # unheard, without a fix, or lost: its disc (or obstacle) stays
+                home = self.homes_m.get(row)
+                fleet.silent(row, None if home is None else np.array(home))
         for row in busy:
             goals[row] = np.nan
         decisions = fleet.decide(goals, now_s)

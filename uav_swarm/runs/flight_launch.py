@@ -2,7 +2,7 @@
 
 :class:`FlightLaunch` makes every vehicle heard ready (a position fix and its home, each waited for on
 its own, :meth:`bridge.flight.fleet.Fleet.wait_ready`) and checks them (take-off positions, link-loss
-failsafe, return altitude) before any is armed; then they take off one at a time
+failsafe, return altitude) before any is armed; then they take off together, each from a clear column
 (:mod:`bridge.flight.guided`), watched by the guard from their take-off on. A vehicle silent for
 ``flight.link_timeout_s`` is lost and replanned around, and launched again (checked first) when heard;
 a live vehicle seen disarmed is left out.

@@ -7,7 +7,7 @@ AUTO), through the separation guard (:mod:`uav_swarm.runs.flight_safety`), which
 whose predicted track comes too close to another's. Every vehicle heard is first made ready (a
 position fix and its home, each waited for on its own, :meth:`bridge.flight.fleet.Fleet.wait_ready`)
 and checked (take-off positions, link-loss failsafe, return altitude) before any is armed; then
-they take off one at a time (:mod:`bridge.flight.guided`); a vehicle silent for
+they take off together, each from a clear column (:mod:`bridge.flight.guided`); a vehicle silent for
 ``flight.link_timeout_s`` is lost and replanned around, and launched again when heard; a live
 vehicle seen disarmed is left out. At the end every launch still running is cancelled and every
 vehicle heard is sent RTL or LAND. States are published as each position arrives, plans and QoS as

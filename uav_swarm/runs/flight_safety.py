@@ -116,7 +116,7 @@ class FlightSafety:
         """
         positions = {sid: self.home_m(reported) for sid, reported in homes.items()}
         check_launch_positions(positions, self.config.uav.min_separation_m, self.config.launch, self._slots)
-        self.homes_m.update(positions)
+        self._set_homes(positions)
         try:
             self.fleet.each("pre-flight check", list(homes), self._check_parameters)
         except FleetError as exc:
@@ -132,8 +132,14 @@ class FlightSafety:
         others = {sid: home for sid, home in self.homes_m.items() if sid != system_id}
         check_launch_positions({**others, system_id: position}, self.config.uav.min_separation_m,
                                self.config.launch, self._slots)
-        self.homes_m[system_id] = position
+        self._set_homes({system_id: position})
         self._check_parameters(system_id)
+
+    def _set_homes(self, positions: Mapping[int, tuple[float, float]]) -> None:
+        """The vehicles' homes, here and in the guard (where each one's RTL or failsafe lands it)."""
+        self.homes_m.update(positions)
+        for sid, position in positions.items():
+            self.guard.homes_m[self._uav_of[sid]] = position
 
     def _check_parameters(self, system_id: int) -> PreflightReport:
         report = preflight(self.fleet.link(system_id), system_id, self.fleet.conventions(system_id),
@@ -168,18 +174,23 @@ class FlightSafety:
 
     # -- take-off -------------------------------------------------------------------------------
     def takeoff_gate(self, system_id: int) -> Callable[[], AbstractContextManager[None]]:
-        """The vehicle's turn to arm, take off and climb (one at a time, from a clear column)."""
-        return self._gate.for_vehicle(system_id, self._uav_of[system_id])
+        """The vehicle's turn to arm, take off and climb (from a clear column)."""
+        return self._gate.for_vehicle(system_id)
 
     def _column_clear(self, system_id: int) -> bool:
+        """No airborne vehicle closer to its home than ``uav.min_separation_m``, the pre-flight check's rule.
+
+        Homes that far apart always clear (a vehicle airborne over its own home leaves the next one's
+        column clear); a vehicle waiting to climb is a disc the guard keeps the airborne ones off.
+        """
         return not self.column_blockers(system_id)
 
     def column_blockers(self, system_id: int) -> list[tuple[int, float]]:
-        """``(system_id, metres)`` of each airborne vehicle within ``guard.need_m`` of this one's home."""
+        """``(system_id, metres)`` of each airborne vehicle that keeps this one's column from clearing."""
         home = self.homes_m.get(system_id)
         if home is None:
             return []
-        need_m = self.guard.need_m
+        need_m = self.config.uav.min_separation_m
         with self._lock:
             others = [(sid, p) for sid, p in self._airborne.items() if sid != system_id]
         gaps = [(sid, float(np.hypot(p[0] - home[0], p[1] - home[1]))) for sid, p in others]
@@ -187,7 +198,8 @@ class FlightSafety:
 
     # -- in flight ------------------------------------------------------------------------------
     def decide(self, flying: Sequence[tuple[int, VehicleState, tuple[float, float] | None, bool]],
-               clock_s: float, now_s: float, busy: Sequence[int] = ()) -> list[tuple[int, GuardDecision]]:
+               clock_s: float, now_s: float, busy: Sequence[int] = (), returning: Sequence[int] = (),
+               grounded: Sequence[int] = ()) -> list[tuple[int, GuardDecision]]:
         """The guard's decision for each vehicle in ``flying``, and one separation sample.
 
         Args:
@@ -196,7 +208,11 @@ class FlightSafety:
             clock_s: The flight's clock (crowd time), for the separation record.
             now_s: Unix time (the clock of the positions' receipt times), seconds.
             busy: System ids whose previous guard command is still being sent.
+            returning: System ids flying home under their autopilot (RTL).
+            grounded: System ids known to be on the ground (disarmed): they leave the guard.
         """
+        for sid in grounded:
+            self.guard.forget(self._uav_of[sid])
         armed = [(sid, s) for sid, s, _, _ in flying if s.armed]
         with self._lock:
             self._airborne = {sid: (float(s.x_m or 0.0), float(s.y_m or 0.0)) for sid, s in armed}
@@ -213,7 +229,8 @@ class FlightSafety:
         measured = [(self._uav_of[sid], (float(s.x_m or 0.0), float(s.y_m or 0.0)),
                      (float(s.vx_m_s or 0.0), float(s.vy_m_s or 0.0)),
                      float(s.position_time_s or 0.0), goal, steer) for sid, s, goal, steer in flying]
-        decisions = self.guard.decide(measured, now_s, [self._uav_of[sid] for sid in busy])
+        decisions = self.guard.decide(measured, now_s, [self._uav_of[sid] for sid in busy],
+                                      [self._uav_of[sid] for sid in returning])
         self._report_events()
         reasons: dict[int, Reason | None] = {}
         for (sid, _, _, _), decision in zip(flying, decisions, strict=True):

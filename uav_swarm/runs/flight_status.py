@@ -143,10 +143,6 @@ def _short(reason: Reason) -> str:
     return reason_text(reason).removeprefix("held ") or "held"
 
 
-def _ids(sids: Sequence[int | str]) -> str:
-    return ("vehicle " if len(sids) == 1 else "vehicles ") + ", ".join(str(s) for s in sids)
-
-
 class FlightStatus:
     """The status lines of one flight (module docstring), asked for by its main thread.
 
@@ -219,7 +215,7 @@ class FlightStatus:
 
     def gate(self, system_id: int, gate: Callable[[], contextlib.AbstractContextManager[None]]
              ) -> Callable[[], contextlib.AbstractContextManager[None]]:
-        """``gate`` (a vehicle's take-off gate) watched: queued in it, then its turn (arming, climbing)."""
+        """``gate`` (a vehicle's take-off gate) watched: its column to clear, then its take-off and climb."""
         @contextlib.contextmanager
         def watched() -> Iterator[None]:
             self._stage[system_id] = "queued"
@@ -312,7 +308,7 @@ class FlightStatus:
         stage = self._stage.get(sid)
         if stage == "turn":
             if state is None or not state.armed:
-                return "arming (its turn to take off)"
+                return "arming (its column clear)"
             alt_m = self._flight.safety.cruise_alt_m[sid]
             height = "?" if state.relative_alt_m is None else f"{state.relative_alt_m:.1f}"
             return f"climbing ({height} of {alt_m:g} m)"
@@ -323,20 +319,13 @@ class FlightStatus:
         return "its guided mode"
 
     def _gate_wait(self, vehicle: FlightVehicle) -> str:
-        ranks = {v.system_id: v.uav_id for v in self._flight.vehicles}
-        stages = dict(self._stage)
-        climbing = [s for s, st in stages.items() if st == "turn"]
-        ahead = sorted((s for s, st in stages.items() if st == "queued" and ranks[s] < vehicle.uav_id),
-                       key=ranks.__getitem__)
-        if climbing or ahead:
-            first = [f"{s} (taking off)" for s in climbing]
-            return f"waits its turn to take off, after {_ids(first + [str(s) for s in ahead])}"
         safety = self._flight.safety
         blockers = safety.column_blockers(vehicle.system_id)
         if not blockers:
-            return "has its turn to take off"
+            return "its column clear, about to take off"
         near = ", ".join(f"vehicle {s} {d:.1f} m" for s, d in blockers)
-        return f"waits for its column to clear: {near} from its home ({safety.guard.need_m:g} m needed)"
+        return (f"waits for its column to clear: {near} from its home "
+                f"({safety.config.uav.min_separation_m:g} m needed)")
 
     def _return_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
         home = self._flight.safety.homes_m.get(vehicle.system_id)

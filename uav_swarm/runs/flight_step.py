@@ -105,18 +105,22 @@ class FlightStep(FlightVehicles):
         command_delay_s``), never behind another command to that vehicle: while one is being sent the
         vehicle is ``busy`` and the guard sends it nothing new (it keeps flying to a point it can stop at).
         """
-        flying, busy = [], []
+        flying, busy, returning, grounded = [], [], [], []
         for vehicle in self.vehicles:
             state = self._state(vehicle)
+            if state is not None and state.armed is False and vehicle.status not in ("live", "launching"):
+                grounded.append(vehicle.system_id)  # on the ground: out of the guard
             if state is None or state.x_m is None:
-                continue
-            returning = vehicle.status in ("ending", "ended") and state.armed  # landing: an obstacle
-            if vehicle.status in ("live", "launching") or returning:
+                continue  # unheard or without a fix: the guard keeps its disc
+            if vehicle.status in ("ending", "ended") and state.armed:  # flying home, landing: an obstacle
+                returning.append(vehicle.system_id)
+            if vehicle.status in ("live", "launching") or vehicle.system_id in returning:
                 goal = vehicle.target_m[:2] if vehicle.status == "live" and vehicle.target_m else None
                 flying.append((vehicle.system_id, state, goal, vehicle.status == "live"))
             if vehicle.guard_job is not None and not vehicle.guard_job.done():
                 busy.append(vehicle.system_id)
-        for sid, decision in self.safety.decide(flying, self._clock_s, time.time(), busy):
+        for sid, decision in self.safety.decide(flying, self._clock_s, time.time(), busy, returning,
+                                                grounded):
             vehicle = self._by_sid[sid]
             if decision.point_m is None or vehicle.status != "live":
                 continue

@@ -7,9 +7,12 @@ HOME_POSITION, in the flight's East-North frame); ``"grid"`` says where the oper
 refused. A grid closer than ``uav.min_separation_m`` is refused with the config (nothing flies);
 homes closer than it are refused before any vehicle is armed (:func:`check_launch_positions`).
 
-**Take-off**: one vehicle arms, takes off and climbs at a time (:class:`TakeoffGate`), and only
-when no airborne vehicle is within the minimum of the point it climbs from; the guard
-(:mod:`uav_swarm.runs.flight_guard`) keeps flying vehicles away from a climbing one.
+**Take-off**: every vehicle arms, takes off and climbs in its own column, together (their homes are at
+least the minimum apart: each climbs straight up over its home), each only when no airborne vehicle is
+within the minimum of the point it climbs from (:class:`TakeoffGate`); the guard
+(:mod:`uav_swarm.runs.flight_guard`) keeps flying vehicles off a climbing one and off one waiting to climb.
+One rule, the minimum, decides both the layouts the pre-flight check accepts and the column a vehicle
+climbs from: homes the minimum apart always launch.
 
 **Return**: every vehicle's return altitude is its own layer (:func:`return_altitudes_m`), above
 every cruise altitude and ``max(min_separation_m + [guard] margin_m, layer_step_m)`` apart, so that vehicles
@@ -122,7 +125,7 @@ def return_altitudes_m(n_vehicles: int, uav: UAVConfig, margin_m: float = 0.0) -
 
 
 class TakeoffGate:
-    """One take-off at a time, in the vehicles' order (``rank``), from a clear column (module docstring).
+    """Take-offs from clear columns (module docstring): a vehicle climbs once no airborne one is near its home.
 
     Args:
         cancel: Set when the flight ends: a vehicle waiting for its turn gives up.
@@ -133,32 +136,20 @@ class TakeoffGate:
     def __init__(self, cancel: threading.Event, column_clear: Callable[[int], bool]) -> None:
         self._cancel = cancel
         self._column_clear = column_clear
-        self._turns = threading.Condition()
-        self._waiting: set[int] = set()
-        self._busy = False
+        self.waiting: set[int] = set()
+        """System ids waiting for their column to clear."""
 
-    def for_vehicle(self, system_id: int, rank: int) -> Callable[[], contextlib.AbstractContextManager[None]]:
-        """The gate of one vehicle, as :func:`bridge.flight.guided.launch` takes it (lowest rank first)."""
-        return lambda: self._slot(system_id, rank)
+    def for_vehicle(self, system_id: int) -> Callable[[], contextlib.AbstractContextManager[None]]:
+        """The gate of one vehicle, as :func:`bridge.flight.guided.launch` takes it."""
+        return lambda: self._slot(system_id)
 
     @contextlib.contextmanager
-    def _slot(self, system_id: int, rank: int) -> Iterator[None]:
-        with self._turns:
-            self._waiting.add(rank)
-            try:
-                while self._busy or min(self._waiting) != rank:
-                    if self._cancel.is_set():
-                        raise FlightError(system_id, "launch cancelled (the flight is ending)")
-                    self._turns.wait(_POLL_S)
-            finally:
-                self._waiting.discard(rank)
-            self._busy = True
+    def _slot(self, system_id: int) -> Iterator[None]:
+        self.waiting.add(system_id)
         try:
             while not self._column_clear(system_id):
                 if self._cancel.wait(_POLL_S):
                     raise FlightError(system_id, "launch cancelled (the flight is ending)")
-            yield
         finally:
-            with self._turns:
-                self._busy = False
-                self._turns.notify_all()
+            self.waiting.discard(system_id)
+        yield

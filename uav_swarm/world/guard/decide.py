@@ -7,14 +7,21 @@ shorter steps; a vehicle held for ``detour_after_s`` is also offered steps turne
 (it goes round what blocks it). The first point whose certified disc (centre the point, radius
 ``radius + step``) keeps the required distance to the disc of every other vehicle is chosen: to the
 new disc of a vehicle decided before it, to the current disc of one not decided yet (which it keeps
-if it is sent nothing: that is its hold). A pair already closer than that (a start inside it, a bound
-broken) may only keep or widen its gap. No point passes: the vehicle is **held**: it is sent nothing
-and keeps flying to the point it has, inside its disc.
+if it is sent nothing: that is its hold). A pair already closer than that (homes closer than the
+guard can certify, a vehicle taken back, a bound broken) keeps its **floor** instead: the gap it had
+when it came inside, less a slack it may spend on a step (``floors_m``, kept by the caller), so that
+it can still move and part: against such a pair (``parting``) a short step passes when every point of it is
+at least as far from the other's centre as the vehicle is (its distance grows along the whole step: the
+vehicle, at rest, flies along it), whatever it does to the discs. A disc of unknown radius (a vehicle never
+measured) refuses every offer.
+No point passes: the vehicle is **held**: it is sent nothing and keeps flying to the point it has,
+inside its disc. No step is committed further than ``max_step_m`` ahead of the disc's centre.
 
 Examples:
     >>> centres = np.array([[0.0, 0.0], [20.0, 0.0]])
     >>> points, radii, blockers = choose_points(centres, np.zeros(2), np.array([[40.0, 0.0], [20.0, 0.0]]),
-    ...                                         np.ones(2, bool), np.full((2, 2), 5.0), np.zeros(2, bool))
+    ...                                         np.ones(2, bool), np.full((2, 2), 5.0), np.zeros(2, bool),
+    ...                                         floors_m=np.full((2, 2), 5.0))
     >>> points[0].tolist(), float(radii[0]), int(blockers[0])  # 4 m on: its disc reaches 12 m from the other
     ([4.0, 0.0], 4.0, 1)
 """
@@ -35,15 +42,15 @@ _ARRIVED_M = 1e-3
 
 
 def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
-            area_m: np.ndarray | None = None) -> np.ndarray:
+            area_m: np.ndarray | None = None, max_step_m: float = STEPS_M[0]) -> np.ndarray:
     """(M, 2) points offered to one vehicle, best first (module docstring)."""
     way = goal - centre
     length = float(np.hypot(*way))
     if length <= _ARRIVED_M:
         return np.zeros((0, 2))
     unit = way / length
-    steps = [length] if length < STEPS_M[0] else []
-    steps += [s for s in STEPS_M if s < length]
+    steps = [length] if length <= max_step_m else []
+    steps += [s for s in STEPS_M if s < length and s <= max_step_m]
     offers = [centre + unit * s for s in steps]
     if detour:
         for turn in _DETOURS_RAD:
@@ -56,7 +63,9 @@ def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
 
 def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarray, may_send: np.ndarray,
                   required_m: np.ndarray, detour: np.ndarray, detour_m: float = 5.0,
-                  area_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  area_m: np.ndarray | None = None, *, floors_m: np.ndarray, order: np.ndarray | None = None,
+                  max_step_m: float = STEPS_M[0], parting: np.ndarray | None = None,
+                  parting_step_m: float = 4.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each vehicle's next point, in priority order (module docstring).
 
     Args:
@@ -69,6 +78,14 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
         detour: (K,) whether it may also be offered steps turned away from its way.
         detour_m: Length of the longest turned step, metres.
         area_m: (2,) the area's upper corner: turned steps stay in ``[0, area_m]`` (None: anywhere).
+        floors_m: (K, K) the least gap each pair may be left with: ``required_m`` for a pair apart, its
+            floor for a pair inside (module docstring); ``-inf`` never for a disc of unknown radius.
+        order: (K,) the order in which they are decided, first the highest priority (None: by index).
+        max_step_m: The farthest a new point is set from the disc's centre, metres.
+        parting: (K, K) the pairs inside (closer than required) that may part: the first at rest toward
+            the second (None: none). Against such a pair a step of at most ``parting_step_m`` passes when
+            no point of it is nearer the other's centre than the vehicle's centre is (module docstring).
+        parting_step_m: The longest such step, metres.
 
     Returns:
         ``points`` (K, 2) the point to send (NaN: none), ``radii`` (K,) the certified radii after, and
@@ -81,19 +98,24 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
     blockers = np.full(k, -1)
     if k == 0:
         return points, radii, blockers
-    gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
-    threshold = np.minimum(required_m, gaps - 1e-9)  # a pair inside may only keep or widen its gap
+    threshold = np.minimum(required_m, floors_m)
+    threshold = np.where(np.isinf(radii)[:, None] | np.isinf(radii)[None], required_m, threshold) - 1e-9
     others = ~np.eye(k, dtype=bool)
-    for i in range(k):
+    for i in (range(k) if order is None else (int(j) for j in order)):
         goal = goals_m[i]
         if not may_send[i] or not np.all(np.isfinite(goal)) or not math.isfinite(radii[i]):
             continue
-        offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m)
+        offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m, max_step_m)
         if offers.shape[0] == 0:
             continue
         grown = radii[i] + np.hypot(*(offers - centres[i]).T)  # (M,)
         apart = np.hypot(*(offers[:, None] - centres[None]).transpose(2, 0, 1)) - grown[:, None] - radii[None]
         ok = (apart >= threshold[i][None]) | ~others[i][None]  # (M, K)
+        if parting is not None and parting[i].any():
+            step = offers - centres[i]  # (M, 2): parting when every point of it is farther from the other
+            away = step @ (centres[i] - centres).T >= 0.0  # (M, K): the distance grows along the whole step
+            short = np.hypot(*step.T) <= parting_step_m
+            ok = np.where(parting[i][None], away & short[:, None], ok)
         fine = ok.all(axis=1)
         if not fine[0]:
             blockers[i] = int(np.argmin(np.where(others[i], apart[0] - threshold[i], np.inf)))

@@ -15,7 +15,19 @@ every measurement with the time it was true. What lies outside the bounds is det
   off that wider disc. No distance is promised then: it is reported.
 
 Each decision is a :class:`Decision` per vehicle; a vehicle not steered by the guard (climbing, landing)
-is an :meth:`FleetGuard.obstacle`, a disc the others keep away from.
+is an :meth:`FleetGuard.obstacle`, a disc the others keep away from, with the column over its home where
+its autopilot will land (:meth:`FleetGuard.obstacle`'s ``home_m``).
+
+**Every state of a flight.** A vehicle that goes **silent** (no link, no position fix) keeps its disc,
+which needs no measurement (:meth:`FleetGuard.silent`), and the column over its home is added: its
+link-loss failsafe may take it home. Only a vehicle known to be on the ground leaves
+(:meth:`FleetGuard.leave`). A vehicle joins with the points it may still be flying to
+(:meth:`FleetGuard.join`'s ``earlier_m``) and an unknown radius until measured; an unknown disc
+refuses every offer near it. A pair closer than required keeps a **floor** (the gap it had when it
+came inside, less ``slack_m``; lowered only when measured lower): it may move, so it can part, and
+never comes closer than its floor by a decision. Decisions go to the vehicle held longest first
+(priority rotates to who waits), and no point is committed more than ``max_step_m`` ahead. One lock
+serialises every call (the flight's loop and its sending threads).
 
 Examples:
     >>> import numpy as np
@@ -35,11 +47,12 @@ Examples:
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
-from uav_swarm.world.guard.decide import choose_points
+from uav_swarm.world.guard.decide import STEPS_M, choose_points
 from uav_swarm.world.guard.holds import Bounds, Commitment
 
 __all__ = ["Bounds", "Decision", "FleetGuard"]
@@ -52,7 +65,8 @@ class Decision:
     Attributes:
         state: ``"free"`` (sent its next point), ``"on"`` (flying to the point it has: its goal, or a new
             one may not go yet), ``"held"`` (its next point refused: it stops at the one it has),
-            ``"stale"`` (no fresh position: held), ``"outside"`` (found outside its disc: stopped),
+            ``"stale"`` (no fresh position: held), ``"silent"`` (unheard: kept on its disc),
+            ``"outside"`` (found outside its disc: stopped),
             ``"idle"`` (no goal, or not steered).
         point_m: The point to send now (None: send nothing).
         blocker: The vehicle that refused its next point (-1: none).
@@ -74,12 +88,26 @@ class FleetGuard:
         detour_after_s: A vehicle held this long may also step round what blocks it, seconds.
         detour_m: The longest such step, metres (default: the largest required distance).
         area_m: (width, height) the steps round stay in, from the origin (None: anywhere).
+        slack_m: How much a pair closer than required may spend below the gap it came inside with.
+        max_step_m: The farthest a new point is committed ahead of a disc's centre, metres.
     """
 
     def __init__(self, required_m: np.ndarray, detour_after_s: float = 2.0, detour_m: float | None = None,
-                 area_m: tuple[float, float] | None = None) -> None:
+                 area_m: tuple[float, float] | None = None, slack_m: float = 1.0,
+                 max_step_m: float = STEPS_M[0]) -> None:
         self.required_m = np.array(required_m, dtype=np.float64)
         k = self.required_m.shape[0]
+        self.slack_m = float(slack_m)
+        self.max_step_m = float(max_step_m)
+        self._lock = threading.RLock()
+        self._floors: dict[tuple[int, int], float] = {}  # (i, j) i < j, a pair inside: its floor
+        self._homes: dict[int, np.ndarray] = {}  # the home columns of silent and landing vehicles
+        self._silent: set[int] = set()
+        self._velocity = np.zeros((k, 2))  # each vehicle's newest measured velocity
+        self.parting_step_m = 4.0
+        """The longest step a pair inside may part by, metres."""
+        self.parting_speed_m_s = 1.5
+        """A vehicle parts from a pair inside only this slow (it flies along its step), m/s."""
         self.detour_after_s = float(detour_after_s)
         self.area_m = None if area_m is None else np.asarray(area_m, dtype=np.float64)
         self.detour_m = float(detour_m if detour_m is not None else max(float(self.required_m.max()), 1.0))
@@ -96,34 +124,76 @@ class FleetGuard:
 
     # -- vehicles ------------------------------------------------------------------------------
     def join(self, i: int, point_m: np.ndarray, bounds: Bounds, now_s: float,
-             radius_m: float = math.inf) -> None:
-        """Take vehicle ``i`` under the guard, hovering at ``point_m``, with its bounds.
+             radius_m: float = math.inf, earlier_m: tuple[np.ndarray, ...] = ()) -> None:
+        """Take vehicle ``i`` under the guard at ``point_m``, with its bounds.
 
+        ``earlier_m`` are the points it may still be flying to (oldest first: where its take-off left it,
+        the point it had before it went silent): its disc covers them until one sent is acknowledged.
         Its first decision sends it ``point_m`` (state ``"on"``), so that every point it flies to was sent.
         """
-        self._hold[i] = Commitment(point_m, bounds, now_s, radius_m)
-        self._joining.add(i)
-        self._obstacle.pop(i, None)
-        self._held_since.pop(i, None)
+        with self._lock:
+            chain = [np.asarray(p, dtype=np.float64) for p in earlier_m] + [np.asarray(point_m, dtype=np.float64)]
+            hold = Commitment(chain[0], bounds, now_s, radius_m)
+            for later in chain[1:]:
+                hold.sent(later, now_s)
+                hold.awaiting = False  # no answer is due for it: the next point may follow at once
+            hold.radius_m = float(radius_m)
+            self._hold[i] = hold
+            self._joining.add(i)
+            self._obstacle.pop(i, None)
+            self._homes.pop(i, None)
+            self._silent.discard(i)
+            self._held_since.pop(i, None)
 
     def leave(self, i: int) -> None:
-        """Forget vehicle ``i`` (it landed, or was lost)."""
-        self._hold[i] = None
-        self._obstacle.pop(i, None)
-        self._held_since.pop(i, None)
-        self._via.pop(i, None)
-        self._joining.discard(i)
-        self._stale.discard(i)
-        self._outside.pop(i, None)
+        """Forget vehicle ``i``: only once it is known to be on the ground (disarmed)."""
+        with self._lock:
+            self._hold[i] = None
+            self._obstacle.pop(i, None)
+            self._homes.pop(i, None)
+            self._silent.discard(i)
+            self._held_since.pop(i, None)
+            self._via.pop(i, None)
+            self._joining.discard(i)
+            self._stale.discard(i)
+            self._outside.pop(i, None)
+            self._floors = {pair: f for pair, f in self._floors.items() if i not in pair}
 
-    def obstacle(self, i: int, centre_m: np.ndarray, radius_m: float) -> None:
-        """Vehicle ``i`` is not steered by the guard: a disc the others keep away from, until it joins."""
-        self._hold[i] = None
-        self._obstacle[i] = (np.asarray(centre_m, dtype=np.float64), float(radius_m))
+    def silent(self, i: int, home_m: np.ndarray | None = None) -> None:
+        """Vehicle ``i`` is heard no more, or has no position: it keeps its disc and is sent nothing.
+
+        Its disc holds without a measurement (it flies to one of its chain's points); ``home_m``, where
+        its link-loss failsafe would land it, is kept clear as well. A vehicle never steered keeps its
+        last obstacle disc. It is steered again at its next measurement.
+        """
+        with self._lock:
+            if self._hold[i] is None and i not in self._obstacle:
+                return
+            self._silent.add(i)
+            if home_m is not None:
+                self._homes[i] = np.asarray(home_m, dtype=np.float64)
+
+    def obstacle(self, i: int, centre_m: np.ndarray, radius_m: float, home_m: np.ndarray | None = None) -> None:
+        """Vehicle ``i`` is not steered by the guard: a disc the others keep away from, until it joins.
+
+        ``home_m``: the column over its home is kept clear as well (it will land there: RTL).
+        """
+        with self._lock:
+            self._hold[i] = None
+            self._silent.discard(i)
+            self._obstacle[i] = (np.asarray(centre_m, dtype=np.float64), float(radius_m))
+            if home_m is None:
+                self._homes.pop(i, None)
+            else:
+                self._homes[i] = np.asarray(home_m, dtype=np.float64)
 
     def joined(self, i: int) -> bool:
-        """Whether vehicle ``i`` is steered by the guard."""
+        """Whether vehicle ``i`` is steered by the guard (silent ones included)."""
         return self._hold[i] is not None
+
+    def is_silent(self, i: int) -> bool:
+        """Whether vehicle ``i`` is kept on its last disc, unheard."""
+        return i in self._silent
 
     def centre_m(self, i: int) -> np.ndarray:
         """(2,) the centre of vehicle ``i``'s disc."""
@@ -148,9 +218,17 @@ class FleetGuard:
         ``received_s`` is when it arrived, where only that is known (``stamp_s`` then its lower bound:
         received less the largest age); its age is judged from it.
         """
+        with self._lock:
+            return self._measure(i, position_m, velocity_m_s, stamp_s, now_s, received_s)
+
+    def _measure(self, i: int, position_m: np.ndarray, velocity_m_s: np.ndarray, stamp_s: float,
+                 now_s: float, received_s: float | None) -> str | None:
         hold = self._hold[i]
         if hold is None:
             return None
+        self._silent.discard(i)
+        self._homes.pop(i, None)
+        self._velocity[i] = np.asarray(velocity_m_s, dtype=np.float64)[:2]
         if now_s - (stamp_s if received_s is None else received_s) > hold.bounds.position_age_s:
             if i not in self._stale:
                 self._stale.add(i)
@@ -169,22 +247,25 @@ class FleetGuard:
 
     def sent(self, i: int, point_m: tuple[float, float] | np.ndarray, now_s: float) -> int:
         """Record that vehicle ``i`` was sent ``point_m`` now; its sequence number."""
-        hold = self._hold[i]
-        assert hold is not None, f"vehicle {i} is not steered by the guard"
-        return hold.sent(np.asarray(point_m, dtype=np.float64), now_s)
+        with self._lock:
+            hold = self._hold[i]
+            assert hold is not None, f"vehicle {i} is not steered by the guard"
+            return hold.sent(np.asarray(point_m, dtype=np.float64), now_s)
 
     def acknowledged(self, i: int, seq: int, now_s: float) -> None:
         """Vehicle ``i`` acknowledged point ``seq`` (received at ``now_s``)."""
-        hold = self._hold[i]
-        if hold is not None:
-            hold.acknowledged(seq, now_s)
+        with self._lock:
+            hold = self._hold[i]
+            if hold is not None:
+                hold.acknowledged(seq, now_s)
 
     def unacknowledged(self, i: int, seq: int, now_s: float) -> None:
         """Point ``seq`` of vehicle ``i`` got no acknowledgement within the bound."""
-        hold = self._hold[i]
-        if hold is not None:
-            hold.unacknowledged(seq)
-            self.events.append((now_s, i, "command_unacknowledged"))
+        with self._lock:
+            hold = self._hold[i]
+            if hold is not None:
+                hold.unacknowledged(seq)
+                self.events.append((now_s, i, "command_unacknowledged"))
 
     # -- decisions -----------------------------------------------------------------------------
     def decide(self, goals_m: np.ndarray, now_s: float) -> list[Decision]:
@@ -194,16 +275,54 @@ class FleetGuard:
             goals_m: (K, 2) where each vehicle should go (NaN: nowhere new).
             now_s: The guard's clock, seconds.
         """
+        with self._lock:
+            return self._decide(goals_m, now_s)
+
+    def _floors_m(self, centres: np.ndarray, radii: np.ndarray, present: np.ndarray, owner: np.ndarray
+                  ) -> np.ndarray:
+        """(N, N) each pair's least gap: required when apart, its floor when inside (module docstring)."""
+        n = centres.shape[0]
+        required = self.required_m[owner[:, None], owner[None]]
+        with np.errstate(invalid="ignore"):
+            gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
+        floors = required.copy()
+        for a in range(n):
+            for b in range(a + 1, n):
+                pair = (a, b)
+                if not (present[a] and present[b]) or owner[a] == owner[b] or not math.isfinite(gaps[a, b]):
+                    self._floors.pop(pair, None)
+                    continue
+                if gaps[a, b] >= required[a, b]:
+                    self._floors.pop(pair, None)  # apart: the whole requirement again
+                    continue
+                floor = self._floors.get(pair)
+                if floor is None:
+                    floor = gaps[a, b] - self.slack_m  # came inside: it may still move, and part
+                elif gaps[a, b] < floor:
+                    floor = gaps[a, b]  # measured lower (an obstacle, a bound broken): kept from there
+                self._floors[pair] = float(floor)
+                floors[a, b] = floors[b, a] = floor
+        return floors
+
+    def _decide(self, goals_m: np.ndarray, now_s: float) -> list[Decision]:
         k = len(self._hold)
-        centres, radii = np.zeros((k, 2)), np.full(k, -np.inf)  # -inf: no vehicle (never in the way)
+        homes = sorted(self._homes)
+        n = k + len(homes)  # each home column kept clear is one more disc, owned by its vehicle
+        owner = np.concatenate([np.arange(k), np.asarray(homes, dtype=np.int64)])
+        centres, radii = np.zeros((n, 2)), np.full(n, -np.inf)  # -inf: no vehicle (never in the way)
         for i in range(k):
             if self._hold[i] is not None or i in self._obstacle:
                 centres[i], radii[i] = self.centre_m(i), self.radius_m(i)
+        for m, i in enumerate(homes):
+            bounds = self._hold[i].bounds if self._hold[i] is not None else None
+            centres[k + m] = self._homes[i]
+            radii[k + m] = 0.0 if bounds is None else float(bounds.radius_m(np.zeros(2), np.array(0.0)))
         present = np.isfinite(radii) | (radii == np.inf)
-        goals = np.array(goals_m, dtype=np.float64).reshape(k, 2).copy()
-        steered = np.array([h is not None for h in self._hold])
-        may = np.array([h is not None and h.may_send(now_s) for h in self._hold])
-        for i in list(self._stale) + list(self._outside):
+        goals = np.full((n, 2), np.nan)
+        goals[:k] = np.array(goals_m, dtype=np.float64).reshape(k, 2)
+        steered = np.array([h is not None for h in self._hold] + [False] * len(homes))
+        may = np.array([h is not None and h.may_send(now_s) for h in self._hold] + [False] * len(homes))
+        for i in list(self._stale) + list(self._outside) + list(self._silent):
             may[i] = False
         goals[~steered] = np.nan
         finals = goals.copy()
@@ -213,10 +332,26 @@ class FleetGuard:
                 del self._via[i]  # reached, or its goal changed
             else:
                 goals[i] = via
-        detour = np.array([now_s - self._held_since.get(i, now_s) >= self.detour_after_s for i in range(k)])
-        required = np.where(present[:, None] & present[None], self.required_m, -np.inf)
+        waited = np.array([now_s - self._held_since.get(i, now_s) for i in range(k)] + [0.0] * len(homes))
+        detour = waited >= self.detour_after_s
+        apart = present[:, None] & present[None] & (owner[:, None] != owner[None])  # a vehicle and its home: one
+        required = np.where(apart, self.required_m[owner[:, None], owner[None]], -np.inf)
+        floors = np.where(apart, self._floors_m(centres, np.where(present, radii, 0.0), present, owner), -np.inf)
+        with np.errstate(invalid="ignore"):
+            gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
+        parting = apart & np.isfinite(gaps) & (gaps < required)
+        for i in range(k):  # parts only a vehicle near rest and not closing on the other
+            towards = centres - centres[i]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                closing = (towards @ self._velocity[i]) / np.hypot(*towards.T)
+            parting[i] &= (np.hypot(*self._velocity[i]) <= self.parting_speed_m_s) & ~(closing > 0.5)
+        parting[k:] = False
+        order = np.argsort(-waited, kind="stable")  # the longest held first, then by index
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
-                                            detour, self.detour_m, self.area_m)
+                                            detour, self.detour_m, self.area_m, floors_m=floors, order=order,
+                                            max_step_m=self.max_step_m, parting=parting,
+                                            parting_step_m=self.parting_step_m)
+        blockers = np.where(blockers >= k, owner[np.maximum(blockers, 0)], blockers)
         decisions = []
         for i in range(k):
             decisions.append(self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s))
@@ -250,6 +385,8 @@ class FleetGuard:
         if i in self._outside:
             stop = self._outside.pop(i)
             return Decision("outside", (float(stop[0]), float(stop[1])), seq=self.sent(i, stop, now_s))
+        if i in self._silent:
+            return Decision("silent")
         if i in self._stale:
             return Decision("stale")
         if i in self._joining and math.isfinite(hold.radius_m):

@@ -24,11 +24,13 @@ def energy_radius_m(offset_m: np.ndarray, speed_m_s: np.ndarray, accel_m_s2: flo
                     tracking_error_m: float = 0.0, jerk_m_s3: float = np.inf) -> np.ndarray:
     """Distance from its target ``c`` that a vehicle flying to ``c`` never exceeds again (its true position).
 
-    ``|x - c| + e_p + 2 e_t + (|v| + e_v)^2 / (2 a) + (|v| + e_v) a / j``: the measured distance
-    ``offset_m`` (..., 2) and speed, widened by the measurement's position and velocity errors and
-    the tracking error (true position vs the autopilot's set point, once for the measurement and once
-    for the position bounded), plus the run-on of a jerk-limited autopilot before its braking reaches
-    ``a`` (0 for ``jerk_m_s3 = inf``).
+    ``|x - c| + e_p + 2 e_t + u^2 / (2 a) + 2 u a / j + a^3 / j^2`` with ``u = |v| + e_v``: the measured
+    distance ``offset_m`` (..., 2) and speed, widened by the measurement's position and velocity errors
+    and the tracking error (true position vs the autopilot's set point, once for the measurement and
+    once for the position bounded), plus the run-on of a jerk-limited autopilot (0 for
+    ``jerk_m_s3 = inf``): one still accelerating away at ``a`` when it is told to come back needs
+    ``2 a / j`` to turn its acceleration round, over which it flies at most ``2 u a / j + a^3 / j^2``
+    further than one that brakes at once (its speed grows by at most ``a^2 / 2j`` meanwhile).
 
     Examples:
         >>> float(energy_radius_m(np.array([3.0, 4.0]), np.array(10.0), 5.0))  # 5 m + 10^2 / (2 * 5)
@@ -36,7 +38,8 @@ def energy_radius_m(offset_m: np.ndarray, speed_m_s: np.ndarray, accel_m_s2: flo
     """
     speed = np.asarray(speed_m_s, dtype=np.float64) + velocity_error_m_s
     distance = np.hypot(np.asarray(offset_m)[..., 0], np.asarray(offset_m)[..., 1])
-    run_on = speed * accel_m_s2 / jerk_m_s3 if np.isfinite(jerk_m_s3) else 0.0
+    run_on = (2.0 * speed * accel_m_s2 / jerk_m_s3 + accel_m_s2**3 / jerk_m_s3**2) if np.isfinite(jerk_m_s3) \
+        else 0.0
     return distance + position_error_m + 2.0 * tracking_error_m + speed**2 / (2.0 * accel_m_s2) + run_on
 
 
