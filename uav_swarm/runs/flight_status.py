@@ -218,10 +218,10 @@ class FlightStatus:
         """``gate`` (a vehicle's take-off gate) watched: its column to clear, then its take-off and climb."""
         @contextlib.contextmanager
         def watched() -> Iterator[None]:
-            self._stage[system_id] = "queued"
+            self._stage[system_id] = "column"
             try:
                 with gate():
-                    self._stage[system_id] = "turn"
+                    self._stage[system_id] = "take-off"
                     yield
             finally:
                 self._stage.pop(system_id, None)
@@ -306,13 +306,13 @@ class FlightStatus:
     def _launch_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
         sid = vehicle.system_id
         stage = self._stage.get(sid)
-        if stage == "turn":
+        if stage == "take-off":
             if state is None or not state.armed:
                 return "arming (its column clear)"
             alt_m = self._flight.safety.cruise_alt_m[sid]
             height = "?" if state.relative_alt_m is None else f"{state.relative_alt_m:.1f}"
             return f"climbing ({height} of {alt_m:g} m)"
-        if stage == "queued":
+        if stage == "column":
             return self._gate_wait(vehicle)
         if state is None or not state.has_fix:
             return "its position fix"
