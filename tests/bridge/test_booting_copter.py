@@ -211,8 +211,14 @@ def test_a_vehicle_never_ready_is_named_and_the_others_fly(tmp_path, caplog, cap
     try:
         argv = ["fly", "--bridge-config", str(toml), "--out", str(tmp_path / "out"), "--wait-ready-s", "6",
                 "--duration-s", "4", "--speedup", "2", "--no-telemetry"]
+        caplog.set_level(logging.INFO)
         assert main(argv) == 0  # vehicle 1 flew
-        assert "vehicle 1 (uav 0): ended, 1 launch(es)" in capsys.readouterr().out
+        out = capsys.readouterr().out
+        assert "vehicle 1 (uav 0): ended (RTL sent), 1 launch," in out
+        assert "vehicle 2 (uav 1): not launched (HomeUnknownError: vehicle 2: not ready within 6.0 s" in out
+        ready = [r.getMessage() for r in caplog.records
+                 if r.getMessage().startswith("waiting until the vehicles are ready")]
+        assert ready and "vehicle 2 its" in ready[-1]  # its fix or its home, said while it was waited for
         failure = next(r.getMessage() for r in caplog.records if "vehicle 2 not launched" in r.getMessage())
         assert ("HomeUnknownError: vehicle 2: not ready within 6.0 s: still no position fix and home "
                 "(HOME_POSITION)") in failure  # a GPS fix, but no EKF position yet

@@ -176,6 +176,9 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
         result = fly(config, tmp_path / "out", stop_event=stop)
         statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
         assert statuses == {1: "ended", 2: "landed", 3: "not found"}
+        outcomes = {v["system_id"]: v["outcome"] for v in result.summary["vehicles"]}
+        assert outcomes == {1: "ended (LAND sent)", 2: "landed (disarmed in flight)",
+                            3: "not launched (never heard)"}
         assert "vehicle 3 not found: no heartbeat" in caplog.text
         assert "vehicle 2 disarmed in flight" in caplog.text
         assert vehicles[0].custom_mode == LAND and not vehicles[1].armed
@@ -183,6 +186,51 @@ def test_absent_vehicle_is_named_and_the_others_fly_until_stopped(tmp_path, capl
         assert result.summary["duration_s"] < 600.0
     finally:
         close_all(vehicles)
+
+
+def test_fly_says_what_it_waits_for_and_ends_with_outcomes_closest_pair_in_flight_and_qos(tmp_path, capsys,
+                                                                                           caplog):
+    """Vehicle 4 never answers, vehicle 2's pre-arm checks refuse it for a while: the status lines name each
+    wait, in the flight's order; the end table says vehicle 4 was not launched, the closest pair in flight
+    and the flown QoS against the static reference."""
+    vehicles, urls = _vehicles(3, ("udpin",), {2: {"prearm_s": 16.0}})
+    urls.append(f"udpin:127.0.0.1:{free_udp_port()}")  # vehicle 4 never answers
+    config = tmp_path / "fly.toml"
+    config.write_text("status_every_s = 0.5\n[flight]\narm_retry_s = 0.5\n", encoding="utf-8")
+    caplog.set_level(logging.INFO)
+    try:
+        argv = ["fly", "--bridge-config", str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "--out",
+                str(tmp_path / "out"), "--config", str(config), "--planner", "expert", "--duration-s", "4",
+                "--speedup", "2", "--no-telemetry", "--wait-ready-s", "4"]
+        assert main(argv) == 0
+    finally:
+        close_all(vehicles)
+    lines = [r.getMessage() for r in caplog.records if r.name == "uav_swarm.runs.flight_status"]
+
+    def first(text: str) -> int:
+        return next(i for i, line in enumerate(lines) if text in line)
+
+    heartbeats = first("vehicle 4 not heard yet (its heartbeat)")
+    assert lines[heartbeats].startswith("waiting for heartbeats (")
+    arming = first("vehicle 2 arming (its column clear)")
+    assert lines[arming].startswith("launching (")
+    climbing = first("vehicle 2 climbing (")
+    flying = first("crowd time")
+    assert lines[flying].startswith("flying (")
+    assert heartbeats < arming < climbing < flying
+    assert not [r for r in caplog.records if r.getMessage().endswith("(separation guard)")]  # holds: summed
+    out = capsys.readouterr().out
+    assert "vehicle 4 (uav 3): not launched (never heard)" in out
+    for sid in (1, 2, 3):
+        assert f"vehicle {sid} (uav {sid - 1}): ended (RTL sent), 1 launch, " in out
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    separation, service = summary["separation"], summary["service"]
+    assert [v["launched"] for v in summary["vehicles"]] == [True, True, True, False]
+    assert separation["closest_in_flight_m"] >= separation["closest_m"]  # on the ground: their 10 m spacing
+    assert f"closest pair in flight {separation['closest_in_flight_m']:.1f} m" in out
+    assert (f"mean QoS S1 {service['flown_qos']:.3f} against {service['static_reference_qos']:.3f} for the "
+            "static reference") in out
+    assert sum(h["holds"] for v in summary["vehicles"] for h in v["holds"]) == separation["holds"]
 
 
 def test_a_vehicle_far_from_the_configured_home_is_never_armed(tmp_path, caplog):
@@ -195,6 +243,8 @@ def test_a_vehicle_far_from_the_configured_home_is_never_armed(tmp_path, caplog)
         result = fly(config, tmp_path / "out")
         statuses = {v["system_id"]: v["status"] for v in result.summary["vehicles"]}
         assert statuses == {1: "ended", 2: "failed"}
+        second = result.summary["vehicles"][1]
+        assert not second["launched"] and second["outcome"].startswith("not launched (HomeMismatchError: ")
         assert "HomeMismatchError" in caplog.text and "max_home_offset_m = 100" in caplog.text
         assert not vehicles[1].armed and mavlink.MAV_CMD_COMPONENT_ARM_DISARM not in vehicles[1].commands
     finally:

@@ -166,6 +166,7 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
+    from uav_swarm.runs.flight_status import end_report
     from uav_swarm.runs.fly import fly
 
     stop = threading.Event()
@@ -187,20 +188,8 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     summary = result.summary
-    for vehicle in summary["vehicles"]:
-        print(f"vehicle {vehicle['system_id']} (uav {vehicle['uav_id']}): {vehicle['status']}, "
-              f"{vehicle['launches']} launch(es), {vehicle['command_failures']} command failure(s)")
-    separation = summary["separation"]
-    if separation["closest_m"] is not None:
-        first, second = separation["closest_pair"]
-        print(f"separation: closest pair {separation['closest_m']:.1f} m (uav {first} and {second} at "
-              f"{separation['closest_t_s']:.1f} s), {separation['conflicts']} conflict(s), "
-              f"{separation['time_below_min_s']:.1f} s below {separation['min_separation_m']:g} m, "
-              f"{separation['holds']} hold(s) by the guard")
-    if "mean_qos_s1" in summary:
-        print(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: mean QoS S1 "
-              f"{summary['mean_qos_s1']:.3f}, S2 {summary['mean_qos_s2']:.3f}, "
-              f"mean throughput {summary['mean_throughput_mbps']:.2f} Mbps ({summary['association']})")
+    for line in end_report(summary):
+        print(line)
     print(f"wrote {', '.join(summary['files'])} in {args.out}")
     if "recording" in summary:
         print(f"recorded the flight in {summary['recording']}")

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import logging
 import time
-from concurrent.futures import wait
 
 import numpy as np
 
@@ -37,13 +36,16 @@ class FlightEnd(FlightLaunch):
         (:meth:`_return_home`); the others, and any still away after ``guard.return_timeout_s``, are
         sent it at once (their return altitudes are layers apart).
         """
-        action = self.config.flight.end_action
+        action, status = self.config.flight.end_action, self.flight_status
+        status.enter("end")
         self._stop.set()
-        wait([job for v in self.vehicles for job in (v.job, v.guard_job) if job is not None])
+        status.wait([(v.system_id, job) for v in self.vehicles for job in (v.job, v.guard_job)],
+                    "its launch or last point to stop")
         if self._refused:  # refused before any vehicle was armed: nothing to end
             return
         if action == "rtl":
             self._return_home()
+            status.enter("end")
         heard = []
         for vehicle in self.vehicles:
             state = self._state(vehicle)
@@ -55,7 +57,9 @@ class FlightEnd(FlightLaunch):
                     logger.warning("vehicle %d was not launched (%s)", vehicle.system_id, vehicle.status)
                 continue
             heard.append(vehicle)
-        for job in [self._pool.submit(self._end_one, v, action) for v in heard]:
+        jobs = [(v.system_id, self._pool.submit(self._end_one, v, action)) for v in heard]
+        status.wait(jobs, f"the answer to its {action.upper()}")
+        for _, job in jobs:
             job.result()
 
     def _end_one(self, vehicle: FlightVehicle, action: str) -> None:
@@ -77,6 +81,7 @@ class FlightEnd(FlightLaunch):
         the others away from; until none is left or ``guard.return_timeout_s`` has passed.
         """
         homes, deadline_s = self.safety.homes_m, time.monotonic() + self.config.guard.return_timeout_s
+        self.flight_status.enter("return", self.config.guard.return_timeout_s)
         flying = [v for v in self.vehicles if v.status == "live" and v.system_id in homes]
         for vehicle in flying:
             vehicle.target_m = (*homes[vehicle.system_id], self.safety.cruise_alt_m[vehicle.system_id])
@@ -90,7 +95,12 @@ class FlightEnd(FlightLaunch):
                 if over and idle:  # its RTL after its last guard point, never before
                     vehicle.status = "ending"
                     vehicle.job = self._pool.submit(self._end_one, vehicle, "rtl")
+            self.flight_status.tick()
             time.sleep(TICK_S)
-        wait([v.job for v in flying if v.job is not None])
+        away = [v.system_id for v in flying if v.status == "live"]
+        if away:
+            logger.warning("%s still away from home after [guard] return_timeout_s = %g s: sent RTL at once",
+                           ", ".join(f"vehicle {sid}" for sid in away), self.config.guard.return_timeout_s)
+        self.flight_status.wait([(v.system_id, v.job) for v in flying], "the answer to its RTL")
         for vehicle in (v for v in flying if v.status == "ending"):  # its RTL failed: sent again below
             vehicle.status = "live"

@@ -54,7 +54,7 @@ class FlightLaunch(FlightStep):
                 self.safety.check_relaunch(sid, home)
             launch(self.fleet.link(sid), self.fleet.tracker, sid, autopilot, self.safety.cruise_alt_m[sid],
                    self.config.flight, self.bridge.protocol, cancel=self._stop, home_alt_m=home.home.alt_m,
-                   takeoff_gate=self.safety.takeoff_gate(sid))
+                   takeoff_gate=self.flight_status.gate(sid, self.safety.takeoff_gate(sid)))
         except BridgeError as exc:
             if vehicle.status in SILENT or self._stop.is_set():  # taken back when heard / the flight ends
                 return
@@ -73,13 +73,17 @@ class FlightLaunch(FlightStep):
         Raises:
             PreflightError: Take-off positions too close, or a vehicle without a link-loss failsafe.
         """
-        flight = self.config.flight
+        flight, status = self.config.flight, self.flight_status
         deadline_s = time.monotonic() + flight.ready_timeout_s
+        status.enter("heartbeat", flight.ready_timeout_s)
         while not self._stop.is_set() and time.monotonic() < deadline_s and not all(
                 self._heard_within(v, flight.link_timeout_s) for v in self.vehicles):
+            status.tick()
             time.sleep(TICK_S)
         heard = [v for v in self.vehicles if self._heard_within(v, flight.link_timeout_s)]
         jobs = {v.system_id: self._pool.submit(self._ready, v) for v in heard}
+        status.enter("ready", flight.ready_timeout_s)
+        status.wait(list(jobs.items()), "its position fix and home")
         homes: dict[int, ReportedHome] = {}
         for vehicle in heard:
             try:
@@ -91,8 +95,11 @@ class FlightLaunch(FlightStep):
                 logger.warning("vehicle %d not launched: %s: %s", vehicle.system_id, type(exc).__name__, exc)
                 self._event("launch_failed", vehicle, f"{type(exc).__name__}: {exc}")
         if homes and not self._stop.is_set():
+            status.enter("preflight")
+            check = self._pool.submit(self.safety.check_launch, homes)
+            status.wait([(sid, check) for sid in homes], "its pre-flight check (parameters)")
             try:
-                self.safety.check_launch(homes)
+                check.result()
             except PreflightError:
                 self._refused = True
                 raise
@@ -104,6 +111,7 @@ class FlightLaunch(FlightStep):
         deadline_s = time.monotonic() + flight.ready_timeout_s
         for sid, home in self._check_all().items():
             self._start_launch(self._by_sid[sid], home)
+        self.flight_status.enter("launch")
         while not self._stop.is_set():
             for vehicle in self.vehicles:
                 if vehicle.status == "waiting" and self._heard_within(vehicle, flight.link_timeout_s):
@@ -119,6 +127,7 @@ class FlightLaunch(FlightStep):
             if not waiting and not any(v.status == "launching" for v in self.vehicles):
                 break
             self._guard_if_due()  # the climbing vehicles are watched from their take-off on
+            self.flight_status.tick()
             time.sleep(TICK_S)
         if not self._stop.is_set() and not any(v.status == "live" for v in self.vehicles):
             failed = "; ".join(f"vehicle {v.system_id}: {v.status}" for v in self.vehicles)

@@ -31,6 +31,7 @@ import numpy as np
 from uav_swarm.planning.planner import Planner
 from uav_swarm.runs.flight_end import FlightEnd
 from uav_swarm.runs.flight_safety import FlightSafety
+from uav_swarm.runs.flight_status import FlightStatus
 from uav_swarm.runs.flight_vehicles import TICK_S, FlightVehicle
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.outputs import RunOutputs
@@ -94,6 +95,7 @@ class Flight(FlightEnd):
         """The users' association over the flight (admission control keeps incumbents on their UAV)."""
         self.safety = FlightSafety(config, bridge, fleet, self._stop,
                                    lambda kind, sid, detail: self._event(kind, self._by_sid.get(sid), detail))
+        self.flight_status = FlightStatus(self, config.status_every_s)
         self._refused = False
         self._next_guard_s = 0.0
         fleet.tracker.add_listener(self._on_state)
@@ -177,10 +179,13 @@ class Flight(FlightEnd):
         start_s = time.monotonic()
         step = 0
         self._event("loop_started", None)
+        self.flight_status.enter("flight")
         self.outputs.static_scene(self.scenario.obstacles)
         steered = 0
         while step < n_steps and not self._stop.is_set():
             self._guard_if_due()
+            self.flight_status.tick(lambda: f"crowd time {self._clock_s:.0f} s of {cfg.duration_s:g} s"
+                                    + (f", QoS S1 {rows[-1][0]:.3f}" if rows else ""))
             due = min(n_steps, int((time.monotonic() - start_s) * cfg.speedup / dt_s) + 1)
             while step < due:
                 self._check_links()

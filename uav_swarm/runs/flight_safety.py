@@ -10,10 +10,13 @@
 - :meth:`FlightSafety.takeoff_gate`: its turn to arm and climb;
 - :meth:`FlightSafety.decide` (``[guard] rate_hz`` times a second): the guard's decision for every
   airborne vehicle on its measured position and the time it was true (:mod:`uav_swarm.runs.flight_guard`),
-  each new hold an event, each bound found broken (a stale position, a point not acknowledged, a vehicle
-  outside its certified disc) an event ``guard_<kind>`` and counted, and the separation record
+  each new hold an event and recorded by reason (:class:`uav_swarm.runs.flight_status.HoldRecord`,
+  summed in the status lines and the end table, not logged one by one), each bound found broken (a
+  stale position, a point not acknowledged, a vehicle outside its certified disc) an event
+  ``guard_<kind>`` and counted, and the separation record
   (:class:`uav_swarm.world.separation.SeparationMonitor`, 3-D distances of the measured positions of the
-  armed vehicles);
+  armed vehicles, and apart the closest pair in flight: both at least
+  :data:`~uav_swarm.runs.flight_status.AIRBORNE_M` above their homes, with the phase it was seen in);
 - before arming, each vehicle's horizontal limits are read
   (:func:`bridge.flight.limits.read_horizontal_limits`) and the guard plans it with the smaller of
   those and ``[guard]``'s; one whose limits cannot be read is refused unless ``[guard] stated_limits``.
@@ -34,6 +37,7 @@ from bridge.flight.preflight import PreflightError, PreflightReport, preflight
 from bridge.flight.vehicles import FleetError
 from bridge.geo import geodetic_to_enu
 from uav_swarm.runs.flight_guard import FlightGuard, GuardDecision
+from uav_swarm.runs.flight_status import AIRBORNE_M, HoldRecord, Reason
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.launch_plan import TakeoffGate, check_launch_positions, grid_slots_m, return_altitudes_m
 from uav_swarm.world.separation import SeparationMonitor
@@ -90,7 +94,10 @@ class FlightSafety:
         self._gate = TakeoffGate(cancel, self._column_clear)
         self._airborne: dict[int, tuple[float, float]] = {}
         self._lock = threading.Lock()
-        self._held: set[int] = set()
+        self.holds = HoldRecord()
+        self.phase = "heartbeat"
+        """The flight's phase (set by :class:`uav_swarm.runs.flight_status.FlightStatus`)."""
+        self._closest_in_flight_phase: str | None = None
 
     # -- before arming --------------------------------------------------------------------------
     def home_m(self, reported: ReportedHome) -> tuple[float, float]:
@@ -176,13 +183,18 @@ class FlightSafety:
         Homes that far apart always clear (a vehicle airborne over its own home leaves the next one's
         column clear); a vehicle waiting to climb is a disc the guard keeps the airborne ones off.
         """
+        return not self.column_blockers(system_id)
+
+    def column_blockers(self, system_id: int) -> list[tuple[int, float]]:
+        """``(system_id, metres)`` of each airborne vehicle that keeps this one's column from clearing."""
         home = self.homes_m.get(system_id)
         if home is None:
-            return True
+            return []
         need_m = self.config.uav.min_separation_m
         with self._lock:
-            others = [p for sid, p in self._airborne.items() if sid != system_id]
-        return all(np.hypot(p[0] - home[0], p[1] - home[1]) >= need_m for p in others)
+            others = [(sid, p) for sid, p in self._airborne.items() if sid != system_id]
+        gaps = [(sid, float(np.hypot(p[0] - home[0], p[1] - home[1]))) for sid, p in others]
+        return [(sid, gap_m) for sid, gap_m in gaps if gap_m < need_m]
 
     # -- in flight ------------------------------------------------------------------------------
     def decide(self, flying: Sequence[tuple[int, VehicleState, tuple[float, float] | None, bool]],
@@ -206,8 +218,13 @@ class FlightSafety:
             self._airborne = {sid: (float(s.x_m or 0.0), float(s.y_m or 0.0)) for sid, s in armed}
         if armed:
             positions = np.array([(s.x_m, s.y_m, s.z_m) for _, s in armed], dtype=np.float64)
-            self.monitor.observe(clock_s, positions, [self._uav_of[sid] for sid, _ in armed])
+            airborne = [s.relative_alt_m is not None and s.relative_alt_m >= AIRBORNE_M for _, s in armed]
+            before = self.monitor.closest_in_flight
+            self.monitor.observe(clock_s, positions, [self._uav_of[sid] for sid, _ in armed], airborne)
+            if self.monitor.closest_in_flight != before:
+                self._closest_in_flight_phase = self.phase
         if not flying:
+            self.holds.decided({}, now_s)
             return []
         measured = [(self._uav_of[sid], (float(s.x_m or 0.0), float(s.y_m or 0.0)),
                      (float(s.vx_m_s or 0.0), float(s.vy_m_s or 0.0)),
@@ -215,21 +232,16 @@ class FlightSafety:
         decisions = self.guard.decide(measured, now_s, [self._uav_of[sid] for sid in busy],
                                       [self._uav_of[sid] for sid in returning])
         self._report_events()
-        out = []
+        reasons: dict[int, Reason | None] = {}
         for (sid, _, _, _), decision in zip(flying, decisions, strict=True):
             held = decision.state in ("held", "stale", "outside")
-            if held and sid not in self._held:
-                self.monitor.count_holds(1)
-                blocker = self._sid_of(decision.blocker) if decision.blocker >= 0 else None
-                detail = f"{decision.state} for vehicle {blocker}" if blocker is not None else decision.state
-                logger.info("vehicle %d: %s (separation guard)", sid, detail)
-                self._event("guard_hold", sid, detail)
-            if held:
-                self._held.add(sid)
-            else:
-                self._held.discard(sid)
-            out.append((sid, decision))
-        return out
+            reasons[sid] = (decision.state, self._sid_of(decision.blocker) if decision.blocker >= 0 else None
+                            ) if held else None
+        for sid in self.holds.decided(reasons, now_s):  # each new hold: an event, summed in the status lines
+            self.monitor.count_holds(1)
+            state, blocker = reasons[sid] or ("held", None)
+            self._event("guard_hold", sid, f"{state} for vehicle {blocker}" if blocker is not None else state)
+        return [(sid, decision) for (sid, _, _, _), decision in zip(flying, decisions, strict=True)]
 
     def _sid_of(self, row: int) -> int | None:
         return next((sid for sid, k in self._uav_of.items() if k == row), None)
@@ -255,7 +267,8 @@ class FlightSafety:
 
     def summary(self) -> dict[str, Any]:
         """The separation record, the launch positions and the pre-flight reports, for ``summary.json``."""
-        separation = self.monitor.summary() | {"guard_events": dict(self.guard_events)}
+        separation = self.monitor.summary() | {"guard_events": dict(self.guard_events),
+                                               "closest_in_flight_phase": self._closest_in_flight_phase}
         limits = {str(sid): self.guard.limits[k].to_dict() for sid, k in sorted(self._uav_of.items())
                   if k in self.guard.limits}
         return {"separation": separation, "guard_limits": limits,

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from bridge.link.vehicle_state import VehicleState
     from uav_swarm.planning.planner import Planner
     from uav_swarm.runs.flight_safety import FlightSafety
+    from uav_swarm.runs.flight_status import FlightStatus
     from uav_swarm.runs.fly_config import FlyConfig
     from uav_swarm.runs.outputs import RunOutputs
     from uav_swarm.runs.steering import OperatorTargets
@@ -75,6 +76,7 @@ class FlightVehicles:
     steering: OperatorTargets | None
     vehicles: list[FlightVehicle]
     safety: FlightSafety
+    flight_status: FlightStatus
     scenario: Scenario
     crowd: CrowdSim
     events: list[dict[str, Any]]
@@ -129,10 +131,24 @@ class FlightVehicles:
                 logger.debug("vehicle %d: state not published: %s", state.system_id, exc)
 
     def summary(self) -> dict[str, Any]:
-        """Per-vehicle outcome (status, launches, command failures), the events and the separation record."""
-        return self.safety.summary() | {
-            "vehicles": [{"system_id": v.system_id, "uav_id": v.uav_id, "status": v.status,
-                          "launches": v.launches, "command_failures": v.command_failures}
-                         for v in self.vehicles],
-            "events": list(self.events),
-        }
+        """Per-vehicle outcome, the events and the separation record.
+
+        Each vehicle: its status, whether it was launched (seen armed; else its outcome is "not
+        launched", whatever it was sent at the end), its outcome in words, launches, command failures
+        and the guard's holds by reason (:class:`uav_swarm.runs.flight_status.HoldRecord`).
+        """
+        from uav_swarm.runs.flight_status import outcome
+
+        status = self.flight_status
+        holds = self.safety.holds.to_dict(time.time())
+        waits = status.waits_at_end or {}
+        events, action = list(self.events), self.config.flight.end_action
+        vehicles = []
+        for v in self.vehicles:
+            launched = v.system_id in status.launched
+            vehicles.append({
+                "system_id": v.system_id, "uav_id": v.uav_id, "status": v.status, "launched": launched,
+                "outcome": outcome(v, launched, events, action, waits.get(v.system_id, "")),
+                "launches": v.launches, "command_failures": v.command_failures,
+                "holds": holds.get(v.system_id, [])})
+        return self.safety.summary() | {"vehicles": vehicles, "events": events}

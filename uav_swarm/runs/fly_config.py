@@ -52,6 +52,8 @@ class FlyConfig(Config):
                                   doc="simulated seconds between two QoS / track records (and /qos messages)")
     static_every_s: float = param(10.0, gt=0.0, le=3600.0,
                                   doc="crowd seconds between static reference instants (summary.json)")
+    status_every_s: float = param(5.0, ge=0.5, le=60.0,
+                                  doc="wall-clock seconds between two status lines (what fly waits for)")
     planner: Literal["learned", "expert"] = param("learned", doc="the planner that flies the vehicles")
     checkpoint: str = param("", doc="learned planner checkpoint (empty: the shipped one the task flies)")
     mode: Literal["guided", "mission"] = param(

@@ -275,14 +275,18 @@ class SeparationMonitor:
 
     Feed it the positions of each sample (:meth:`observe`) and the guard's holds (:meth:`count_holds`).
     A *conflict* is a pair entering below the minimum (closer now, not closer at its previous sample).
+    The closest pair *in flight* counts only pairs whose UAVs are both airborne (each sample says which;
+    all of them unless told): on the ground, armed before take-off, two UAVs stand at their launch spacing.
 
     Examples:
         >>> monitor = SeparationMonitor(5.0)
         >>> for t_s, gap_m in [(0.0, 10.0), (1.0, 4.0), (2.0, 3.0), (3.0, 8.0)]:
-        ...     _ = monitor.observe(t_s, np.array([[0.0, 0.0], [gap_m, 0.0]]))
+        ...     _ = monitor.observe(t_s, np.array([[0.0, 0.0], [gap_m, 0.0]]), airborne=[True, t_s < 2.0])
         >>> s = monitor.summary()
         >>> s["closest_m"], s["closest_pair"], s["closest_t_s"], s["conflicts"], s["time_below_min_s"]
         (3.0, [0, 1], 2.0, 1, 2.0)
+        >>> s["closest_in_flight_m"], s["closest_in_flight_t_s"]
+        (4.0, 1.0)
     """
 
     def __init__(self, min_separation_m: float, altitudes_m: np.ndarray | None = None) -> None:
@@ -290,6 +294,10 @@ class SeparationMonitor:
         self._altitudes_m = altitudes_m
         self._closest = ClosestPair(math.inf, -1, -1)
         self._closest_t_s = math.nan
+        self.closest_in_flight = ClosestPair(math.inf, -1, -1)
+        """The closest pair of UAVs both airborne so far (distance ``inf`` before two flew at once)."""
+        self._closest_in_flight_t_s = math.nan
+        self._told_airborne = False
         self._below: np.ndarray | None = None
         self._last_t_s: float | None = None
         self.conflicts = 0
@@ -297,11 +305,12 @@ class SeparationMonitor:
         self.holds = 0
         self.samples = 0
 
-    def observe(self, t_s: float, positions_m: np.ndarray, ids: list[int] | None = None) -> float:
+    def observe(self, t_s: float, positions_m: np.ndarray, ids: list[int] | None = None,
+                airborne: list[bool] | np.ndarray | None = None) -> float:
         """Record one sample of (K, 2) positions at time ``t_s``; returns its closest distance (m).
 
         ``ids`` names the UAVs of the rows (default 0 ... K-1): a fleet whose membership changes (a lost
-        vehicle) keeps its pairs apart by id.
+        vehicle) keeps its pairs apart by id. ``airborne`` (K,) says which are in flight (default: all).
         """
         p = np.asarray(positions_m, dtype=np.float64)
         names = list(range(p.shape[0])) if ids is None else list(ids)
@@ -310,6 +319,15 @@ class SeparationMonitor:
         if pair.distance_m < self._closest.distance_m:
             self._closest = ClosestPair(pair.distance_m, names[pair.first], names[pair.second])
             self._closest_t_s = float(t_s)
+        self._told_airborne |= airborne is not None
+        flying = np.ones(p.shape[0], dtype=bool) if airborne is None else np.asarray(airborne, dtype=bool)
+        rows = np.flatnonzero(flying)
+        in_flight = pair if airborne is None else closest_pair(
+            p[rows], None if altitudes is None else altitudes[rows])
+        if in_flight.distance_m < self.closest_in_flight.distance_m:
+            first, second = (names[rows[in_flight.first]], names[rows[in_flight.second]])
+            self.closest_in_flight = ClosestPair(in_flight.distance_m, first, second)
+            self._closest_in_flight_t_s = float(t_s)
         size = max(names, default=-1) + 1
         below = np.zeros((size, size), dtype=bool)
         if p.shape[0] >= 2:
@@ -337,14 +355,24 @@ class SeparationMonitor:
         """The run's figures, JSON-ready.
 
         Keys: ``min_separation_m``, ``closest_m``, ``closest_pair``, ``closest_t_s``, ``conflicts``,
-        ``time_below_min_s``, ``holds``, ``samples`` (the closest pair is None before two UAVs flew).
+        ``time_below_min_s``, ``holds``, ``samples`` (a closest pair is None before two UAVs were observed
+        at once); when samples said which UAVs were airborne, the same of the closest pair in flight
+        (``closest_in_flight_m``, ``closest_in_flight_pair``, ``closest_in_flight_t_s``).
         """
         finite = math.isfinite(self._closest.distance_m)
+        flown = math.isfinite(self.closest_in_flight.distance_m)
+        in_flight = self.closest_in_flight
+        in_flight_keys = {
+            "closest_in_flight_m": round(in_flight.distance_m, 3) if flown else None,
+            "closest_in_flight_pair": [in_flight.first, in_flight.second] if flown else None,
+            "closest_in_flight_t_s": self._closest_in_flight_t_s if flown else None,
+        } if self._told_airborne else {}
         return {
             "min_separation_m": self.min_separation_m,
             "closest_m": round(self._closest.distance_m, 3) if finite else None,
             "closest_pair": [self._closest.first, self._closest.second] if finite else None,
             "closest_t_s": self._closest_t_s if finite else None,
+            **in_flight_keys,
             "conflicts": self.conflicts,
             "time_below_min_s": round(self.time_below_min_s, 3),
             "holds": self.holds,
