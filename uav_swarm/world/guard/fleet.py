@@ -191,6 +191,10 @@ class FleetGuard:
         """Whether vehicle ``i`` is steered by the guard (silent ones included)."""
         return self._hold[i] is not None
 
+    def is_obstacle(self, i: int) -> bool:
+        """Whether vehicle ``i`` is a disc the others keep off, not steered (climbing, returning)."""
+        return i in self._obstacle
+
     def is_silent(self, i: int) -> bool:
         """Whether vehicle ``i`` is kept on its last disc, unheard."""
         return i in self._silent
