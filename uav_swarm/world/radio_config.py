@@ -59,8 +59,9 @@ class RadioConfig(Config):
             paper = [name for name in ("range_m", "signal_at_range", "sigma_sq_m2", "capacity_mbps")
                      if getattr(self, name) != getattr(RadioConfig, name)]
             if paper:
-                raise ConfigError(f"RadioConfig.{paper[0]} belongs to propagation = 'paper'; with "
-                                  "propagation = '802.11' leave it out (the 802.11 settings: ieee80211)")
+                raise ConfigError(f"RadioConfig.{paper[0]} belongs to propagation = 'paper': set "
+                                  "propagation = 'paper' for it, or leave it out with propagation = '802.11' "
+                                  "(the 802.11 settings: ieee80211)")
             return
         if self.ieee80211 != Ieee80211Config():
             raise ConfigError("RadioConfig.ieee80211 applies only with propagation = '802.11'; "
@@ -81,6 +82,22 @@ class RadioConfig(Config):
                 f"RadioConfig.station_limit = {self.station_limit} is out of range: allowed "
                 f"1 <= station_limit <= {most} (capacity_mbps / min_user_rate_mbps = {self.capacity_mbps} / "
                 f"{self.min_user_rate_mbps}: more stations could not all get the minimum rate)")
+
+    def for_strategy(self, strategy: int) -> RadioConfig:
+        """The radio a strategy runs: under 802.11 an admission on rate not given is the strategy's.
+
+        Strategy 1 counts the users with a usable rate, so no station is refused on rate; strategy 2 counts
+        those with ``min_user_rate_mbps``, so an AP admits a station only while every station keeps it. A
+        ``rate_admission`` given is kept, and the paper's radio is returned as it is.
+
+        Examples:
+            >>> radio = RadioConfig(propagation="802.11")
+            >>> radio.for_strategy(1).ieee80211.rate_admission, radio.for_strategy(2).ieee80211.rate_admission
+            (False, True)
+        """
+        if self.propagation != "802.11" or self.ieee80211.rate_admission is not None:
+            return self
+        return self.replace(ieee80211=self.ieee80211.replace(rate_admission=strategy == 2))
 
     @property
     def rate_bound_stations(self) -> int | None:
@@ -109,7 +126,7 @@ class RadioConfig(Config):
         if self.propagation == "802.11":
             wifi = self.ieee80211
             rules = [f"{wifi.fairness} fairness"]
-            if wifi.rate_admission:
+            if wifi.admits_on_rate:
                 rules.append(f"admission on rate ({self.min_user_rate_mbps:g} Mbps)")
             if self.max_stations is not None:
                 rules.append(f"{self.max_stations} stations per UAV")
@@ -117,6 +134,23 @@ class RadioConfig(Config):
         limit = self.max_stations
         return "paper (no admission control)" if limit is None else \
             f"admission control ({limit} stations per UAV)"
+
+    @property
+    def radio_and_admission(self) -> str:
+        """The radio and the admission a placement is made for, in words (a network must match them).
+
+        Examples:
+            >>> RadioConfig(propagation="802.11").for_strategy(1).radio_and_admission
+            'the 802.11 radio without admission on rate'
+            >>> RadioConfig(station_limit="auto").radio_and_admission
+            "the paper's radio with admission control (40 stations per UAV)"
+        """
+        limit = self.max_stations
+        if self.propagation == "802.11":
+            rule = "with admission on rate" if self.ieee80211.admits_on_rate else "without admission on rate"
+            return f"the 802.11 radio {rule}" + ("" if limit is None else f" and {limit} stations per UAV")
+        return ("the paper's radio without admission control" if limit is None else
+                f"the paper's radio with admission control ({limit} stations per UAV)")
 
     @property
     def effective_sigma_sq_m2(self) -> float:
