@@ -31,10 +31,11 @@ from uav_swarm.cli.conventions import config_flag, number
 
 __all__ = ["register", "run", "format_summary", "wrote_line", "CHECKPOINT_HELP"]
 
-CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: wifi-s1.pt for "
-                   "strategy 1, wifi-s2-ac.pt for strategy 2 under admission control, wifi-s2.pt for "
-                   "strategy 2 with station_limit = \"off\", wifi-s<strategy>-80211.pt under the 802.11 "
-                   "radio)")
+CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: "
+                   "wifi-s<strategy>-80211.pt under the 802.11 radio, the default; on the paper's radio "
+                   "wifi-s1.pt for strategy 1, wifi-s2-ac.pt for strategy 2 under admission control, "
+                   "wifi-s2.pt for strategy 2 with station_limit = \"off\"); one trained for another radio, "
+                   "strategy or admission is refused)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -111,6 +112,8 @@ def format_summary(summary: dict[str, Any]) -> str:
     if "association" in first:
         lines.append(f"radio association: {first['association']}")
         lines.extend(_why_s2_is_low(first["association"], summary.get("config", {}).get("task", {})))
+    if "expert" in summary:
+        lines.append(f"expert: {summary['expert']}")
     for kind, s in summary["planners"].items():
         if "wifi_80211" in s:
             lines.append(_wifi_line(kind, s["wifi_80211"]))
@@ -131,7 +134,9 @@ def format_summary(summary: dict[str, Any]) -> str:
                      f"S2 {show(ratios['mean_qos_s2'])}, throughput {show(ratios['mean_throughput_mbps'])}; "
                      f"expert / learned planning time {show(ratios['expert_over_learned_median_latency'])}x")
     if "inference_engine" in summary:
-        lines.append(f"learned network: {summary['inference_engine']} engine, {summary['network_precision']}")
+        checkpoint = f"{summary['checkpoint']}, " if "checkpoint" in summary else ""
+        lines.append(f"learned network: {checkpoint}{summary['inference_engine']} engine, "
+                     f"{summary['network_precision']}")
     return "\n".join(lines)
 
 

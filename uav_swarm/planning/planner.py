@@ -168,8 +168,8 @@ def _check_radio(path: Path, trained: dict[str, Any], task_config: WifiConfig, s
         raise CheckpointError(f"{path}: its radio is not a valid RadioConfig: {exc}") from None
     flown = task_config.radio
     if radio.radio_and_admission != flown.radio_and_admission:
-        fix = ("train one for it" if from_shipped else
-               f"leave --checkpoint out (the shipped one for this task is uav_swarm/checkpoints/{shipped}.pt)")
+        fix = ("train one for it" if from_shipped else "leave --checkpoint out (the shipped one for this "
+               f"task is uav_swarm/checkpoints/{shipped}.pt)")
         raise CheckpointError(f"{path}: trained for {radio.radio_and_admission}, this run flies strategy "
                               f"{task_config.strategy} on {flown.radio_and_admission}: {fix}, or set "
                               "[task.radio] to what the network was trained for")
