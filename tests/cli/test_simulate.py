@@ -18,7 +18,7 @@ from bridge.missions.files import load_plan
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 from bridge.telemetry.schema import Plan, Qos, UavState
-from conftest import SMALL_WIFI_TASK
+from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from uav_swarm.cli import main
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -46,7 +46,7 @@ def small_config(tmp_path):
 
 def tiny(checkpoint_path, **changes) -> SimulateConfig:
     base = {"duration_s": 3.0, "n_uavs": 3, "gif_max_frames": 6, "gif_width_px": 900,
-            "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_WIFI_TASK}
+            "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_PAPER_TASK}
     return SimulateConfig.from_dict({**base, **changes})
 
 

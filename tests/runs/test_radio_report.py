@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from foxglove_readback import read_back
 
-from conftest import SMALL_WIFI_TASK
+from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from typed_config import ConfigError
 from uav_swarm.cli.simulate import format_summary
 from uav_swarm.env.parallel import parallel_env
@@ -141,7 +141,7 @@ def test_one_channel_puts_every_pair_that_hears_each_other_on_shared_airtime(tmp
 
 
 def test_the_paper_radio_reports_no_802_11_figures(tmp_path):
-    result = simulate(_config(task=SMALL_WIFI_TASK, duration_s=0.3), tmp_path, progress=False)
+    result = simulate(_config(task=SMALL_PAPER_TASK, duration_s=0.3), tmp_path, progress=False)
     assert result.runs["expert"].radio is None
     assert "wifi_80211" not in result.summary["planners"]["expert"]
     assert result.summary["radio"].startswith("radio: the paper's")
@@ -159,7 +159,7 @@ def test_the_802_11_radio_flies_at_the_uav_altitude():
 @pytest.mark.parametrize(("changes", "message"), [
     ({"task": {**WIFI_TASK, "radio": {"propagation": "802.11", "altitude_m": 20.0}}},
      "SimulateConfig.task.radio.altitude_m = 20.0 differs from uav.alt_m = 10.0"),
-    ({"task": {**SMALL_WIFI_TASK, "radio": {"altitude_m": 20.0}}},
+    ({"task": {**SMALL_WIFI_TASK, "radio": {"propagation": "paper", "altitude_m": 20.0}}},
      "SimulateConfig.task.radio.altitude_m = 20.0: the paper's radio flies at uav.alt_m"),
 ], ids=["802.11-other-altitude", "paper-altitude"])
 def test_a_radio_altitude_the_run_would_not_fly_is_refused_in_one_line(changes, message):
