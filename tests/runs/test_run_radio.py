@@ -46,7 +46,7 @@ def test_a_value_given_is_applied_or_refused_never_dropped():
 
 
 def test_strategy_1_under_802_11_serves_every_user_with_a_usable_rate():
-    """The README's one line (`propagation = "802.11"`) counts the users with a usable rate, not those admitted."""
+    """The README's one line (`propagation = "802.11"`) counts the users with a usable rate."""
     config = SimulateConfig.from_dict({"task": {"radio": {"propagation": "802.11"}}})
     users = np.random.default_rng(3).normal(100.0, 6.0, (200, 2))  # 200 users under one UAV
     cov = evaluate_coverage(users, np.array([[100.0, 100.0]]), config.task.radio, np.array([10.0]))

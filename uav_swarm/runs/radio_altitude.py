@@ -25,13 +25,11 @@ from typing import Any
 
 from typed_config import ConfigError
 from uav_swarm.missions.wifi.task import WifiConfig
-from uav_swarm.world.radio_config import RadioConfig
+from uav_swarm.world.radio_config import RUN_PROPAGATION, RadioConfig
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["RUN_PROPAGATION", "with_run_radio", "run_task", "check_radio_altitude", "radio_for_run"]
 
-RUN_PROPAGATION = "802.11"
-"""The radio ``simulate`` and ``fly`` fly when ``[task.radio]`` gives no ``propagation``."""
 
 
 def with_run_radio(data: Mapping[str, Any]) -> Mapping[str, Any]:

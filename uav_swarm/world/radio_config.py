@@ -1,7 +1,9 @@
 """The settings of the UAV Wi-Fi models: :class:`RadioConfig` (``[task.radio]``).
 
-``propagation`` chooses the model: ``"paper"`` (:mod:`uav_swarm.world.comms`, the default) or ``"802.11"``
-(:mod:`uav_swarm.world.wifi_coverage`, its settings in ``ieee80211``, :mod:`uav_swarm.world.wifi_config`).
+``propagation`` chooses the model: ``"paper"`` (:mod:`uav_swarm.world.comms`, this class's default, which the
+learning tasks keep) or ``"802.11"`` (:mod:`uav_swarm.world.wifi_coverage`, its settings in ``ieee80211``,
+:mod:`uav_swarm.world.wifi_config`; the default of ``simulate``, ``fly`` and ``uav_swarm_v0``,
+:data:`RUN_PROPAGATION`).
 
 Examples:
     >>> RadioConfig().association_name
@@ -19,7 +21,10 @@ from typing import Literal
 from typed_config import Config, ConfigError, param
 from uav_swarm.world.wifi_config import Ieee80211Config
 
-__all__ = ["RadioConfig"]
+__all__ = ["RadioConfig", "RUN_PROPAGATION"]
+
+RUN_PROPAGATION = "802.11"
+"""The radio ``simulate``, ``fly`` and ``uav_swarm_v0`` fly when not told (``RadioConfig()``: the paper's)."""
 
 
 @dataclass(frozen=True)
