@@ -217,7 +217,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
                 covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=np.array(flown),
                 peaks_m=result.peaks_m.copy(), utility=result.utility, qos_s1=float(cov.qos_s1),
-                qos_s2=float(cov.qos_s2)))
+                qos_s2=float(cov.qos_s2),
+                association=None if radio_log is None else np.array(cov.association),
+                channels=None if radio_log is None or cov.channel is None else np.array(cov.channel)))
     return SequenceRun(
         planner=kind, planner_name=planner.name, times_s=np.arange(1, steps + 1) * env.dt_s, qos_s1=qos_s1,
         qos_s2=qos_s2, throughput_mbps=rate, latency_ms=np.asarray(latencies),

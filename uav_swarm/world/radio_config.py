@@ -23,7 +23,7 @@ from uav_swarm.world.wifi_config import Ieee80211Config
 
 __all__ = ["RadioConfig", "RUN_PROPAGATION"]
 
-RUN_PROPAGATION = "802.11"
+RUN_PROPAGATION: Literal["paper", "802.11"] = "802.11"
 """The radio ``simulate``, ``fly`` and ``uav_swarm_v0`` fly when not told (``RadioConfig()``: the paper's)."""
 
 
