@@ -8,12 +8,13 @@ incumbents step to step) and must give the same SINR and MCS figures, step by st
 
 from __future__ import annotations
 
+import base64
 import csv
 import json
 
 import numpy as np
 import pytest
-from foxglove_readback import read_back
+from foxglove_readback import conform, read_back
 
 from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from typed_config import ConfigError
@@ -126,6 +127,26 @@ def test_the_outputs_show_the_radio_channels_and_sinr(wifi_run):
     qos = states["/qos"]["messages"][-1]
     assert qos["median_sinr_db"] == pytest.approx(run.radio.median_sinr_db[-1])
     assert qos["co_channel_pairs"] == int(run.radio.sharing[-1].sum())
+
+
+def test_the_foxglove_scene_shows_each_uav_s_channel_and_whom_it_serves(wifi_run):
+    config, result, out = wifi_run
+    run = result.runs["expert"]
+    topics = read_back(out / "run.mcap")["topics"]
+    scene = topics["/scene"]["messages"][-1]
+    assert not conform(scene, "foxglove.SceneUpdate")
+    entities = {entity["id"]: entity for entity in scene["entities"]}
+    assert not entities["coverage"].get("cylinders")  # no coverage disc under 802.11
+    texts = [text["text"] for text in entities["channels"]["texts"]]
+    cloud = topics["/pedestrians"]["messages"][-1]
+    assert [field["name"] for field in cloud["fields"]] == ["x", "y", "z", "covered", "uav"]
+    points = np.frombuffer(base64.b64decode(cloud["data"]), "<f4").reshape(-1, 5)
+    served = [int(np.count_nonzero(points[:, 4] == k)) for k in range(N_UAVS)]
+    channels = run.radio.channels[-1]
+    assert texts == [f"UAV {k}, ch {channels[k]}, {served[k]} users" for k in range(N_UAVS)]
+    lines = entities["service"].get("lines", [])
+    assert sum(len(line["points"]) for line in lines) == 2 * sum(served)  # one line per user served
+    assert sum(served) == int(np.count_nonzero(points[:, 3]))  # every user served, no other
 
 
 def test_one_channel_puts_every_pair_that_hears_each_other_on_shared_airtime(tmp_path):

@@ -172,7 +172,7 @@ class SceneAnimation:
         pedestrians = np.asarray(frame.pedestrians_m, dtype=np.float64).reshape(-1, 2)
         covered = np.asarray(frame.covered, dtype=bool)
         uavs = np.asarray(frame.uavs_m, dtype=np.float64).reshape(-1, 2)
-        for disc, centre in zip(self._discs, uavs, strict=True):
+        for disc, centre in zip(self._discs, uavs, strict=False):  # no discs under 802.11
             disc.center = (float(centre[0]), float(centre[1]))
         if self.wifi and frame.association is not None:
             association = np.asarray(frame.association, dtype=np.int64)

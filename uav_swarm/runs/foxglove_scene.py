@@ -58,8 +58,8 @@ MAP_FRAME = "map"
 """The run's local East-North-Up frame."""
 
 Vec3 = tuple[float, float, float]
-Service = tuple[int, int | None, np.ndarray]
-"""A UAV's service under the 802.11 radio: its id, its channel (None: unknown) and the users it serves."""
+Service = tuple[int, int | None, np.ndarray | None]
+"""A UAV's service under the 802.11 radio: its id, its channel and the users it serves (None: unknown)."""
 
 _UAV, _TARGET = Color(r=0.10, g=0.35, b=0.85, a=1.0), Color(r=0.90, g=0.45, b=0.05, a=1.0)
 _DISC = Color(r=0.10, g=0.35, b=0.85, a=0.15)
@@ -139,7 +139,8 @@ def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]], cover
         coverage_radius_m: Radius of a disc on the ground (the paper's radio).
         min_separation_m: The minimum distance between two UAVs (0: no circles).
         held: Whether the separation guard holds each UAV of ``placed`` (empty: none known).
-        service: For each UAV of ``placed``, its id, channel and the ``(M, 2)`` users it serves.
+        service: For each UAV of ``placed``, its id, channel and the ``(M, 2)`` users it serves (None: not
+            known, no lines).
     """
     colours = [_UAV] * len(placed) if service is None else [_service_colour(uav) for uav, _, _ in service]
     uavs = [SpherePrimitive(pose=pose(*position), size=_UAV_BOX, color=colour)
@@ -176,11 +177,12 @@ def _service(t: Timestamp, positions: Sequence[Vec3], service: Sequence[Service]
     labels, lines = [], []
     for (x, y, z), (uav_id, channel, users_m) in zip(positions, service, strict=True):
         colour = _service_colour(uav_id)
-        users = np.asarray(users_m, np.float64).reshape(-1, 2)
+        users = np.zeros((0, 2)) if users_m is None else np.asarray(users_m, np.float64).reshape(-1, 2)
         on = "" if channel is None else f", ch {channel}"
+        count = "" if users_m is None else f", {len(users)} users"
         labels.append(TextPrimitive(pose=pose(x, y, z + _LABEL_ABOVE_M), billboard=True,
                                     font_size=_LABEL_SIZE_PX, scale_invariant=True, color=colour,
-                                    text=f"UAV {uav_id}{on}, {len(users)} users"))
+                                    text=f"UAV {uav_id}{on}{count}"))
         if len(users):
             ends = [_point(x, y, z) if i % 2 == 0 else _point(users[i // 2, 0], users[i // 2, 1], 0.0)
                     for i in range(2 * len(users))]

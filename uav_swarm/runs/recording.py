@@ -227,7 +227,8 @@ class RunRecorder:
             pedestrians_m: ``(N, 2)`` crowd positions.
             covered: ``(N,)`` True for a user a UAV serves.
             association: ``(N,)`` each user's UAV (-1: none). With the UAVs' channels in their states (the
-                802.11 radio) the scene shows each UAV's channel and the users it serves instead of discs.
+                802.11 radio) the scene shows each UAV's channel, and with ``association`` the users it
+                serves, instead of coverage discs.
         """
         self._keep_pace(time_s)
         self._streaming = self._stream_due()
@@ -293,11 +294,13 @@ class RunRecorder:
                   lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
         drawn = [s for s in states if s.position_enu_m is not None]
         held = [bool(s.separation_held) for s in drawn]
-        service, served_by = None, None  # under the 802.11 radio: whom each UAV serves, on its channel
-        if association is not None and any(s.wifi_channel is not None for s in drawn):
+        service, served_by = None, None  # under the 802.11 radio: each UAV's channel and whom it serves
+        if any(s.wifi_channel is not None for s in drawn):
             served_by = association
-            users, uav_of = np.asarray(pedestrians_m), np.where(np.asarray(covered, bool), association, -1)
-            service = [(s.uav_id, s.wifi_channel, users[uav_of == s.uav_id]) for s in drawn]
+            users = np.asarray(pedestrians_m)
+            uav_of = None if association is None else np.where(np.asarray(covered, bool), association, -1)
+            service = [(s.uav_id, s.wifi_channel, None if uav_of is None else users[uav_of == s.uav_id])
+                       for s in drawn]
         self._log(_SCENE, _scene_channel, time_s,
                   lambda: fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m,
                                           self.scene.min_separation_m, held, service))
