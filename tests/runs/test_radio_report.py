@@ -24,6 +24,7 @@ from uav_swarm.runs.radio_report import MCS_BANDS, mcs_band_shares
 from uav_swarm.runs.simulate import sequence_crowds, simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.world.comms import Association
+from uav_swarm.world.wifi_channels import plan_channels
 from uav_swarm.world.wifi_phy import ap_pair_power_dbm
 
 N_UAVS, REPLAN_EVERY = 4, 5
@@ -52,7 +53,9 @@ def _replay(config: SimulateConfig, run) -> list:
     env.reset(seed=config.seed)
     crowds = [users for _, users, _ in sequence_crowds(config, config.dt_s)] + [run.final_pedestrians_m]
     link = Association(env.radio)
-    link.update(crowds[0], np.array(env.uav_positions_m), altitudes_m=env.uav_altitudes_m)  # the reset
+    start = np.array(env.uav_positions_m)  # at the reset the environment plans the channels itself
+    link.update(crowds[0], start, altitudes_m=env.uav_altitudes_m,
+                channels=plan_channels(start, env.radio, env.uav_altitudes_m))
     return [link.update(crowds[step + 1], run.uav_tracks_m[step], altitudes_m=env.uav_altitudes_m,
                         channels=run.radio.channels[step]) for step in range(config.n_steps)]
 
