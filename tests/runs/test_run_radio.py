@@ -43,6 +43,8 @@ def test_a_value_given_is_applied_or_refused_never_dropped():
                                           "'paper' for it") as error:
         SimulateConfig.from_dict({"task": {"radio": {"range_m": 40.0}}})
     assert "\n" not in str(error.value)
+    with pytest.raises(ConfigError, match="station_limit = 'auto' .* belongs to propagation = 'paper'"):
+        SimulateConfig.from_dict({"task": {"strategy": 2, "radio": {"station_limit": "auto"}}})
 
 
 def test_strategy_1_under_802_11_serves_every_user_with_a_usable_rate():

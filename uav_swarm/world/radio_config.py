@@ -51,7 +51,7 @@ class RadioConfig(Config):
         "an integer 1..floor(capacity_mbps / min_user_rate_mbps), 'auto' for that floor (40 by default), "
         "or 'off' for the paper's model (every user in range joins its strongest UAV); None (not given) is "
         "the paper's model too, except in simulate and fly with strategy 2, which take 'auto'; with "
-        "propagation '802.11' an integer caps the stations, 'auto' and 'off' do not")
+        "propagation '802.11' an integer caps the stations, 'off' does not, and 'auto' is refused")
     ieee80211: Ieee80211Config = param(Ieee80211Config(),
                                        doc="the 802.11 model's settings (used with propagation = '802.11')")
 
@@ -67,6 +67,10 @@ class RadioConfig(Config):
                 raise ConfigError(f"RadioConfig.{paper[0]} belongs to propagation = 'paper': set "
                                   "propagation = 'paper' for it, or leave it out with propagation = '802.11' "
                                   "(the 802.11 settings: ieee80211)")
+            if self.station_limit == "auto":
+                raise ConfigError("RadioConfig.station_limit = 'auto' (capacity / minimum rate) belongs to "
+                                  "propagation = 'paper': set propagation = 'paper' for it; under '802.11' "
+                                  "admission on rate decides, and an integer caps the stations")
             return
         if self.ieee80211 != Ieee80211Config():
             raise ConfigError("RadioConfig.ieee80211 applies only with propagation = '802.11'; "
