@@ -348,6 +348,7 @@ def test_the_802_11_radio_judges_a_flight_at_the_vehicles_heights_on_planned_cha
         assert main(argv) == 0
         summary = json.loads((tmp_path / "out" / "summary.json").read_text())
         assert summary["association"].startswith("802.11")
+        assert summary["expert"] == "802.11 expert (strategy 2, the 802.11 radio with admission on rate)"
         assert 0.0 <= summary["mean_qos_s2"] <= summary["mean_qos_s1"] <= 1.0
         assert summary["service"]["static_reference_qos"] is not None
         rows = (tmp_path / "out" / "track.csv").read_text().splitlines()
