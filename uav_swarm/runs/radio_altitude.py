@@ -31,7 +31,6 @@ from uav_swarm.world.uav import UAVConfig
 __all__ = ["RUN_PROPAGATION", "with_run_radio", "run_task", "check_radio_altitude", "radio_for_run"]
 
 
-
 def with_run_radio(data: Mapping[str, Any]) -> Mapping[str, Any]:
     """``data`` (a run's TOML tables) with the run's radio where ``[task.radio]`` leaves it out.
 
