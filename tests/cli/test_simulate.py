@@ -34,6 +34,9 @@ n_groups_min = 2
 n_groups_max = 3
 group_size_min = 35
 group_size_max = 45
+
+[task.radio]
+propagation = "paper"   # the tiny network's radio (simulate's default is 802.11)
 """
 
 
@@ -64,6 +67,7 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
     assert "3 UAVs" in printed and "\nlearned " in printed and "\nexpert " in printed
     assert "learned / expert: QoS S1" in printed
     assert "learned network: " in printed and " engine, float32" in printed
+    assert "\nexpert: search expert (strategy 1, the paper's radio without admission control)\n" in printed
 
     summary = json.loads((out / "summary.json").read_text())
     assert set(summary["planners"]) == {"learned", "expert"} and summary["flown"] == "learned"
@@ -73,6 +77,7 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
         assert s["mean_throughput_mbps"] >= 0.0 and s["n_replans"] == 3 and s["n_pedestrians"] > 0
         assert 0.0 < s["median_latency_ms"] <= s["p95_latency_ms"]
     assert summary["planners"]["learned"]["planner"] == "cnn-peaks-hungarian"
+    assert summary["checkpoint"].endswith("best.pt") and summary["expert"].startswith("search expert")
     assert summary["config"]["seed"] == 2 and summary["config"]["n_uavs"] == 3
     assert summary["ratios_learned_over_expert"]["expert_over_learned_median_latency"] > 0.0
     assert summary["inference_engine"] in ("onnxruntime", "torch-jit", "torch-eager")
