@@ -44,7 +44,7 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.conventions import config_flag, number, output_flag
 from uav_swarm.cli.simulate import CHECKPOINT_HELP
 
 __all__ = ["register", "run"]
@@ -65,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "unless --simulated)")
     add("--simulated", choices=("ardupilot", "px4"),
         help="fly a simulated fleet of this autopilot, started here (default: none, real vehicles)")
-    add("--out", type=Path, default=Path("out/fly"), help="output folder")
+    output_flag(parser, "--out", "folder", default="out/fly", help="output folder")
     add("--config", type=Path, help="TOML of FlyConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry], [flight]); flags override it (default: none)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
@@ -88,7 +88,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--ros2", action="store_true",
         help="publish the flight on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
              "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
-    add("--record", type=Path, metavar="FLIGHT.mcap",
+    output_flag(parser, "--record", "file", metavar="FLIGHT.mcap",
         help="record the flight (scene, vehicle states, plans, QoS) as MCAP for Foxglove (default: none)")
     add("--live", metavar="[HOST:]PORT",
         help="stream the flight to Foxglove (Open connection, Foxglove WebSocket) from a server on this "

@@ -27,7 +27,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.conventions import config_flag, number, output_flag
 
 __all__ = ["register", "run", "format_summary", "wrote_line", "CHECKPOINT_HELP"]
 
@@ -44,7 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
     cfg = "uav_swarm.runs.simulate_config:SimulateConfig."
-    add("--out", type=Path, default=Path("out/simulate"), help="output folder")
+    output_flag(parser, "--out", "folder", default="out/simulate", help="output folder")
     add("--config", type=Path, help="TOML of SimulateConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry]); flags override it (default: none, the defaults below)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
@@ -63,7 +63,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="publish the run on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
              "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
     add("--no-gif", action="store_true", help="do not write scene.gif")
-    add("--record", type=Path, metavar="RUN.mcap",
+    output_flag(parser, "--record", "file", metavar="RUN.mcap",
         help="record the flown run (scene, UAV states, plans, QoS) as MCAP for Foxglove (default: none)")
     add("--live", metavar="[HOST:]PORT",
         help="stream the flown run to Foxglove (Open connection, Foxglove WebSocket) from a server on this "

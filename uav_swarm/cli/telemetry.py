@@ -24,7 +24,7 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any, TextIO
 
-from uav_swarm.cli.conventions import number
+from uav_swarm.cli.conventions import number, output_flag
 
 __all__ = ["register", "run"]
 
@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                 description="Record every telemetry message to a JSON-lines file (one "
                                 "object per line: key, time received, payload); the file appears when "
                                 "recording ends.")
-    record.add_argument("--out", type=Path, required=True, help="the .jsonl file to write")
+    output_flag(record, "--out", "file", required=True, help="the .jsonl file to write")
     ros2 = actions.add_parser("ros2", help="republish the swarm on ROS 2 topics (needs the ros2 extra)",
                               description="Republish the swarm's states, plans and QoS on the ROS 2 topics "
                               "of --ros2 (docs/ros2.md), stamped when each payload was produced.")
