@@ -45,7 +45,7 @@ from pathlib import Path
 from typing import Any
 
 from uav_swarm.cli.conventions import config_flag, number, output_flag
-from uav_swarm.cli.simulate import CHECKPOINT_HELP
+from uav_swarm.cli.simulate import CHECKPOINT_HELP, telemetry_endpoint
 
 __all__ = ["register", "run"]
 
@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
             overrides = _overrides(args)
             if args.simulated and args.bridge_config is None:
                 overrides["bridge_config"] = _fleet_config(stack, args.n_uavs or 5)
-            config = load_fly_config(args.config, overrides)
+            config = telemetry_endpoint(load_fly_config(args.config, overrides), args.config)
             if args.simulated:
                 _start_fleet(stack, args.simulated, config.bridge_config, config.n_uavs)
         except ConfigError as exc:
