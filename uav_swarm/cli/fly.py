@@ -171,7 +171,9 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        result = fly(config, args.out, stop_event=stop, record=args.record, live=live)
+        made = bool(args.simulated) and args.bridge_config is None  # a fleet config of this flight only
+        result = fly(config, args.out, stop_event=stop, record=args.record, live=live,
+                     keep_bridge_config=made)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm fly: {exc}", file=sys.stderr)
         return 2

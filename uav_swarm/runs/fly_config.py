@@ -84,7 +84,8 @@ class FlyConfig(Config):
         """
         if not self.bridge_config:
             raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
-                              "vehicles (--bridge-config FILE)")
+                              "vehicles (--bridge-config FILE), or fly a simulated fleet started here "
+                              "(--simulated ardupilot or --simulated px4)")
         object.__setattr__(self, "task", radio_for_run(self.task))
         check_launch_grid(self.launch, self.uav, 2)
         check_radio_altitude(self.task, self.uav, "FlyConfig")
