@@ -78,6 +78,9 @@ def test_fly_simulated_launches_its_own_fleet_flies_it_home_and_exits_0(tmp_path
     # the fleet's bridge config, made for this flight, is kept beside the summary that names it
     assert summary["config"]["bridge_config"] == "bridge.toml" and "bridge.toml" in summary["files"]
     assert len(load_toml(BridgeConfig, out / "bridge.toml").vehicles) == 2
+    loop_end_s = max(float(row.split(",")[0]) for row in (out / "track.csv").read_text().splitlines()[1:])
+    returns = [e["time_s"] for e in summary["events"] if e["event"] == "rtl"]
+    assert len(returns) == 2 and min(returns) > loop_end_s  # flown home after the loop, on its clock
     fences = [r.getMessage() for r in caplog.records if "own geofence is off" in r.getMessage()]
     assert len(fences) <= 1 and all(f.startswith("vehicles 1, 2: their own") for f in fences)
     assert [v["status"] for v in summary["vehicles"]] == ["ended", "ended"]
