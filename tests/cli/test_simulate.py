@@ -151,7 +151,7 @@ def test_unknown_config_key_exits_2(tmp_path, capsys):
     path = tmp_path / "bad.toml"
     path.write_text("n_uavz = 3\n", encoding="utf-8")
     assert main(["simulate", "--out", str(tmp_path / "o"), "--config", str(path)]) == 2
-    assert "unknown key(s) ['n_uavz']" in capsys.readouterr().err
+    assert "unknown key(s) ['n_uavz'] (did you mean 'n_uavs'?)" in capsys.readouterr().err
 
 
 def test_a_telemetry_endpoint_in_use_exits_2_before_the_first_step_and_writes_nothing(
