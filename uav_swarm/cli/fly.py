@@ -19,17 +19,22 @@ also records the flight for Foxglove, and ``--live 8765`` streams it to Foxglove
 ``uav-swarm vehicles``, link-loss failsafe set to return home): --n-uavs of them (default 5) on loopback
 ports of their own, or the vehicles of --bridge-config when one is given.
 
-Examples:
-  uav-swarm fly --simulated ardupilot --out out/fly           # 5 simulated ArduCopters, nothing to install
+Examples (each flies --duration-s of crowd time, 300 s by default, plus the take-offs and the return):
+  uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly   # 5 simulated ArduCopters
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
   uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
 
-Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (a vehicle
-never heard is "not found"; nothing written when none flew), 2 bad configuration, checkpoint or
-telemetry endpoint (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle
-is armed; nothing written).
+Telemetry left at its default endpoint moves to a free port of 127.0.0.1 when another run holds
+tcp/127.0.0.1:7447, and says where. A vehicle not heard after 3 s is named, with why when its connection
+was refused.
+
+Exit codes: 0 flown and ended (also when stopped early by Ctrl-C or SIGTERM: the vehicles are ended and
+the outputs written), 1 no vehicle could be launched (a vehicle never heard is "not found"; nothing
+written when none flew), 2 bad flags, configuration, checkpoint, output path or telemetry endpoint given
+in --config (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle is armed;
+nothing written); 130 a Ctrl-C while it reads its config and starts --simulated's fleet.
 """
 
 from __future__ import annotations
