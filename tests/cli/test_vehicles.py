@@ -98,7 +98,7 @@ def test_fly_against_vehicles_never_heard_says_not_found_and_writes_nothing(tmp_
     argv = ["fly", "--bridge-config", str(config), "--wait-ready-s", "1", "--no-telemetry", "--out", str(out)]
     assert main(argv) == 1
     err = capsys.readouterr().err
-    assert "vehicle 1: not found; vehicle 2: not found" in err and "lost" not in err
+    assert "no vehicle could be launched (vehicles 1, 2: not found)" in err and "lost" not in err
     assert not out.exists()
 
 

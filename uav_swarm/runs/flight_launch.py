@@ -133,7 +133,11 @@ class FlightLaunch(FlightStep):
             self._guard_if_due()  # the climbing vehicles are watched from their take-off on
             time.sleep(TICK_S)
         if not self._stop.is_set() and not any(v.status == "live" for v in self.vehicles):
-            failed = "; ".join(f"vehicle {v.system_id}: {v.status}" for v in self.vehicles)
+            by_status: dict[str, list[str]] = {}
+            for v in self.vehicles:
+                by_status.setdefault(v.status, []).append(str(v.system_id))
+            failed = "; ".join(f"vehicle{'s' if len(ids) > 1 else ''} {', '.join(ids)}: {status}"
+                               for status, ids in by_status.items())
             hint = ("none answered within --wait-ready-s; to fly a simulated fleet instead: uav-swarm fly "
                     "--simulated ardupilot" if all(v.status == "not found" for v in self.vehicles)
                     else "see the warnings above")
