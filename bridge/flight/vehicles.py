@@ -161,8 +161,8 @@ class FleetVehicles:
     def silence(self, system_id: int) -> str:
         """Why a vehicle that has not been heard is silent, in one line naming it and its connection.
 
-        Examples: ``vehicle 3: cannot connect to tcp:127.0.0.1:5780 ([Errno 111] Connection refused):
-        is it running?``; ``vehicle 2: no heartbeat on udpin:127.0.0.1:14550``.
+        Examples: ``vehicle 3: cannot connect to tcp:127.0.0.1:5780: [Errno 111] Connection refused: is
+        it running?``; ``vehicle 2: no heartbeat on udpin:127.0.0.1:14550``.
         """
         error = self._link_errors.get(system_id)
         if error is not None:
