@@ -135,7 +135,9 @@ def run(args: argparse.Namespace) -> int:
                 overrides["bridge_config"] = _fleet_config(stack, args.n_uavs or 5)
             config = telemetry_endpoint(load_fly_config(args.config, overrides), args.config)
             if args.simulated:
-                _start_fleet(stack, args.simulated, config.bridge_config, config.n_uavs)
+                kept = f"{args.out / 'bridge.toml'}, with the outputs"
+                shown = config.bridge_config if args.bridge_config else kept
+                _start_fleet(stack, args.simulated, config.bridge_config, config.n_uavs, shown)
         except ConfigError as exc:
             print(f"uav-swarm fly: {exc}", file=sys.stderr)
             return 2
@@ -151,8 +153,11 @@ def _fleet_config(stack: ExitStack, n: int) -> str:
     return str(path)
 
 
-def _start_fleet(stack: ExitStack, autopilot: str, bridge_config: str, n_uavs: int) -> None:
-    """Simulated vehicles serving the bridge config's first ``n_uavs`` (0: all) endpoints."""
+def _start_fleet(stack: ExitStack, autopilot: str, bridge_config: str, n_uavs: int, shown: str) -> None:
+    """Simulated vehicles serving the bridge config's first ``n_uavs`` (0: all) endpoints.
+
+    ``shown``: where the log line says their bridge config is.
+    """
     from bridge.config import BridgeConfig
     from bridge.simulated.fleet import SimulatedFleet
     from typed_config import ConfigError, load_toml
@@ -162,7 +167,8 @@ def _start_fleet(stack: ExitStack, autopilot: str, bridge_config: str, n_uavs: i
     except ValueError as exc:
         raise ConfigError(f"--simulated {autopilot}: {exc}") from None
     stack.enter_context(fleet)
-    logger.info("%d simulated %s vehicles on 127.0.0.1 (%s)", len(fleet.vehicles), autopilot, bridge_config)
+    logger.info("%d simulated %s vehicles on 127.0.0.1 (their bridge config: %s)", len(fleet.vehicles),
+                autopilot, shown)
 
 
 def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
