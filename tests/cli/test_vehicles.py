@@ -125,3 +125,26 @@ def test_fly_with_no_vehicle_running_names_each_one_then_sums_up_and_points_at_s
     assert "sleeping" not in printed + err
     assert "--simulated ardupilot" in err.strip().splitlines()[-1]
     assert not out.exists()
+
+
+def test_fly_with_its_live_view_port_taken_sends_nothing_to_a_vehicle(tmp_path, capsys):
+    """The live view's port is checked before any link opens: exit 2, not one datagram to the vehicle."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as vehicle, \
+            socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
+        vehicle.bind(("127.0.0.1", 0))
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        config = tmp_path / "bridge.toml"
+        vehicle_port, live_port = vehicle.getsockname()[1], taken.getsockname()[1]
+        config.write_text(f'[[vehicles]]\nsystem_id = 1\nurl = "udpout:127.0.0.1:{vehicle_port}"\n')
+        out = tmp_path / "out"
+        argv = ["fly", "--bridge-config", str(config), "--live", str(live_port), "--no-telemetry",
+                "--out", str(out)]
+        assert main(argv) == 2
+        vehicle.settimeout(1.5)  # a link would have sent its first heartbeat within a second
+        with pytest.raises(TimeoutError):
+            vehicle.recv(1024)
+    assert "the live view cannot listen there" in capsys.readouterr().err.strip().splitlines()[-1]
+    assert not out.exists()

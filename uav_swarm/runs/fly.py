@@ -179,9 +179,9 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
             ros, steering = open_run_node(config.ros2, stack, swarm=config.telemetry.swarm, n_uavs=n,
                                           command="fly", sim_time=False, task=config.task, uav=config.uav,
                                           geofence=bridge.geofence)
-        with (Fleet(bridge) as fleet,
-              open_recorder(scene, record=record, live=live, command="fly",
-                            config=config.to_dict()) as recorder):
+        with (open_recorder(scene, record=record, live=live, command="fly",  # its port before any link
+                            config=config.to_dict()) as recorder,
+              Fleet(bridge) as fleet):
             outputs = RunOutputs(publisher, recorder, ros, states_on_arrival=True)
             flight = Flight(config, bridge, fleet, outputs, planner, steering)
             watcher = None
