@@ -12,9 +12,9 @@ through the separation guard, which holds a vehicle whose predicted track comes 
 minimum to another's (``[guard]``).
 At the end (``--duration-s`` of crowd time, Ctrl-C or SIGTERM) every vehicle is sent RTL
 (``--end land``: LAND). Vehicle states, plans and QoS go out over Zenoh (tcp/127.0.0.1:7447).
-Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json (and bridge.toml with --simulated);
-``--record flight.mcap``
-also records the flight for Foxglove, and ``--live 8765`` streams it to Foxglove while it flies.
+Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json (and bridge.toml with
+--simulated); ``--record flight.mcap`` also records the flight for Foxglove, and ``--live 8765`` streams
+it to Foxglove while it flies.
 
 --simulated ardupilot (or px4) starts a simulated fleet of that autopilot in this process (the vehicles of
 ``uav-swarm vehicles``, link-loss failsafe set to return home): --n-uavs of them (default 5) on loopback
