@@ -1,5 +1,6 @@
 # `make demo` runs the main job, `make test` the tests, `make docs` builds the site, `make lint` checks style;
 # `make fly-demo` flies 5 simulated ArduCopters through `uav-swarm fly` (AUTOPILOT=px4: PX4).
+# ARGS adds flags to the demo's command: make demo ARGS="--no-telemetry --duration-s 60"
 # Each creates .venv (Python >= 3.11) and installs only what it needs: the demo the package itself, the
 # tests and the site the package with TEST_EXTRAS (the extras of pyproject.toml; the README and
 # docs/index.md name the same, tests/test_install_lines.py checks it). torch comes from pip's configured
@@ -11,6 +12,7 @@ PYTHON ?= python3
 TORCH ?= torch==2.13.0
 TORCH_INDEX ?=
 AUTOPILOT ?= ardupilot
+ARGS ?=
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --quiet
 TORCH_FROM := $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX),)
@@ -35,10 +37,10 @@ install: $(VENV)/.demo-installed
 install-test: $(VENV)/.test-installed
 
 demo: $(VENV)/.demo-installed
-	$(VENV)/bin/uav-swarm simulate --out out/simulate
+	$(VENV)/bin/uav-swarm simulate --out out/simulate $(ARGS)
 
 fly-demo: $(VENV)/.demo-installed
-	$(VENV)/bin/uav-swarm fly --simulated $(AUTOPILOT) --duration-s 60 --speedup 2 --out out/fly-$(AUTOPILOT)
+	$(VENV)/bin/uav-swarm fly --simulated $(AUTOPILOT) --duration-s 60 --speedup 2 --out out/fly-$(AUTOPILOT) $(ARGS)
 
 test: $(VENV)/.test-installed
 	$(PY) -m pytest -q

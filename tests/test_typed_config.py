@@ -42,7 +42,7 @@ def test_defaults_and_coercion():
         ({"scale": -1}, r"Outer.scale = -1.0 is out of range: allowed 0.0 < scale"),
         ({"inner": {"gain": 0}}, r"Outer.inner.gain = 0.0 is out of range"),
         ({"inner": {"gian": 1}}, r"Outer.inner: unknown key\(s\) \['gian'\]"),
-        ({"n_uvas": 3}, r"unknown key\(s\) \['n_uvas'\]; allowed keys are"),
+        ({"n_uvas": 3}, r"unknown key\(s\) \['n_uvas'\] \(did you mean 'n_uavs'\?\); allowed keys are"),
     ],
     ids=["range", "float-for-int", "bool-for-int", "literal", "tuple-length", "optional-range",
          "nested-range", "nested-unknown", "unknown"],

@@ -16,6 +16,10 @@ Examples:
     ...     range_m: float = param(30.0, gt=0.0, le=1000.0, doc="radio range")
     >>> Radio.from_dict({"range_m": 25}).range_m
     25.0
+    >>> Radio.from_dict({"rang_m": 25})  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    typed_config.ConfigError: Radio: unknown key(s) ['rang_m'] (did you mean 'range_m'?); allowed keys ...
     >>> Radio.from_dict({"range_m": -1})
     Traceback (most recent call last):
     ...
@@ -25,6 +29,7 @@ Examples:
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import tomllib
 import types
 import typing
@@ -176,7 +181,12 @@ class Config:
         known = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
         unknown = sorted(set(data) - known)
         if unknown:
-            raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed keys are {sorted(known)}")
+            close = {key: match[0] for key in unknown
+                     if (match := difflib.get_close_matches(key, known, n=1))}
+            hints = [repr(match) if len(unknown) == 1 else f"{match!r} for {key!r}"
+                     for key, match in close.items()]
+            hint = f" (did you mean {', '.join(hints)}?)" if hints else ""
+            raise ConfigError(f"{where}: unknown key(s) {unknown}{hint}; allowed keys are {sorted(known)}")
         try:
             return cls(**dict(data))
         except ConfigError as exc:

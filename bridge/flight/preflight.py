@@ -12,7 +12,8 @@ until its battery ends. :func:`preflight` reads, with the parameter protocol
 - which ground station the failsafe watches: ArduPilot watches only the heartbeat of
   ``SYSID_MYGCS``, so it must be this bridge's own system id (another ground station's heartbeat
   would keep the vehicle in guided flight after the bridge died); PX4 watches any;
-- its geofence switch (``FENCE_ENABLE``, ``GF_ACTION``): reported, a warning when off;
+- its geofence switch (``FENCE_ENABLE``, ``GF_ACTION``): reported (:func:`warn_fences_off` warns once
+  for every vehicle whose fence is off);
 - its return altitude (``RTL_ALT`` in centimetres, ``RTL_RETURN_ALT`` in metres), set to
   ``rtl_alt_m`` (the return plan's layer for this vehicle) and read back.
 """
@@ -29,7 +30,7 @@ from bridge.errors import RefusedError
 from bridge.flight.params import ParamValue, read_param, set_param
 from bridge.link.mavlink import MavlinkLink
 
-__all__ = ["PreflightError", "PreflightReport", "preflight", "DEFAULT_FAILSAFE_TIMEOUT_S"]
+__all__ = ["PreflightError", "PreflightReport", "preflight", "warn_fences_off", "DEFAULT_FAILSAFE_TIMEOUT_S"]
 
 log = logging.getLogger(__name__)
 
@@ -117,9 +118,8 @@ def preflight(link: MavlinkLink, system_id: int, conventions: Conventions, *, gc
                    f"bridge's (source_system = {gcs_system_id})")
             changed = True
     fence = read(conventions.fence_param)
-    if fence.value == 0:
-        log.warning("vehicle %d: its own geofence is off (%s = 0): only the bridge's fence checks its "
-                    "targets", system_id, conventions.fence_param)
+    if fence.value == 0:  # reported (fence_enabled); the caller warns once for every such vehicle
+        log.debug("vehicle %d: its own geofence is off (%s = 0)", system_id, conventions.fence_param)
     rtl = read(conventions.rtl_alt_param)
     wanted_rtl = round(rtl_alt_m * conventions.rtl_alt_per_m, 3)
     if abs(rtl.value - wanted_rtl) > 1e-3:
@@ -130,3 +130,18 @@ def preflight(link: MavlinkLink, system_id: int, conventions: Conventions, *, gc
         failsafe=f"{action.name} = {action.value:g}, {timeout.name} = {timeout.value:g} s",
         failsafe_action=int(action.value), failsafe_timeout_s=float(timeout.value), failsafe_set=changed,
         fence_enabled=fence.value != 0, rtl_alt_m=rtl.value / conventions.rtl_alt_per_m)
+
+
+def warn_fences_off(reports: list[PreflightReport], fence_params: dict[int, str]) -> None:
+    """One warning naming every vehicle whose own geofence is off (none: nothing said).
+
+    Args:
+        reports: The vehicles' pre-flight reports.
+        fence_params: Each vehicle's geofence switch (``FENCE_ENABLE``, ``GF_ACTION``), by system id.
+    """
+    off = sorted(r.system_id for r in reports if not r.fence_enabled)
+    if not off:
+        return
+    names = " / ".join(sorted({fence_params[sid] for sid in off}))
+    who = f"vehicle {off[0]}: its" if len(off) == 1 else f"vehicles {', '.join(map(str, off))}: their"
+    log.warning("%s own geofence is off (%s = 0): only the bridge's fence checks the targets", who, names)

@@ -3,8 +3,10 @@
 Vehicles that share a connection string share one :class:`~bridge.link.mavlink.MavlinkLink`;
 each vehicle's work runs in its own thread (:meth:`FleetVehicles.each`), so every vehicle
 proceeds at once and one that cannot be reached, stays silent or fails is reported by name
-(:class:`FleetError`) while every other one goes on. The mission operations on top of this
-are :class:`bridge.flight.fleet.Fleet`'s.
+(:class:`FleetError`) while every other one goes on. A connection that cannot be opened (a vehicle
+not started yet refuses its TCP port) is tried again every second in the background, so a vehicle
+started later is heard; :meth:`FleetVehicles.silence` says in one line why a vehicle is not heard.
+The mission operations on top of this are :class:`bridge.flight.fleet.Fleet`'s.
 """
 
 from __future__ import annotations
@@ -30,6 +32,9 @@ __all__ = ["FleetVehicles", "FleetError"]
 log = logging.getLogger(__name__)
 
 T = TypeVar("T")
+
+_REOPEN_PERIOD_S = 1.0
+"""How often a connection that could not be opened is tried again."""
 
 
 class FleetError(BridgeError):
@@ -70,6 +75,9 @@ class FleetVehicles:
         self._links: dict[str, MavlinkLink] = {}
         self._link_of: dict[int, MavlinkLink] = {}
         self._link_errors: dict[int, VehicleUnreachableError] = {}
+        self._links_lock = threading.Lock()
+        self._closing = threading.Event()
+        self._reopener: threading.Thread | None = None
         try:
             self._open_links(key)
         except BaseException:
@@ -110,10 +118,57 @@ class FleetVehicles:
         for vehicle in self.config.vehicles:
             if vehicle.url in failures:
                 error = VehicleUnreachableError(vehicle.system_id, vehicle.url, failures[vehicle.url])
-                log.warning("%s", error)
+                log.debug("%s; trying again every %.0f s", error, _REOPEN_PERIOD_S)
                 self._link_errors[vehicle.system_id] = error
             else:
                 self._link_of[vehicle.system_id] = self._links[vehicle.url]
+        if failures:
+            self._reopener = threading.Thread(target=self._reopen, args=(open_link, list(failures)),
+                                              name="fleet link reopener", daemon=True)
+            self._reopener.start()
+
+    def _reopen(self, open_link: Callable[[str], MavlinkLink], urls: list[str]) -> None:
+        """Try the connections that could not be opened again every second until each opens or we close."""
+        while urls and not self._closing.wait(_REOPEN_PERIOD_S):
+            for url in list(urls):
+                try:
+                    link = open_link(url)
+                except OSError as exc:
+                    log.debug("%s: still cannot connect: %s", url, exc)
+                    continue
+                urls.remove(url)
+                with self._links_lock:
+                    if self._closing.is_set():
+                        link.close()
+                        return
+                    self._links[url] = link
+                    ids = [v.system_id for v in self.config.vehicles if v.url == url]
+                    for system_id in ids:
+                        self._link_of[system_id] = link
+                        self._link_errors.pop(system_id, None)
+                log.info("connected to %s (vehicle %s)", url, ", ".join(map(str, ids)))
+
+    def report_silent(self, system_ids: Sequence[int], waited_s: float, remaining_s: float) -> None:
+        """Log why each of ``system_ids`` is not heard (one warning each), then one summary line."""
+        if not system_ids:
+            return
+        for system_id in system_ids:
+            log.warning("%s", self.silence(system_id))
+        ids = ", ".join(map(str, system_ids))
+        log.warning("%d of %d vehicles not heard after %.0f s (%s): waiting up to %.0f s more for them",
+                    len(system_ids), len(self.config.vehicles), waited_s, ids, max(0.0, remaining_s))
+
+    def silence(self, system_id: int) -> str:
+        """Why a vehicle that has not been heard is silent, in one line naming it and its connection.
+
+        Examples: ``vehicle 3: cannot connect to tcp:127.0.0.1:5780: [Errno 111] Connection refused: is
+        it running?``; ``vehicle 2: no heartbeat on udpin:127.0.0.1:14550``.
+        """
+        error = self._link_errors.get(system_id)
+        if error is not None:
+            return f"{error}: is it running?"
+        url = next(v.url for v in self.config.vehicles if v.system_id == system_id)
+        return f"vehicle {system_id}: no heartbeat on {url}"
 
     @property
     def system_ids(self) -> tuple[int, ...]:
@@ -122,10 +177,14 @@ class FleetVehicles:
 
     def close(self) -> None:
         """Close every connection."""
+        self._closing.set()
+        if self._reopener is not None:
+            self._reopener.join(timeout=2 * _REOPEN_PERIOD_S)
         self._pool.shutdown(wait=True)
-        for link in self._links.values():
-            link.close()
-        self._links.clear()
+        with self._links_lock:
+            for link in self._links.values():
+                link.close()
+            self._links.clear()
         self._reader.close()
 
     def __enter__(self) -> FleetVehicles:

@@ -99,9 +99,13 @@ class MavlinkLink:
         self.url = url
         self.source_system = source_system
         self._mavlink = mavutil.mavlink
+        # One try (retries=0): pymavlink's own retries print to stdout; a refused TCP connection is
+        # tried again by the fleet (FleetVehicles), which logs it.
         self._conn = mavutil.mavlink_connection(
-            url, source_system=source_system, source_component=source_component
+            url, source_system=source_system, source_component=source_component, retries=0
         )
+        if url.startswith("tcp:"):  # pymavlink prints these too; this link logs and reconnects itself
+            self._conn.handle_eof = self._conn.handle_disconnect = lambda: None
         if signing_key is not None:
             self._conn.setup_signing(
                 signing_key.secret,

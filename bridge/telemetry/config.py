@@ -5,7 +5,9 @@ opened from :class:`TelemetryConfig` listens and connects only on the endpoints 
 ``tcp/127.0.0.1:7447`` for the publishing side), with multicast scouting off unless switched on, and
 every connect, listen and query wait bounded by ``timeout_s``. Before the session opens, each
 ``host:port`` it is to listen on is tried with a plain socket, so an endpoint held by another process
-is reported by name ("tcp/127.0.0.1:7447 is in use") instead of as Zenoh's timeout.
+is reported by name ("tcp/127.0.0.1:7447 is in use") instead of as Zenoh's timeout; a run left at
+the default endpoint can move to a free loopback port instead (:func:`listen_elsewhere_if_taken`), so
+that two runs share a machine.
 
 Examples:
     >>> config = TelemetryConfig(swarm="demo", listen=(), connect=("tcp/127.0.0.1:7447",))
@@ -35,6 +37,7 @@ __all__ = [
     "TelemetryConnectionError",
     "check_endpoint",
     "check_listen_endpoints",
+    "listen_elsewhere_if_taken",
     "zenoh_config",
     "open_session",
 ]
@@ -203,6 +206,27 @@ def check_listen_endpoints(config: TelemetryConfig) -> None:
     """
     for endpoint in config.listen:
         _probe_listen_endpoint(endpoint)
+
+
+def listen_elsewhere_if_taken(config: TelemetryConfig) -> tuple[TelemetryConfig, str | None]:
+    """``config``, or, when its only listen endpoint is the default one and that is in use, a free one.
+
+    The free endpoint is a TCP port of 127.0.0.1; the line returned with it says so (None: unchanged).
+    For a run whose endpoint nobody chose: one the user gave is opened as given (or refused).
+    """
+    if config.listen != (DEFAULT_ENDPOINT,):
+        return config, None
+    try:
+        _probe_listen_endpoint(DEFAULT_ENDPOINT)
+        return config, None
+    except TelemetryConnectionError:
+        pass
+    with _probe_socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        endpoint = f"tcp/127.0.0.1:{sock.getsockname()[1]}"
+    line = (f"{DEFAULT_ENDPOINT} is in use (another run?): telemetry listens on {endpoint} instead "
+            f"(uav-swarm telemetry watch --connect {endpoint})")
+    return config.replace(listen=(endpoint,)), line
 
 
 def open_session(config: TelemetryConfig) -> zenoh.Session:

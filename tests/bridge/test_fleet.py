@@ -138,3 +138,33 @@ def test_example_configs_describe_ten_loopback_vehicles(name, urls):
 def test_bad_configs_are_refused_with_the_field_named(data, message):
     with pytest.raises(typed_config.ConfigError, match=message):
         BridgeConfig.from_dict(data)
+
+
+def test_a_vehicle_started_after_the_fleet_is_reached_and_pymavlink_prints_nothing(capfd, caplog):
+    """Its TCP port refused at first, it is named with the reason, then tried again until it answers."""
+    import logging
+
+    caplog.set_level(logging.INFO)
+    vehicle_url, gcs_url = endpoint_pair("tcp", free_tcp_port())
+    vehicle = None
+    try:
+        with Fleet(BridgeConfig(vehicles=(VehicleEndpoint(system_id=1, url=gcs_url),))) as fleet:
+            with pytest.raises(errors.VehicleUnreachableError, match="Connection refused"):
+                fleet.link(1)
+            assert fleet.silence(1) == (f"vehicle 1: cannot connect to {gcs_url}: [Errno 111] Connection "
+                                        "refused: is it running?")
+            vehicle = SimVehicle(vehicle_url, 1, telemetry_period_s=0.3)
+            deadline = time.monotonic() + 10.0
+            while time.monotonic() < deadline:
+                try:
+                    fleet.link(1)
+                    break
+                except errors.VehicleUnreachableError:
+                    time.sleep(0.1)
+            assert fleet.wait_for_vehicles(timeout_s=5.0) == {1: vehicle.autopilot}
+    finally:
+        if vehicle is not None:
+            vehicle.close()
+    assert f"connected to {gcs_url} (vehicle 1)" in caplog.text
+    out, _ = capfd.readouterr()
+    assert "sleeping" not in out and "EOF" not in out

@@ -9,9 +9,11 @@ from collections.abc import Iterator
 import pytest
 
 from bridge.telemetry.config import (
+    DEFAULT_ENDPOINT,
     TelemetryConfig,
     TelemetryConnectionError,
     check_listen_endpoints,
+    listen_elsewhere_if_taken,
     open_session,
 )
 from uav_swarm.cli import main
@@ -89,3 +91,30 @@ def test_telemetry_watch_listening_on_a_port_in_use_exits_2(held_port, capsys):
     endpoint = f"tcp/127.0.0.1:{held_port}"
     assert main(["telemetry", "watch", "--listen", endpoint, "--count", "1"]) == 2
     assert f"{endpoint} is in use" in capsys.readouterr().err
+
+
+@pytest.fixture()
+def default_port_taken() -> Iterator[None]:
+    """127.0.0.1:7447 held for the test (by this test, or already by another run on this machine)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        try:
+            sock.bind(("127.0.0.1", 7447))
+            sock.listen(1)
+        except OSError:
+            pass  # someone else holds it: taken all the same
+        yield
+
+
+def test_a_run_left_at_the_default_endpoint_moves_to_a_free_port_when_it_is_taken(default_port_taken):
+    config, line = listen_elsewhere_if_taken(TelemetryConfig(swarm="probe"))
+    (endpoint,) = config.listen
+    assert endpoint.startswith("tcp/127.0.0.1:") and endpoint != DEFAULT_ENDPOINT
+    assert line == (f"{DEFAULT_ENDPOINT} is in use (another run?): telemetry listens on {endpoint} instead "
+                    f"(uav-swarm telemetry watch --connect {endpoint})")
+    check_listen_endpoints(config)  # free now
+    assert config.swarm == "probe"
+
+
+def test_an_endpoint_given_is_never_moved(held_port):
+    given = _listen(f"tcp/127.0.0.1:{held_port}")
+    assert listen_elsewhere_if_taken(given) == (given, None)

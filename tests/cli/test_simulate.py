@@ -156,7 +156,7 @@ def test_unknown_config_key_exits_2(tmp_path, capsys):
     path = tmp_path / "bad.toml"
     path.write_text("n_uavz = 3\n", encoding="utf-8")
     assert main(["simulate", "--out", str(tmp_path / "o"), "--config", str(path)]) == 2
-    assert "unknown key(s) ['n_uavz']" in capsys.readouterr().err
+    assert "unknown key(s) ['n_uavz'] (did you mean 'n_uavs'?)" in capsys.readouterr().err
 
 
 def test_a_telemetry_endpoint_in_use_exits_2_before_the_first_step_and_writes_nothing(
@@ -180,6 +180,25 @@ def test_a_telemetry_endpoint_in_use_exits_2_before_the_first_step_and_writes_no
     err = capsys.readouterr().err
     assert f"{endpoint} is in use" in err and "--no-telemetry" in err
     assert not out.exists()
+
+
+def test_a_run_beside_another_one_publishes_on_a_free_port_and_says_where(
+        tmp_path, small_config, tiny_checkpoint, caplog):
+    """With tcp/127.0.0.1:7447 held (another run), a run left at the default endpoint still runs."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as holder:
+        try:
+            holder.bind(("127.0.0.1", 7447))
+            holder.listen(1)
+        except OSError:
+            pass  # another run on this machine holds it already
+        out = tmp_path / "beside"
+        argv = ["simulate", "--out", str(out), "--config", str(small_config), "--checkpoint",
+                str(tiny_checkpoint), "--duration-s", "1", "--no-expert", "--no-gif", "--quiet"]
+        assert main(argv) == 0
+    (endpoint,) = json.loads((out / "summary.json").read_text())["config"]["telemetry"]["listen"]
+    assert endpoint != "tcp/127.0.0.1:7447" and endpoint.startswith("tcp/127.0.0.1:")
+    assert (f"tcp/127.0.0.1:7447 is in use (another run?): telemetry listens on {endpoint} instead"
+            in caplog.text)
 
 
 def test_telemetry_reaches_a_subscriber_on_loopback(tmp_path, tiny_checkpoint):

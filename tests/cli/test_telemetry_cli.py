@@ -50,3 +50,33 @@ def test_non_positive_bounds_are_refused(flag, capsys):
         parse("watch", flag, "0")
     assert exit_info.value.code == 2
     assert f"argument {flag}: 0 is out of range" in capsys.readouterr().err
+
+
+def test_ctrl_c_ends_a_recording_and_keeps_the_file(tmp_path):
+    """``telemetry record`` without a bound runs until Ctrl-C: its normal end, exit 0, the file written."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    from ports import free_tcp_port
+
+    out = tmp_path / "run.jsonl"
+    repo = Path(__file__).resolve().parents[2]
+    argv = [sys.executable, "-m", "uav_swarm", "telemetry", "record", "--out", str(out), "--connect",
+            f"tcp/127.0.0.1:{free_tcp_port()}"]  # nobody publishes there: the file stays empty
+    path = os.pathsep.join(filter(None, (str(repo), os.environ.get("PYTHONPATH"))))
+    env = {**os.environ, "PYTHONPATH": path}
+    process = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + 60.0
+        while time.monotonic() < deadline and not any(p.name.endswith(".tmp") for p in tmp_path.iterdir()):
+            time.sleep(0.1)  # recording: its partial file is open
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 0, err
+    assert out.read_text() == "" and f"recorded 0 messages to {out}" in err

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -68,12 +69,20 @@ def test_vehicles_serve_their_bridge_config_until_ctrl_c(tmp_path):
 
 
 @pytest.mark.parametrize("autopilot", ["px4", "ardupilot"])
-def test_fly_simulated_launches_its_own_fleet_flies_it_home_and_exits_0(tmp_path, capsys, autopilot):
+def test_fly_simulated_launches_its_own_fleet_flies_it_home_and_exits_0(tmp_path, capsys, caplog, autopilot):
     out = tmp_path / "out"
     argv = ["fly", "--simulated", autopilot, "--n-uavs", "2", "--duration-s", "10", "--speedup", "2",
             "--no-telemetry", "--out", str(out)]
     assert main(argv) == 0
     summary = json.loads((out / "summary.json").read_text())
+    # the fleet's bridge config, made for this flight, is kept beside the summary that names it
+    assert summary["config"]["bridge_config"] == "bridge.toml" and "bridge.toml" in summary["files"]
+    assert len(load_toml(BridgeConfig, out / "bridge.toml").vehicles) == 2
+    loop_end_s = max(float(row.split(",")[0]) for row in (out / "track.csv").read_text().splitlines()[1:])
+    returns = [e["time_s"] for e in summary["events"] if e["event"] == "rtl"]
+    assert len(returns) == 2 and min(returns) > loop_end_s  # flown home after the loop, on its clock
+    fences = [r.getMessage() for r in caplog.records if "own geofence is off" in r.getMessage()]
+    assert len(fences) <= 1 and all(f.startswith("vehicles 1, 2: their own") for f in fences)
     assert [v["status"] for v in summary["vehicles"]] == ["ended", "ended"]
     assert summary["separation"]["closest_m"] >= summary["separation"]["min_separation_m"]
     assert any(e["event"] == "live" for e in summary["events"])
@@ -89,5 +98,53 @@ def test_fly_against_vehicles_never_heard_says_not_found_and_writes_nothing(tmp_
     argv = ["fly", "--bridge-config", str(config), "--wait-ready-s", "1", "--no-telemetry", "--out", str(out)]
     assert main(argv) == 1
     err = capsys.readouterr().err
-    assert "vehicle 1: not found; vehicle 2: not found" in err and "lost" not in err
+    assert "no vehicle could be launched (vehicles 1, 2: not found)" in err and "lost" not in err
+    assert not out.exists()
+
+
+def test_fly_with_no_vehicle_running_names_each_one_then_sums_up_and_points_at_simulated(
+        tmp_path, capfd, caplog):
+    """TCP ports nobody listens on: each vehicle named with the reason once, one summary, no pymavlink
+    prints, no "flying without it", and the error points at --simulated."""
+    from ports import free_tcp_port
+
+    config = tmp_path / "bridge.toml"
+    config.write_text("".join(f'[[vehicles]]\nsystem_id = {sid}\nurl = "tcp:127.0.0.1:{free_tcp_port()}"\n'
+                              for sid in (1, 2)))
+    out = tmp_path / "out"
+    argv = ["fly", "--bridge-config", str(config), "--wait-ready-s", "5", "--no-telemetry", "--out", str(out)]
+    assert main(argv) == 1
+    printed, err = capfd.readouterr()
+    warnings = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    named = [w for w in warnings if "cannot connect to tcp:127.0.0.1:" in w]
+    assert [w.split(":")[0] for w in named] == ["vehicle 1", "vehicle 2"]
+    assert all(w.endswith("Connection refused: is it running?") for w in named)
+    summary = r"2 of 2 vehicles not heard after 3 s \(1, 2\): waiting up to [0-2] s more for them"
+    assert [w for w in warnings if re.fullmatch(summary, w)] == [warnings[warnings.index(named[-1]) + 1]]
+    assert not any("flying without it" in w for w in warnings)
+    assert "sleeping" not in printed + err
+    assert "--simulated ardupilot" in err.strip().splitlines()[-1]
+    assert not out.exists()
+
+
+def test_fly_with_its_live_view_port_taken_sends_nothing_to_a_vehicle(tmp_path, capsys):
+    """The live view's port is checked before any link opens: exit 2, not one datagram to the vehicle."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as vehicle, \
+            socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
+        vehicle.bind(("127.0.0.1", 0))
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        config = tmp_path / "bridge.toml"
+        vehicle_port, live_port = vehicle.getsockname()[1], taken.getsockname()[1]
+        config.write_text(f'[[vehicles]]\nsystem_id = 1\nurl = "udpout:127.0.0.1:{vehicle_port}"\n')
+        out = tmp_path / "out"
+        argv = ["fly", "--bridge-config", str(config), "--live", str(live_port), "--no-telemetry",
+                "--out", str(out)]
+        assert main(argv) == 2
+        vehicle.settimeout(1.5)  # a link would have sent its first heartbeat within a second
+        with pytest.raises(TimeoutError):
+            vehicle.recv(1024)
+    assert "the live view cannot listen there" in capsys.readouterr().err.strip().splitlines()[-1]
     assert not out.exists()

@@ -37,7 +37,7 @@ _GRID_HELP = "(default: %(default)s)"
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``calibrate-mission`` subcommand."""
     from learning.mission_calibration import MARGIN_Z, MissionGrid
-    from uav_swarm.cli.conventions import number
+    from uav_swarm.cli.conventions import number, output_flag
     from uav_swarm.missions.registry import TASKS
 
     grid = MissionGrid()
@@ -48,9 +48,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--task", required=True, choices=tuple(TASKS), help="the checkpoint's task")
     add("--checkpoint", help="the network (default: uav_swarm/checkpoints/<task>.pt)")
     add("--n", type=number(int, ge=1), help="at most this many validation scenes (default: all of the split)")
-    add("--out", required=True, help="folder for calibration.json, front.md and the cached scenes")
-    add("--write-checkpoint", help="write the checkpoint with both operating points here (default: not "
-                                   "written; it may be --checkpoint itself)")
+    output_flag(parser, "--out", "folder", required=True,
+                help="folder for calibration.json, front.md and the cached scenes")
+    output_flag(parser, "--write-checkpoint", "file",
+                help="write the checkpoint with both operating points here (default: not written; it may be "
+                     "--checkpoint itself)")
     add("--margin-z", type=number(float, ge=0.0), default=MARGIN_Z,
         help="margin of the validation figures, in standard errors of a validation-against-held-out "
              "difference (0: none) (default: %(default)s)")
@@ -141,6 +143,6 @@ def run(args: argparse.Namespace) -> int:
     write_text_atomic(out / "front.md", table)
     print(table, end="")
     if args.write_checkpoint:
-        _write_checkpoint(path, args.write_checkpoint, report)
+        _write_checkpoint(path, str(args.write_checkpoint), report)
         print(f"wrote {args.write_checkpoint} with the balanced and mission points")
     return 0

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from uav_swarm.cli.conventions import number
+from uav_swarm.cli.conventions import number, output_flag
 
 __all__ = ["register", "run"]
 
@@ -37,7 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="least QoS relative to the expert's of a chosen point (default: %(default)s)")
     parser.add_argument("--n", type=number(int, ge=1),
                         help="at most this many validation scenes (default: all)")
-    parser.add_argument("--out", required=True, help="JSON report to write")
+    output_flag(parser, "--out", "file", required=True, help="JSON report to write")
     parser.set_defaults(func=run)
 
 

@@ -7,6 +7,9 @@
 - :func:`config_flag`: a flag tied to a config field: its help, default and allowed range come from the
   field's ``param(...)`` and the range is checked when the command line is parsed, naming the flag.
 - :func:`number`: a number type checked when parsed (``--n -5`` is refused naming ``--n``).
+- :func:`output_flag`: a folder or file the command writes, checked when parsed (before any work): an
+  existing file given for a folder, a folder given for a file, a path under a file or a place this
+  user cannot write is refused naming the flag.
 
 Examples:
     >>> parser = CliParser(prog="demo")
@@ -23,13 +26,16 @@ import argparse
 import dataclasses
 import difflib
 import importlib
+import os
 import re
+import tempfile
 from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from types import UnionType
-from typing import Any, Union, get_args, get_origin, get_type_hints
+from typing import Any, Literal, Union, get_args, get_origin, get_type_hints
 
 __all__ = ["CliParser", "CliHelpFormatter", "config_flag", "number", "plain_text", "iter_parsers",
-           "add_verbosity", "SWITCH_ACTIONS"]
+           "add_verbosity", "SWITCH_ACTIONS", "output_flag", "output_problem"]
 
 SWITCH_ACTIONS = (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._StoreConstAction,
                   argparse._HelpAction, argparse._VersionAction, argparse._CountAction)
@@ -67,6 +73,52 @@ def number(kind: type, *, ge: float | None = None, gt: float | None = None, le: 
 
     convert.__name__ = kind.__name__
     return convert
+
+
+def output_problem(path: Path, kind: Literal["folder", "file"]) -> str | None:
+    """Why the command could not write the folder or file ``path`` (None: it can), read-only.
+
+    A folder must be a folder or not exist yet; a file must not be a folder; what does not exist yet
+    must lie under a folder this user can create files in (tried with a file made and removed at once).
+
+    Examples:
+        >>> output_problem(Path("README.md"), "folder") if Path("README.md").is_file() else None
+        'README.md is a file, not a folder'
+    """
+    if path.exists() and (path.is_dir() if kind == "file" else not path.is_dir()):
+        return f"{path} is a {'folder' if path.is_dir() else 'file'}, not a {kind}"
+    place = path if kind == "folder" and path.is_dir() else path.parent
+    while not place.exists() and place != place.parent:
+        place = place.parent
+    if not place.is_dir():
+        return f"{path} lies under {place}, a file, not a folder"
+    try:
+        handle, probe = tempfile.mkstemp(dir=place, prefix=".uav-swarm-write-check-")
+    except OSError as exc:
+        return f"{path}: cannot write in {place} ({exc.strerror or exc})"
+    os.close(handle)
+    os.unlink(probe)
+    return None
+
+
+def output_flag(parser: argparse.ArgumentParser, flag: str, kind: Literal["folder", "file"], *,
+                default: str | None = None, **kwargs: Any) -> argparse.Action:
+    """Add ``flag``: a folder or file the command writes, checked when the command line is parsed.
+
+    Its value (its default too) becomes a :class:`Path`; one the command could not write (see
+    :func:`output_problem`) is refused naming the flag, before the command starts any work.
+    """
+
+    def convert(text: str) -> Path:
+        problem = output_problem(Path(text), kind)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(problem)
+        return Path(text)
+
+    convert.__name__ = kind
+    action = parser.add_argument(flag, type=convert, default=default, **kwargs)
+    action.output_kind = kind  # type: ignore[attr-defined]
+    return action
 
 
 def _field(spec: str) -> tuple[type, dataclasses.Field]:

@@ -8,11 +8,10 @@ to the UAVs with the least total travel (Hungarian) and replans every ``--replan
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
-from uav_swarm.cli.conventions import number
+from uav_swarm.cli.conventions import number, output_flag
 
 __all__ = ["register", "run", "greedy_targets_m"]
 
@@ -23,7 +22,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "env-demo", help="run one episode of uav_swarm_v0 with a scripted policy and write a PNG",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--out", type=Path, default=Path("out/env-demo"), help="output folder")
+    output_flag(parser, "--out", "folder", default="out/env-demo", help="output folder")
     add("--seed", type=number(int, ge=0), default=0, help="episode seed")
     add("--n-uavs", type=number(int, ge=1, le=10), default=6, help="number of UAVs")
     add("--steps", type=number(int, ge=1), default=300, help="episode length in steps of 0.1 s")

@@ -12,24 +12,30 @@ through the separation guard, which holds a vehicle whose predicted track comes 
 minimum to another's (``[guard]``).
 At the end (``--duration-s`` of crowd time, Ctrl-C or SIGTERM) every vehicle is sent RTL
 (``--end land``: LAND). Vehicle states, plans and QoS go out over Zenoh (tcp/127.0.0.1:7447).
-Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json; ``--record flight.mcap``
-also records the flight for Foxglove, and ``--live 8765`` streams it to Foxglove while it flies.
+Outputs in ``--out``: qos.png, timeseries.csv, track.csv, summary.json (and bridge.toml with
+--simulated); ``--record flight.mcap`` also records the flight for Foxglove, and ``--live 8765`` streams
+it to Foxglove while it flies.
 
 --simulated ardupilot (or px4) starts a simulated fleet of that autopilot in this process (the vehicles of
 ``uav-swarm vehicles``, link-loss failsafe set to return home): --n-uavs of them (default 5) on loopback
 ports of their own, or the vehicles of --bridge-config when one is given.
 
-Examples:
-  uav-swarm fly --simulated ardupilot --out out/fly           # 5 simulated ArduCopters, nothing to install
+Examples (each flies --duration-s of crowd time, 300 s by default, plus the take-offs and the return):
+  uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly   # 5 simulated ArduCopters
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
   uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
 
-Exit codes: 0 flown and ended (also when stopped early), 1 no vehicle could be launched (a vehicle
-never heard is "not found"; nothing written when none flew), 2 bad configuration, checkpoint or
-telemetry endpoint (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle
-is armed; nothing written).
+Telemetry left at its default endpoint moves to a free port of 127.0.0.1 when another run holds
+tcp/127.0.0.1:7447, and says where. A vehicle not heard after 3 s is named, with why when its connection
+was refused.
+
+Exit codes: 0 flown and ended (also when stopped early by Ctrl-C or SIGTERM: the vehicles are ended and
+the outputs written), 1 no vehicle could be launched (a vehicle never heard is "not found"; nothing
+written when none flew), 2 bad flags, configuration, checkpoint, output path or telemetry endpoint given
+in --config (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle is armed;
+nothing written); 130 a Ctrl-C while it reads its config and starts --simulated's fleet.
 """
 
 from __future__ import annotations
@@ -44,8 +50,8 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number
-from uav_swarm.cli.simulate import CHECKPOINT_HELP
+from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.simulate import CHECKPOINT_HELP, telemetry_endpoint
 
 __all__ = ["register", "run"]
 
@@ -65,7 +71,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "unless --simulated)")
     add("--simulated", choices=("ardupilot", "px4"),
         help="fly a simulated fleet of this autopilot, started here (default: none, real vehicles)")
-    add("--out", type=Path, default=Path("out/fly"), help="output folder")
+    output_flag(parser, "--out", "folder", default="out/fly", help="output folder")
     add("--config", type=Path, help="TOML of FlyConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry], [flight]); flags override it (default: none)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
@@ -88,7 +94,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--ros2", action="store_true",
         help="publish the flight on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
              "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
-    add("--record", type=Path, metavar="FLIGHT.mcap",
+    output_flag(parser, "--record", "file", metavar="FLIGHT.mcap",
         help="record the flight (scene, vehicle states, plans, QoS) as MCAP for Foxglove (default: none)")
     add("--live", metavar="[HOST:]PORT",
         help="stream the flight to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
@@ -128,9 +134,11 @@ def run(args: argparse.Namespace) -> int:
             overrides = _overrides(args)
             if args.simulated and args.bridge_config is None:
                 overrides["bridge_config"] = _fleet_config(stack, args.n_uavs or 5)
-            config = load_fly_config(args.config, overrides)
+            config = telemetry_endpoint(load_fly_config(args.config, overrides), args.config)
             if args.simulated:
-                _start_fleet(stack, args.simulated, config.bridge_config, config.n_uavs)
+                kept = f"{args.out / 'bridge.toml'}, with the outputs"
+                shown = config.bridge_config if args.bridge_config else kept
+                _start_fleet(stack, args.simulated, config.bridge_config, config.n_uavs, shown)
         except ConfigError as exc:
             print(f"uav-swarm fly: {exc}", file=sys.stderr)
             return 2
@@ -146,8 +154,11 @@ def _fleet_config(stack: ExitStack, n: int) -> str:
     return str(path)
 
 
-def _start_fleet(stack: ExitStack, autopilot: str, bridge_config: str, n_uavs: int) -> None:
-    """Simulated vehicles serving the bridge config's first ``n_uavs`` (0: all) endpoints."""
+def _start_fleet(stack: ExitStack, autopilot: str, bridge_config: str, n_uavs: int, shown: str) -> None:
+    """Simulated vehicles serving the bridge config's first ``n_uavs`` (0: all) endpoints.
+
+    ``shown``: where the log line says their bridge config is.
+    """
     from bridge.config import BridgeConfig
     from bridge.simulated.fleet import SimulatedFleet
     from typed_config import ConfigError, load_toml
@@ -157,7 +168,8 @@ def _start_fleet(stack: ExitStack, autopilot: str, bridge_config: str, n_uavs: i
     except ValueError as exc:
         raise ConfigError(f"--simulated {autopilot}: {exc}") from None
     stack.enter_context(fleet)
-    logger.info("%d simulated %s vehicles on 127.0.0.1 (%s)", len(fleet.vehicles), autopilot, bridge_config)
+    logger.info("%d simulated %s vehicles on 127.0.0.1 (their bridge config: %s)", len(fleet.vehicles),
+                autopilot, shown)
 
 
 def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
@@ -172,7 +184,9 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        result = fly(config, args.out, stop_event=stop, record=args.record, live=live)
+        made = bool(args.simulated) and args.bridge_config is None  # a fleet config of this flight only
+        result = fly(config, args.out, stop_event=stop, record=args.record, live=live,
+                     keep_bridge_config=made)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm fly: {exc}", file=sys.stderr)
         return 2

@@ -18,7 +18,7 @@ import json
 import sys
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.conventions import config_flag, number, output_flag
 
 __all__ = ["register", "run", "task_names"]
 
@@ -40,7 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         parser.add_argument("--task", required=True, choices=task_names(), help="the task")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
                             "refine, rule_check; default: none, the task's defaults)")
-        parser.add_argument("--out", required=True, help="output folder")
+        output_flag(parser, "--out", "folder", required=True, help="output folder")
         parser.set_defaults(func=run)
 
     def generation(parser: argparse.ArgumentParser) -> None:

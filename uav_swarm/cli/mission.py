@@ -32,6 +32,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from uav_swarm.cli.conventions import output_flag
+
 if TYPE_CHECKING:  # the command imports the bridge on use, not at start-up
     from collections.abc import Iterable
 
@@ -79,7 +81,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--plans", type=Path, help='JSON file {"ID": [[x_m, y_m(, z_m)], ...]} (default: none)')
     add("--from-dir", type=Path,
         help="upload: the vehicle_<ID>.plan/.waypoints files of this folder (default: none)")
-    add("--out", type=Path,
+    output_flag(parser, "--out", "folder",
         help="export/download: folder for vehicle_<ID> files (required there; default: none)")
     add("--format", choices=tuple(_SUFFIX), default="plan", help="mission file format (default: %(default)s)")
     add(

@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.conventions import config_flag, number, output_flag
 
 __all__ = ["register", "run", "load_network", "propose", "place_building"]
 
@@ -79,7 +79,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--task", required=True, choices=("agp", "fp"), help="agp: guards inside; fp: guards outside")
     add("--building", required=True, type=Path,
         help=".geojson (WGS84 Polygon, MultiPolygon or FeatureCollection) or .json/.csv/.txt vertices (m)")
-    add("--out", required=True, type=Path, help="output folder")
+    output_flag(parser, "--out", "folder", required=True, help="output folder")
     add("--method", choices=METHODS, default="refined", help="placement method")
     add("--checkpoint",
         help="network for learned/refined (default: the shipped uav_swarm/checkpoints/<task>.pt)")

@@ -23,7 +23,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.conventions import config_flag, number, output_flag
 from uav_swarm.cli.learn import task_names
 
 __all__ = ["register", "run"]
@@ -38,7 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks; "
                         "default: none, the task's defaults)")
     parser.add_argument("--data", required=True, help="dataset folder (generated there when --n is given)")
-    parser.add_argument("--out", required=True, help="search output folder")
+    output_flag(parser, "--out", "folder", required=True, help="search output folder")
     parser.add_argument("--n", type=number(int, ge=1),
                         help="generate (or finish) a dataset of this many scenes in --data (default: none, "
                         "--data exists)")

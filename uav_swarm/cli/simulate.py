@@ -15,21 +15,33 @@ Examples:
   uav-swarm simulate --out out/sim --live 8765 --live-wait-s 120 --speedup 1   # watch it in Foxglove
   uav-swarm simulate --out out/sim --ros2   # on ROS 2: RViz, Foxglove, operator targets (docs/ros2.md)
 
-Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint, telemetry
-endpoint (e.g. "tcp/127.0.0.1:7447 is in use") or live view address, found before the first step and
-before any output.
+Telemetry left at its default endpoint moves to a free port of 127.0.0.1 when another run holds
+tcp/127.0.0.1:7447, and says where; an endpoint given in --config ([telemetry] listen) is used as given.
+
+Exit codes: 0 done, 1 upload failed (outputs written), 2 bad configuration, checkpoint, output path,
+telemetry endpoint given in --config (e.g. "tcp/127.0.0.1:7447 is in use") or live view address, found
+before the first step and before any output; 130 interrupted (nothing written).
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
-from uav_swarm.cli.conventions import config_flag, number
+from uav_swarm.cli.conventions import config_flag, number, output_flag
 
-__all__ = ["register", "run", "format_summary", "wrote_line", "CHECKPOINT_HELP"]
+if TYPE_CHECKING:
+    from uav_swarm.runs.fly_config import FlyConfig
+    from uav_swarm.runs.simulate_config import SimulateConfig
+
+__all__ = ["register", "run", "format_summary", "wrote_line", "telemetry_endpoint", "CHECKPOINT_HELP"]
+
+logger = logging.getLogger(__name__)
+
+RunConfig = TypeVar("RunConfig", "SimulateConfig", "FlyConfig")
 
 CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: "
                    "wifi-s<strategy>-80211.pt under the 802.11 radio, the default; on the paper's radio "
@@ -45,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
     cfg = "uav_swarm.runs.simulate_config:SimulateConfig."
-    add("--out", type=Path, default=Path("out/simulate"), help="output folder")
+    output_flag(parser, "--out", "folder", default="out/simulate", help="output folder")
     add("--config", type=Path, help="TOML of SimulateConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry]); flags override it (default: none, the defaults below)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
@@ -64,7 +76,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="publish the run on ROS 2 (/uav_swarm/<swarm>/...) and take operator targets; needs the ros2 "
              "extra; DDS stays on this machine unless [ros2] localhost_only = false (default: off)")
     add("--no-gif", action="store_true", help="do not write scene.gif")
-    add("--record", type=Path, metavar="RUN.mcap",
+    output_flag(parser, "--record", "file", metavar="RUN.mcap",
         help="record the flown run (scene, UAV states, plans, QoS) as MCAP for Foxglove (default: none)")
     add("--live", metavar="[HOST:]PORT",
         help="stream the flown run to Foxglove (Open connection, Foxglove WebSocket) from a server on this "
@@ -94,6 +106,26 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
     if args.no_gif:
         overrides["gif"] = False
     return overrides
+
+
+def telemetry_endpoint(config: RunConfig, config_path: Path | None) -> RunConfig:
+    """``config`` with its telemetry moved to a free loopback port when the default one is taken.
+
+    Only an endpoint nobody chose moves: one given in ``config_path`` ([telemetry] listen) is opened as
+    given, or refused. The move is logged as a warning naming the new endpoint.
+    """
+    from bridge.telemetry.config import listen_elsewhere_if_taken
+    from typed_config import read_toml
+
+    if not config.publish_telemetry:
+        return config
+    if config_path is not None and "listen" in read_toml(config_path).get("telemetry", {}):
+        return config
+    telemetry, line = listen_elsewhere_if_taken(config.telemetry)
+    if line is None:
+        return config
+    logger.warning("%s", line)
+    return config.replace(telemetry=telemetry)
 
 
 def format_summary(summary: dict[str, Any]) -> str:
@@ -215,7 +247,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         live = live_view_option(args.live, args.live_wait_s, args.speedup)
-        config = load_simulate_config(args.config, _overrides(args))
+        config = telemetry_endpoint(load_simulate_config(args.config, _overrides(args)), args.config)
         result = simulate(config, args.out, progress=not args.quiet, record=args.record, live=live)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm simulate: {exc}", file=sys.stderr)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from uav_swarm.cli.conventions import number
+from uav_swarm.cli.conventions import number, output_flag
 from uav_swarm.cli.learn import task_names
 
 __all__ = ["register", "run"]
@@ -30,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="jitter standard deviation, metres")
     parser.add_argument("--n", type=number(int, ge=1), default=200, help="scenes")
     parser.add_argument("--seed", type=number(int, ge=0), default=3, help="scene seed, test namespace")
-    parser.add_argument("--out", required=True, help="JSON report to write")
+    output_flag(parser, "--out", "file", required=True, help="JSON report to write")
     parser.set_defaults(func=run)
 
 

@@ -4,7 +4,8 @@ By default both connect to the publishing side on ``tcp/127.0.0.1:7447`` as a pe
 multicast scouting off. ``--config FILE`` reads a ``[telemetry]`` table (the fields of
 :class:`bridge.telemetry.config.TelemetryConfig`): the keys it sets override these defaults, and
 command-line flags override both.
-``--duration-s`` and ``--count`` bound a run (for scripts and tests).
+``--duration-s`` and ``--count`` bound a run (for scripts and tests); without them it runs until Ctrl-C,
+its normal end (exit code 0; ``record`` writes what it received).
 
 ``ros2`` republishes the swarm on ROS 2 (the ``ros2`` extra), so that a ROS 2 machine can join a swarm
 flown elsewhere: each UAV's pose, fix and target, the plans and the QoS, on the topics of ``--ros2``
@@ -16,6 +17,7 @@ flown elsewhere: each UAV's pose, fix and target, the plans and the QoS, on the 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import sys
@@ -24,7 +26,7 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any, TextIO
 
-from uav_swarm.cli.conventions import number
+from uav_swarm.cli.conventions import number, output_flag
 
 __all__ = ["register", "run"]
 
@@ -43,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                 description="Record every telemetry message to a JSON-lines file (one "
                                 "object per line: key, time received, payload); the file appears when "
                                 "recording ends.")
-    record.add_argument("--out", type=Path, required=True, help="the .jsonl file to write")
+    output_flag(record, "--out", "file", required=True, help="the .jsonl file to write")
     ros2 = actions.add_parser("ros2", help="republish the swarm on ROS 2 topics (needs the ros2 extra)",
                               description="Republish the swarm's states, plans and QoS on the ROS 2 topics "
                               "of --ros2 (docs/ros2.md), stamped when each payload was produced.")
@@ -131,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
             count = _record(subscriber, args.out, args)
             print(f"recorded {count} messages to {args.out}", file=sys.stderr)
         else:
-            _watch(subscriber, args, sys.stdout)
+            with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C: the watch's normal end
+                _watch(subscriber, args, sys.stdout)
     return 0
 
 
@@ -180,16 +183,17 @@ def _republish(subscriber: Any, ros: Any, args: argparse.Namespace) -> int:
     from bridge.telemetry.schema import Plan, Qos, UavState
 
     count = 0
-    for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
-        if isinstance(item, UavState):
-            ros.state(item)
-        elif isinstance(item, Plan):
-            ros.plan(None, item)
-        elif isinstance(item, Qos):
-            ros.qos(None, item)
-        else:
-            continue
-        count += 1
+    with contextlib.suppress(KeyboardInterrupt):  # Ctrl-C: its normal end
+        for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
+            if isinstance(item, UavState):
+                ros.state(item)
+            elif isinstance(item, Plan):
+                ros.plan(None, item)
+            elif isinstance(item, Qos):
+                ros.qos(None, item)
+            else:
+                continue
+            count += 1
     return count
 
 
@@ -202,7 +206,8 @@ def _record(subscriber: Any, out: Path, args: argparse.Namespace) -> int:
     swarm = subscriber.config.swarm
     out.parent.mkdir(parents=True, exist_ok=True)
     count = 0
-    with atomic_path(out) as partial, partial.open("w", encoding="utf-8") as stream:
+    with (atomic_path(out) as partial, partial.open("w", encoding="utf-8") as stream,
+          contextlib.suppress(KeyboardInterrupt)):  # Ctrl-C ends the recording; the file is kept
         for item in subscriber.messages(duration_s=args.duration_s, count=args.count):
             if isinstance(item, Presence):
                 line = {"key": alive_key(swarm, item.uav_id), "received_s": item.received_s,

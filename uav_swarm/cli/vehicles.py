@@ -30,7 +30,7 @@ import threading
 import tomllib
 from pathlib import Path
 
-from uav_swarm.cli.conventions import number
+from uav_swarm.cli.conventions import number, output_flag
 
 __all__ = ["register", "run", "realism_flags", "parse_params"]
 
@@ -84,7 +84,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--autopilot", choices=("ardupilot", "px4"), required=True, help="the autopilot they answer as")
     add("--n", type=number(int, ge=1, le=10), help="vehicles (default: 5, or all of --bridge-config's)")
     add("--bridge-config", type=Path, help="serve this bridge config's vehicles (default: none, write one)")
-    add("--out", type=Path, default=Path("out/vehicles"),
+    output_flag(parser, "--out", "folder", default="out/vehicles",
         help="folder of the bridge config written without --bridge-config")
     add("--spacing-m", type=number(float, gt=0.0, le=1000.0), default=10.0,
         help="distance between neighbouring homes along the launch line (default: 10)")

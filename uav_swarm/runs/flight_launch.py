@@ -27,6 +27,9 @@ __all__ = ["FlightLaunch"]
 
 logger = logging.getLogger(__name__)
 
+SILENCE_REPORT_S = 3.0
+"""After this long without a vehicle's heartbeat, the silent vehicles are named (with why, if known)."""
+
 
 class FlightLaunch(FlightStep):
     """A flight's launches and links (planning and guard: :class:`~uav_swarm.runs.flight_step.FlightStep`)."""
@@ -74,11 +77,18 @@ class FlightLaunch(FlightStep):
             PreflightError: Take-off positions too close, or a vehicle without a link-loss failsafe.
         """
         flight, status = self.config.flight, self.flight_status
-        deadline_s = time.monotonic() + flight.ready_timeout_s
+        start_s = time.monotonic()
+        deadline_s = start_s + flight.ready_timeout_s
         status.enter("heartbeat", flight.ready_timeout_s)
+        named = False  # the silent vehicles, named once after SILENCE_REPORT_S
         while not self._stop.is_set() and time.monotonic() < deadline_s and not all(
                 self._heard_within(v, flight.link_timeout_s) for v in self.vehicles):
             status.tick()
+            if not named and time.monotonic() - start_s >= SILENCE_REPORT_S:
+                named = True
+                silent = [v for v in self.vehicles if not self._heard_within(v, flight.link_timeout_s)]
+                self.fleet.report_silent([v.system_id for v in silent], SILENCE_REPORT_S,
+                                         deadline_s - time.monotonic())
             time.sleep(TICK_S)
         heard = [v for v in self.vehicles if self._heard_within(v, flight.link_timeout_s)]
         jobs = {v.system_id: self._pool.submit(self._ready, v) for v in heard}
@@ -118,10 +128,12 @@ class FlightLaunch(FlightStep):
                     self._start_launch(vehicle)
             waiting = [v for v in self.vehicles if v.status == "waiting"]
             if waiting and time.monotonic() >= deadline_s:
+                flying = any(v.status in ("live", "launching") for v in self.vehicles)
                 for vehicle in waiting:
                     vehicle.status, vehicle.lost_at_s = "not found", time.time()
-                    logger.warning("vehicle %d not found: no heartbeat within %.0f s; flying without it "
-                                   "until heard", vehicle.system_id, flight.ready_timeout_s)
+                    if flying:  # else the error below names it
+                        logger.warning("vehicle %d not found: no heartbeat within %.0f s; flying without "
+                                       "it until heard", vehicle.system_id, flight.ready_timeout_s)
                     self._event("absent", vehicle)
                 waiting = []
             if not waiting and not any(v.status == "launching" for v in self.vehicles):
@@ -130,8 +142,15 @@ class FlightLaunch(FlightStep):
             self.flight_status.tick()
             time.sleep(TICK_S)
         if not self._stop.is_set() and not any(v.status == "live" for v in self.vehicles):
-            failed = "; ".join(f"vehicle {v.system_id}: {v.status}" for v in self.vehicles)
-            raise BridgeError(f"no vehicle could be launched ({failed}); see the warnings above")
+            by_status: dict[str, list[str]] = {}
+            for v in self.vehicles:
+                by_status.setdefault(v.status, []).append(str(v.system_id))
+            failed = "; ".join(f"vehicle{'s' if len(ids) > 1 else ''} {', '.join(ids)}: {status}"
+                               for status, ids in by_status.items())
+            hint = ("none answered within --wait-ready-s; to fly a simulated fleet instead: uav-swarm fly "
+                    "--simulated ardupilot" if all(v.status == "not found" for v in self.vehicles)
+                    else "see the warnings above")
+            raise BridgeError(f"no vehicle could be launched ({failed}); {hint}")
 
     # -- links ---------------------------------------------------------------------------------
     def _check_links(self) -> None:

@@ -26,14 +26,14 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from bridge.flight.limits import read_horizontal_limits
 from bridge.flight.params import ParamError
-from bridge.flight.preflight import PreflightError, PreflightReport, preflight
+from bridge.flight.preflight import PreflightError, PreflightReport, preflight, warn_fences_off
 from bridge.flight.vehicles import FleetError
 from bridge.geo import geodetic_to_enu
 from uav_swarm.runs.flight_guard import FlightGuard, GuardDecision
@@ -118,7 +118,8 @@ class FlightSafety:
         check_launch_positions(positions, self.config.uav.min_separation_m, self.config.launch, self._slots)
         self._set_homes(positions)
         try:
-            self.fleet.each("pre-flight check", list(homes), self._check_parameters)
+            reports = self.fleet.each("pre-flight check", list(homes), self._check_parameters)
+            warn_fences_off(list(reports.values()), self._fence_params(reports))
         except FleetError as exc:
             sid, error = min(exc.errors.items())
             if isinstance(error, PreflightError):
@@ -133,7 +134,11 @@ class FlightSafety:
         check_launch_positions({**others, system_id: position}, self.config.uav.min_separation_m,
                                self.config.launch, self._slots)
         self._set_homes({system_id: position})
-        self._check_parameters(system_id)
+        report = self._check_parameters(system_id)
+        warn_fences_off([report], self._fence_params([system_id]))
+
+    def _fence_params(self, system_ids: Iterable[int]) -> dict[int, str]:
+        return {sid: self.fleet.conventions(sid).fence_param for sid in system_ids}
 
     def _set_homes(self, positions: Mapping[int, tuple[float, float]]) -> None:
         """The vehicles' homes, here and in the guard (where each one's RTL or failsafe lands it)."""

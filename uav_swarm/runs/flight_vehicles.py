@@ -88,15 +88,24 @@ class FlightVehicles:
     _pool: ThreadPoolExecutor
     _planners: dict[int, Planner]
     _clock_s: float
+    _loop_end: tuple[float, float] | None
+    """The flight's clock and ``time.monotonic()`` when the loop ended (None while it runs)."""
     _refused: bool
     _next_guard_s: float
 
     def _event(self, kind: str, vehicle: FlightVehicle | None, detail: str = "") -> None:
-        record = {"time_s": round(self._clock_s, 3), "event": kind, "detail": detail}
+        record = {"time_s": round(self._event_clock_s(), 3), "event": kind, "detail": detail}
         if vehicle is not None:
             record |= {"system_id": vehicle.system_id, "uav_id": vehicle.uav_id}
         with self._lock:
             self.events.append(record)
+
+    def _event_clock_s(self) -> float:
+        """The flight's clock; after the loop (the return), it goes on at the loop's pace (``speedup``)."""
+        if self._loop_end is None:
+            return self._clock_s
+        clock_s, ended_s = self._loop_end
+        return clock_s + (time.monotonic() - ended_s) * self.config.speedup
 
     def _state(self, vehicle: FlightVehicle) -> VehicleState | None:
         return self.fleet.tracker.state(vehicle.system_id)

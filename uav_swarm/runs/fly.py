@@ -122,7 +122,7 @@ def _stop_when_set(stop_event: threading.Event, flight: Flight) -> None:
 
 def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event | None = None,
         record: str | Path | None = None, live: LiveView | None = None,
-        planner: Planner | None = None) -> FlightResult:
+        planner: Planner | None = None, keep_bridge_config: bool = False) -> FlightResult:
     """Fly the vehicles of ``config.bridge_config`` under the planner and write the outputs.
 
     Args:
@@ -134,6 +134,8 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
         live: Also stream the flight to Foxglove from a WebSocket server listening here.
         planner: Fly this planner (any :class:`uav_swarm.planning.base.Planner` for the flight's number
             of vehicles) instead of the config's.
+        keep_bridge_config: Also copy the bridge config into ``out_dir`` as ``bridge.toml``, which the
+            summary then names (one made for this flight only, in a folder removed after it).
 
     Raises:
         typed_config.ConfigError: Invalid bridge config, no vehicles, ``record`` not a .mcap file, or the
@@ -177,9 +179,9 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
             ros, steering = open_run_node(config.ros2, stack, swarm=config.telemetry.swarm, n_uavs=n,
                                           command="fly", sim_time=False, task=config.task, uav=config.uav,
                                           geofence=bridge.geofence)
-        with (Fleet(bridge) as fleet,
-              open_recorder(scene, record=record, live=live, command="fly",
-                            config=config.to_dict()) as recorder):
+        with (open_recorder(scene, record=record, live=live, command="fly",  # its port before any link
+                            config=config.to_dict()) as recorder,
+              Fleet(bridge) as fleet):
             outputs = RunOutputs(publisher, recorder, ros, states_on_arrival=True)
             flight = Flight(config, bridge, fleet, outputs, planner, steering)
             watcher = None
@@ -204,6 +206,10 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
                   write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]
         summary |= summarise_flight(trace, config, n, flight.plans, track, flight.crowd_samples)
     files.append(_write_track(track, out_dir / "track.csv"))
+    if keep_bridge_config:
+        write_bytes_atomic(out_dir / "bridge.toml", Path(config.bridge_config).read_bytes())
+        files.append(out_dir / "bridge.toml")
+        summary["config"]["bridge_config"] = "bridge.toml"  # beside summary.json
     if error is not None:
         summary["error"] = f"{type(error).__name__}: {error}"
     summary["files"] = [p.name for p in files] + ["summary.json"]

@@ -87,7 +87,8 @@ class FlyConfig(Config):
         """
         if not self.bridge_config:
             raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
-                              "vehicles (--bridge-config FILE)")
+                              "vehicles (--bridge-config FILE), or fly a simulated fleet started here "
+                              "(--simulated ardupilot or --simulated px4)")
         if self.task == run_task():  # the default task flies at the UAVs' altitude
             object.__setattr__(self, "task", run_task(self.uav))
         object.__setattr__(self, "task", radio_for_run(self.task))
