@@ -243,7 +243,12 @@ def test_incumbents_follow_their_uav_by_id_when_the_fleet_changes():
                              np.array([40, 36])).association.tolist() == [1]
 
 
-def clique_links(n_uavs, config=WIFI):
+# Everyone joins (no admission on rate): the throughput then shows the airtime alone.
+OPEN = RadioConfig(propagation="802.11", min_user_rate_mbps=0.0,
+                   ieee80211=Ieee80211Config(rate_admission=False))
+
+
+def clique_links(n_uavs, config=OPEN):
     """``n_uavs`` APs 10 m apart on one channel (they all hear each other), 4 users under each."""
     uavs = np.column_stack([10.0 * np.arange(n_uavs), np.zeros(n_uavs)])
     users = np.vstack([ring(uav, 4, 3.0) for uav in uavs])
@@ -251,28 +256,48 @@ def clique_links(n_uavs, config=WIFI):
                       altitudes_m=np.full(n_uavs, 20.0), channels=np.full(n_uavs, 36))
 
 
-def test_co_channel_aps_lose_airtime_to_collisions_as_their_number_grows():
-    totals = {}
-    for n_uavs in (1, 2, 5, 10):
-        links = clique_links(n_uavs)
+def without_collisions(tmp_path):
+    """OPEN with the shipped tables but ``collision_time_ratio = 0``: ideal CSMA alone."""
+    text = open(load_wifi_tables().source, encoding="utf-8").read()
+    free = tmp_path / "free.toml"
+    free.write_text(re.sub(r"^collision_time_ratio = .*$", "collision_time_ratio = 0.0", text, count=1,
+                           flags=re.MULTILINE))
+    return OPEN.replace(ieee80211=OPEN.ieee80211.replace(tables_file=str(free)))
+
+
+def test_co_channel_aps_lose_airtime_to_collisions_as_their_number_grows(tmp_path):
+    ideal_config = without_collisions(tmp_path)
+    assert clique_links(1).throughput_mbps.sum() == pytest.approx(
+        clique_links(1, ideal_config).throughput_mbps.sum())  # alone: nobody to collide with
+    totals, shares = [], []
+    for n_uavs in (2, 5, 10):
+        links, ideal = clique_links(n_uavs), clique_links(n_uavs, ideal_config)
+        assert ideal.collision_free.tolist() == [[1.0] * n_uavs]
         # In a clique every AP counts down with every other: n contenders, Bianchi's share each.
-        np.testing.assert_allclose(links.collision_free[0], shipped_collision_success(float(n_uavs)))
-        totals[n_uavs] = links.throughput_mbps.sum()
-    assert totals[1] > totals[2] > totals[5] > totals[10]
-    assert totals[10] / totals[1] == pytest.approx(shipped_collision_success(10.0), rel=0.02)
+        share = shipped_collision_success(float(n_uavs))
+        np.testing.assert_allclose(links.collision_free[0], share)
+        np.testing.assert_allclose(links.airtime, ideal.airtime)  # collided transmissions take airtime too
+        assert links.throughput_mbps.sum() == pytest.approx(share * ideal.throughput_mbps.sum())
+        totals.append(links.throughput_mbps.sum())
+        shares.append(share)
+    assert totals[0] > totals[1] > totals[2]
+    assert 1.0 > shares[0] > shares[1] > shares[2]
     # Bianchi, CWmin 15 and 6 doublings: a transmission among ten contenders succeeds with P_s = 0.775.
     assert collision_success(10.0, 15, 6, 1.0) == pytest.approx(0.775, abs=0.001)
     assert collision_success(1.0, 15, 6, 1.0) == 1.0
 
 
-def test_a_collision_time_ratio_of_zero_turns_collisions_off(tmp_path):
-    text = open(load_wifi_tables().source, encoding="utf-8").read()
-    free = tmp_path / "free.toml"
-    free.write_text(re.sub(r"^collision_time_ratio = .*$", "collision_time_ratio = 0.0", text, count=1,
-                           flags=re.MULTILINE))
-    ideal = clique_links(5, WIFI.replace(ieee80211=Ieee80211Config(tables_file=str(free))))
-    assert ideal.collision_free.tolist() == [[1.0] * 5]
-    assert clique_links(5).throughput_mbps.sum() < 0.95 * ideal.throughput_mbps.sum()
+def test_the_ends_of_a_chain_rarely_collide_with_its_starved_middle():
+    users = [[0.0, 5.0], [-50.0, 5.0], [50.0, 5.0]]
+    uavs = np.array([[[0.0, 0.0], [-50.0, 0.0], [50.0, 0.0]]])
+    chain = wifi_links(np.asarray(users), np.zeros(3, np.int64), uavs, DEAF.replace(min_user_rate_mbps=0.0),
+                       altitudes_m=np.full(3, 20.0), channels=np.full(3, 36))
+    rho = load_wifi_tables().access_intensity
+    # The middle counts down with both ends (3 contenders); an end with the middle only while the other
+    # end is silent, 1 / (1 + rho) of its own countdown.
+    np.testing.assert_allclose(chain.collision_free[0], [shipped_collision_success(3.0),
+                                                         shipped_collision_success(1.0 + 1.0 / (1.0 + rho)),
+                                                         shipped_collision_success(1.0 + 1.0 / (1.0 + rho))])
 
 
 def test_the_guard_interval_scales_every_rate():
