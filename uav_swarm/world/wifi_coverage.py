@@ -30,9 +30,9 @@ Examples:
     >>> links = wifi_links(users, np.zeros(3, np.int64), np.zeros((1, 1, 2)), radio,
     ...                    altitudes_m=np.array([20.0]))
     >>> links.association.tolist(), links.mcs.tolist(), links.airtime.round(3).tolist()
-    ([0, 0, -1], [11, 9, -1], [[0.998]])
+    ([0, 0, -1], [11, 9, -1], [[0.968]])
     >>> links.throughput_mbps.round(1).tolist()  # airtime fairness: half the airtime each, at its own rate
-    [62.6, 50.1, 0.0]
+    [64.5, 51.6, 0.0]
 """
 
 from __future__ import annotations
