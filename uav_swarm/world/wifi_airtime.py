@@ -73,9 +73,9 @@ def contention(graph: np.ndarray, active: np.ndarray, rho: float) -> tuple[np.nd
 
     Compiled, without the size check (callable from compiled code). Each world's subsets of active APs are
     built up from their lowest member: ``S`` is independent when ``S`` without its lowest member ``k`` is and
-    no other member of ``S`` is a neighbour of ``k``; its weight is ``rho`` times that subset's. Where some
-    active AP hears another, the sums over subsets of each mask (``F[M] = sum over S within M of weight``, a
-    subset-sum transform) give the contenders. Inactive APs: airtime 0, 1 contender.
+    no other member of ``S`` is a neighbour of ``k``; its weight is ``rho`` times that subset's. An AP that
+    hears another gets its contenders from sums of these weights over the subsets of the APs it does not
+    hear (a walk over the submasks: one term for an AP of a clique). Inactive APs: airtime 0, 1 contender.
     """
     n_worlds, n_uavs = active.shape
     airtime = np.zeros((n_worlds, n_uavs))
@@ -116,20 +116,30 @@ def contention(graph: np.ndarray, active: np.ndarray, rho: float) -> tuple[np.nd
             airtime[c, members[i]] = share[i] / total
         if not heard:
             continue
-        for bit in range(m):  # weight[M] becomes the sum of the weights of the subsets of M
-            for subset in range(1 << m):
-                if (subset >> bit) & 1:
-                    weight[subset] += weight[subset ^ (1 << bit)]
         everyone = (1 << m) - 1
         for i in range(m):
+            if neighbours[i] == 0:
+                continue
             closed_i = neighbours[i] | (1 << i)
-            quiet_i = weight[everyone & ~closed_i]
+            quiet_i = _subset_sum(weight, everyone & ~closed_i)
             count = 1.0
             for j in range(m):
                 if (neighbours[i] >> j) & 1:
-                    count += weight[everyone & ~(closed_i | neighbours[j] | (1 << j))] / quiet_i
+                    count += _subset_sum(weight, everyone & ~(closed_i | neighbours[j] | (1 << j))) / quiet_i
             contenders[c, members[i]] = count
     return airtime, contenders
+
+
+@numba.njit(cache=True, nogil=True)
+def _subset_sum(weight: np.ndarray, mask: int) -> float:
+    """The sum of ``weight`` over the subsets of ``mask`` (a walk over its submasks)."""
+    total = 0.0
+    subset = mask
+    while True:
+        total += weight[subset]
+        if subset == 0:
+            return total
+        subset = (subset - 1) & mask
 
 
 @numba.njit(cache=True, nogil=True)
@@ -172,13 +182,19 @@ def collision_success(contenders: float, cw_min: int, backoff_stages: int, colli
 @numba.njit(cache=True, nogil=True)
 def collision_success_shares(contenders: np.ndarray, cw_min: int, backoff_stages: int,
                              collision_time_ratio: float) -> np.ndarray:
-    """:func:`collision_success` of every AP of ``(B, K)`` contenders."""
+    """:func:`collision_success` of every AP of ``(B, K)`` contenders.
+
+    Solved once per run of equal values (the APs of a clique share theirs).
+    """
     shares = np.ones(contenders.shape)
+    last_n, last_share = 1.0, 1.0
     for c in range(contenders.shape[0]):
         for k in range(contenders.shape[1]):
-            if contenders[c, k] > 1.0 + 1e-12:
-                shares[c, k] = collision_success(contenders[c, k], cw_min, backoff_stages,
-                                                 collision_time_ratio)
+            n = contenders[c, k]
+            if n > 1.0 + 1e-12:
+                if n != last_n:
+                    last_n, last_share = n, collision_success(n, cw_min, backoff_stages, collision_time_ratio)
+                shares[c, k] = last_share
     return shares
 
 
