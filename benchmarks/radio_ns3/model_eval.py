@@ -30,12 +30,14 @@ class Ns3Scene:
         ap_mbps: (R, K) total of each AP in each seed.
         mcs: (U,) the MCS that carried most of each station's data PPDUs (all seeds), -1 for none.
         wall_s: Seconds of simulation per seed (after the import).
+        guard_interval_us: The guard interval ns-3 ran with.
     """
 
     station_mbps: np.ndarray
     ap_mbps: np.ndarray
     mcs: np.ndarray
     wall_s: list[float]
+    guard_interval_us: float
 
 
 def load_ns3(path: Path, scene: dict) -> Ns3Scene:
@@ -60,7 +62,8 @@ def load_ns3(path: Path, scene: dict) -> Ns3Scene:
             for m, (ppdus, _) in run["stations"][u]["data_ppdus_by_mcs"].items():
                 counts[int(m)] = counts.get(int(m), 0) + ppdus
         mcs.append(max(counts, key=lambda m: counts[m]) if counts else -1)
-    return Ns3Scene(stations, per_ap, np.asarray(mcs), [run["wall_s"] for run in result["runs"]])
+    return Ns3Scene(stations, per_ap, np.asarray(mcs), [run["wall_s"] for run in result["runs"]],
+                    result["job"]["guard_interval_ns"] / 1000.0)
 
 
 @dataclass(frozen=True)
@@ -82,16 +85,18 @@ class ModelScene:
     airtime: np.ndarray
 
 
-def radio_config(width_mhz: int, tables_file: str = "", mac_efficiency: float | None = None) -> RadioConfig:
+def radio_config(width_mhz: int, tables_file: str = "", mac_efficiency: float | None = None,
+                 guard_interval_us: float = 0.8) -> RadioConfig:
     """The model's settings for the calibration (throughput fairness, no admission on rate)."""
     return RadioConfig(propagation="802.11", ieee80211=Ieee80211Config(
         environment=str(RADIO["environment"]), frequency_ghz=float(RADIO["frequency_ghz"]),
         tx_power_dbm=float(RADIO["tx_power_dbm"]), noise_figure_db=float(RADIO["noise_figure_db"]),
         channel_width_mhz=width_mhz, fairness="throughput", rate_admission=False,
-        mac_efficiency=mac_efficiency, tables_file=tables_file))
+        mac_efficiency=mac_efficiency, tables_file=tables_file, guard_interval_us=guard_interval_us))
 
 
-def model_scene(scene: dict, tables_file: str = "", mac_efficiency: float | None = None) -> ModelScene:
+def model_scene(scene: dict, tables_file: str = "", mac_efficiency: float | None = None,
+                guard_interval_us: float = 0.8) -> ModelScene:
     """Run the model on the scene.
 
     Raises:
@@ -101,7 +106,7 @@ def model_scene(scene: dict, tables_file: str = "", mac_efficiency: float | None
     uavs = np.asarray(scene["uavs_m"], dtype=float)
     users = np.asarray(scene["users_m"], dtype=float)
     links = wifi_links(users, np.zeros(len(users), np.int64), uavs[None, :, :2],
-                       radio_config(scene["width_mhz"], tables_file, mac_efficiency),
+                       radio_config(scene["width_mhz"], tables_file, mac_efficiency, guard_interval_us),
                        altitudes_m=uavs[:, 2], channels=np.asarray(scene["channels"]))
     serving = np.asarray(scene["serving_uav"])
     wrong = np.flatnonzero((links.association >= 0) & (links.association != serving)).tolist()

@@ -6,10 +6,10 @@ this process. It reads a job (JSON, written by ``run_ns3.py``) and writes a resu
 
 - the network: access points and stations at the job's 3-D positions; each access point on its own channel
   number and width (5 GHz band), its stations on the same channel with the access point's SSID (passive
-  scanning, association before the measurement starts); 802.11ax, one spatial stream, 0.8 us guard interval
-  (set: ns-3's default is 3.2 us), every radio transmitting at ``tx_power_dbm``; ns-3's defaults otherwise
-  (noise figure 7 dB, preamble detection and carrier sense at -82 dBm, A-MPDUs up to 65,535 bytes, no RTS/CTS,
-  EDCA best effort, the table-based error model);
+  scanning, association before the measurement starts); 802.11ax, one spatial stream, the job's guard interval
+  (``run_ns3.py`` sets 0.8 us unless told; ns-3's default is 3.2 us), every radio transmitting at
+  ``tx_power_dbm``; ns-3's defaults otherwise (noise figure 7 dB, preamble detection and carrier sense at -82
+  dBm, A-MPDUs up to 65,535 bytes, no RTS/CTS, EDCA best effort, the table-based error model);
 - the path loss: ``MatrixPropagationLossModel`` with the job's dB matrix (every pair, symmetric), so that ns-3
   compares only its MAC and PHY with the project's model; constant-speed propagation delay;
 - the rate: the job's remote station manager (``ns3::IdealWifiManager`` by default: the MCS whose table-based

@@ -15,7 +15,10 @@ file):
 - ``hidden-*``: co-channel UAVs at 30 m, 330-350 m apart in a line: neighbours hear each other (free space,
   -78 dBm), the next but one does not (-84 dBm): the AP in the middle of three defers to both ends;
 - ``ten-*``: ten UAVs (altitude layers 10-28 m) over 120 m x 120 m, 20 users each, on one channel and on
-  three (a greedy colouring).
+  three (a greedy colouring);
+- ``five-1ch-*``: five UAVs (altitude layers 10-18 m) over 80 m x 80 m, 12 users each, all on one channel (one
+  contention domain: every AP hears every other). Added after the others, so that the earlier scenes keep
+  their random draws.
 
 Usage: python benchmarks/radio_ns3/scenes.py [--out benchmarks/radio_ns3/scenes.json] [--seed 2026]
 """
@@ -111,6 +114,10 @@ def build_scenes(seed: int) -> list[dict]:
                                 10.0 + 2.0 * np.arange(10)])
         uavs_m = np.round(uavs, 2).tolist()
         scenes.append(_cells(rng, name, "ten", uavs_m, _greedy_channels(uavs, plan), 20, 35.0, measure_s=1.0))
+    for name in ("five-1ch-a", "five-1ch-b"):
+        uavs = np.column_stack([rng.uniform(0.0, 80.0, 5), rng.uniform(0.0, 80.0, 5),
+                                10.0 + 2.0 * np.arange(5)])
+        scenes.append(_cells(rng, name, "five", np.round(uavs, 2).tolist(), [36] * 5, 12, 30.0))
     by_family: dict[str, int] = {}
     for scene in scenes:
         n = by_family.get(scene["family"], 0)

@@ -8,7 +8,9 @@ import pytest
 from typed_config import ConfigError
 from uav_swarm.world.comms import Association, RadioConfig, evaluate_coverage
 from uav_swarm.world.comms_batch import coverage_batch
+from uav_swarm.world.wifi_airtime import collision_success
 from uav_swarm.world.wifi_config import Ieee80211Config
+from uav_swarm.world.wifi_coverage import wifi_links
 from uav_swarm.world.wifi_tables import load_wifi_tables
 
 WIFI = RadioConfig(propagation="802.11")
@@ -27,6 +29,11 @@ def snapshot(users, uavs, config=WIFI, channels=None, altitude_m=20.0):
     return evaluate_coverage(np.asarray(users, float), uavs, config, np.full(len(uavs), altitude_m), plan)
 
 
+def shipped_collision_success(contenders):
+    tables = load_wifi_tables()
+    return collision_success(contenders, tables.cw_min, tables.backoff_stages, tables.collision_time_ratio)
+
+
 def test_two_co_channel_aps_5_m_apart_share_the_airtime_two_channels_double_it():
     users = np.vstack([ring([-2.5, 0.0], 4, 6.0), ring([2.5, 0.0], 4, 6.0, phase=0.3)])
     uavs = [[-2.5, 0.0], [2.5, 0.0]]
@@ -38,7 +45,8 @@ def test_two_co_channel_aps_5_m_apart_share_the_airtime_two_channels_double_it()
     assert shared.airtime.sum() == pytest.approx(lone.airtime[0], rel=0.02)
     np.testing.assert_allclose(apart.airtime, lone.airtime[0])
     total_shared, total_apart = shared.throughput_mbps.sum(), apart.throughput_mbps.sum()
-    assert total_apart / total_shared == pytest.approx(2.0, rel=0.02)
+    # ... and on one channel their backoffs sometimes collide (Bianchi with two contenders).
+    assert total_apart / total_shared == pytest.approx(2.0 / shipped_collision_success(2.0), rel=0.02)
     # The 802.11 sum is below the paper's 200 Mbps per UAV: one 20 MHz AP delivers at most its MAC efficiency
     # times the top rate (ns-3: 128 Mbps to one MCS-11 station, benchmarks/README.md).
     assert lone.throughput_mbps.sum() <= load_wifi_tables().mac_efficiency * 143.4 + 1e-9
@@ -195,7 +203,7 @@ def test_width_and_streams_scale_the_rates():
 
 def test_the_tables_loader_names_the_file_and_key(tmp_path):
     bad = tmp_path / "tables.toml"
-    bad.write_text("schema = 1\n[mcs]\nrate_20mhz_1ss_mbps = [1.0, 2.0]\nmin_sinr_db = [1.0]\n"
+    bad.write_text("schema = 2\n[mcs]\nrate_20mhz_1ss_mbps = [1.0, 2.0]\nmin_sinr_db = [1.0]\n"
                    "[width]\nchannel_width_mhz = [20]\ndata_subcarriers = [234]\n")
     with pytest.raises(ConfigError, match="must have equal lengths"):
         load_wifi_tables(str(bad))
@@ -233,3 +241,86 @@ def test_incumbents_follow_their_uav_by_id_when_the_fleet_changes():
     assert second.association.tolist() == [0]
     assert evaluate_coverage(user, np.array([[60.0, 0.0], [50.0, 0.0]]), WIFI, heights,
                              np.array([40, 36])).association.tolist() == [1]
+
+
+# Everyone joins (no admission on rate): the throughput then shows the airtime alone.
+OPEN = RadioConfig(propagation="802.11", min_user_rate_mbps=0.0,
+                   ieee80211=Ieee80211Config(rate_admission=False))
+
+
+def clique_links(n_uavs, config=OPEN):
+    """``n_uavs`` APs 10 m apart on one channel (they all hear each other), 4 users under each."""
+    uavs = np.column_stack([10.0 * np.arange(n_uavs), np.zeros(n_uavs)])
+    users = np.vstack([ring(uav, 4, 3.0) for uav in uavs])
+    return wifi_links(users, np.zeros(len(users), np.int64), uavs[None], config,
+                      altitudes_m=np.full(n_uavs, 20.0), channels=np.full(n_uavs, 36))
+
+
+def without_collisions(tmp_path):
+    """OPEN with the shipped tables but ``collision_time_ratio = 0``: ideal CSMA alone."""
+    text = open(load_wifi_tables().source, encoding="utf-8").read()
+    free = tmp_path / "free.toml"
+    free.write_text(re.sub(r"^collision_time_ratio = .*$", "collision_time_ratio = 0.0", text, count=1,
+                           flags=re.MULTILINE))
+    return OPEN.replace(ieee80211=OPEN.ieee80211.replace(tables_file=str(free)))
+
+
+def test_co_channel_aps_lose_airtime_to_collisions_as_their_number_grows(tmp_path):
+    ideal_config = without_collisions(tmp_path)
+    assert clique_links(1).throughput_mbps.sum() == pytest.approx(
+        clique_links(1, ideal_config).throughput_mbps.sum())  # alone: nobody to collide with
+    totals, shares = [], []
+    for n_uavs in (2, 5, 10):
+        links, ideal = clique_links(n_uavs), clique_links(n_uavs, ideal_config)
+        assert ideal.collision_free.tolist() == [[1.0] * n_uavs]
+        # In a clique every AP counts down with every other: n contenders, Bianchi's share each.
+        share = shipped_collision_success(float(n_uavs))
+        np.testing.assert_allclose(links.collision_free[0], share)
+        np.testing.assert_allclose(links.airtime, ideal.airtime)  # collided transmissions take airtime too
+        assert links.throughput_mbps.sum() == pytest.approx(share * ideal.throughput_mbps.sum())
+        totals.append(links.throughput_mbps.sum())
+        shares.append(share)
+    assert totals[0] > totals[1] > totals[2]
+    assert 1.0 > shares[0] > shares[1] > shares[2]
+    # Bianchi, CWmin 15 and 6 doublings: a transmission among ten contenders succeeds with P_s = 0.775.
+    assert collision_success(10.0, 15, 6, 1.0) == pytest.approx(0.775, abs=0.001)
+    assert collision_success(1.0, 15, 6, 1.0) == 1.0
+
+
+def test_the_ends_of_a_chain_rarely_collide_with_its_starved_middle():
+    users = [[0.0, 5.0], [-50.0, 5.0], [50.0, 5.0]]
+    uavs = np.array([[[0.0, 0.0], [-50.0, 0.0], [50.0, 0.0]]])
+    chain = wifi_links(np.asarray(users), np.zeros(3, np.int64), uavs, DEAF.replace(min_user_rate_mbps=0.0),
+                       altitudes_m=np.full(3, 20.0), channels=np.full(3, 36))
+    rho = load_wifi_tables().access_intensity
+    # The middle counts down with both ends (3 contenders); an end with the middle only while the other
+    # end is silent, 1 / (1 + rho) of its own countdown.
+    np.testing.assert_allclose(chain.collision_free[0], [shipped_collision_success(3.0),
+                                                         shipped_collision_success(1.0 + 1.0 / (1.0 + rho)),
+                                                         shipped_collision_success(1.0 + 1.0 / (1.0 + rho))])
+
+
+def test_the_guard_interval_scales_every_rate():
+    for guard_us, factor in ((0.8, 1.0), (1.6, 13.6 / 14.4), (3.2, 13.6 / 16.0)):
+        config = WIFI.replace(ieee80211=Ieee80211Config(guard_interval_us=guard_us))
+        cell = snapshot([[2.0, 0.0], [40.0, 0.0]], [[0.0, 0.0]], config)
+        reference = snapshot([[2.0, 0.0], [40.0, 0.0]], [[0.0, 0.0]])
+        assert cell.mcs.tolist() == reference.mcs.tolist()  # the SINR does not change, the symbols do
+        np.testing.assert_allclose(cell.rate_mbps, reference.rate_mbps * factor)
+        np.testing.assert_allclose(cell.throughput_mbps, reference.throughput_mbps * factor)
+    assert Ieee80211Config(guard_interval_us=3.2).guard_interval_rate_factor == pytest.approx(0.85)
+    with pytest.raises(ConfigError, match=r"guard_interval_us = 2.0 is not allowed: choose one of "
+                                          r"\[0.8, 1.6, 3.2\]"):
+        Ieee80211Config(guard_interval_us=2.0)
+
+
+def test_tables_of_the_first_schema_are_refused_with_what_to_add(tmp_path):
+    old = tmp_path / "old.toml"
+    text = open(load_wifi_tables().source, encoding="utf-8").read()
+    old.write_text(text.replace("schema = 2", "schema = 1"))
+    with pytest.raises(ConfigError, match="schema = 1 has no collision model: set schema = 2 and add"):
+        load_wifi_tables(str(old))
+    broken = tmp_path / "broken.toml"
+    broken.write_text(re.sub(r"^cw_min = .*$", "cw_min = 0", text, count=1, flags=re.MULTILINE))
+    with pytest.raises(ConfigError, match=r"\[contention\] cw_min = 0 is out of range"):
+        load_wifi_tables(str(broken))

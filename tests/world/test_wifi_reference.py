@@ -1,14 +1,18 @@
 """docs/radio.md reimplemented independently, loop by loop, against the package's per-station throughput.
 
 Only the shipped numbers come from the package (the tables' loader); every formula, the airtime over
-independent sets, the two passes and the admission are written here again from the page.
+independent sets, the contenders and Bianchi's collisions, the guard interval, the two passes and the
+admission are written here again from the page (Bianchi's fixed point solved in the collision probability,
+with another root finder).
 """
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from uav_swarm.world.comms import Association, RadioConfig, evaluate_coverage
 from uav_swarm.world.wifi_config import Ieee80211Config
@@ -64,19 +68,55 @@ class Reference:
                 p_ap = wifi.tx_power_dbm + 2 * wifi.ap_antenna_gain_dbi - fspl_db(d, f)
                 self.hear[i][j] = i != j and channels[i] == channels[j] and p_ap >= cca
         scale = DATA_TONES[wifi.channel_width_mhz] / DATA_TONES[20] * wifi.spatial_streams
+        scale *= 13.6 / (12.8 + wifi.guard_interval_us)
         self.ladder = [rate * scale for rate in tables["rates"]]
 
-    def airtime(self, active):
-        rho, k_all = self.tables["rho"], range(len(self.uavs))
-        total, share = 0.0, [0.0] * len(self.uavs)
+    def independent_sets(self, active):
+        k_all = range(len(self.uavs))
         for size in range(len(self.uavs) + 1):
             for group in itertools.combinations([k for k in k_all if active[k]], size):
-                if any(self.hear[i][j] for i in group for j in group):
-                    continue
-                total += rho**size
-                for k in group:
-                    share[k] += rho**size
+                if not any(self.hear[i][j] for i in group for j in group):
+                    yield set(group), self.tables["rho"] ** size
+
+    def airtime(self, active):
+        total, share = 0.0, [0.0] * len(self.uavs)
+        for group, weight in self.independent_sets(active):
+            total += weight
+            for k in group:
+                share[k] += weight
         return [s / total for s in share]
+
+    def success(self, n):
+        """Bianchi's share of the airtime that carries data, n contenders."""
+        w, m, r = self.tables["cw_min"] + 1, self.tables["stages"], self.tables["ratio"]
+        if n <= 1 + 1e-12 or r == 0:
+            return 1.0
+
+        def tau(p):
+            return 2 / (1 + w + p * w * sum((2 * p) ** i for i in range(m)))
+
+        p = brentq(lambda p: p - (1 - (1 - tau(p)) ** (n - 1)), 0.0, 1.0, xtol=1e-15)
+        t = tau(p)
+        ps = n * t * (1 - t) ** (n - 1) / (1 - (1 - t) ** n)
+        return ps / (ps + (1 - ps) * r)
+
+    def useful_airtime(self, active):
+        """Each AP's airtime times its collision-free share (0 for an inactive AP)."""
+        sets = list(self.independent_sets(active))
+        airtime = self.airtime(active)
+        useful = [0.0] * len(self.uavs)
+        for k in range(len(self.uavs)):
+            if not active[k]:
+                continue
+            neighbours = [j for j in range(len(self.uavs)) if active[j] and self.hear[k][j]]
+            closed_k = {k, *neighbours}
+            quiet_k = sum(weight for group, weight in sets if not group & closed_k)
+            n = 1.0
+            for j in neighbours:
+                closed_j = {j} | {i for i in range(len(self.uavs)) if active[i] and self.hear[j][i]}
+                n += sum(weight for group, weight in sets if not group & (closed_k | closed_j)) / quiet_k
+            useful[k] = airtime[k] * self.success(n)
+        return useful
 
     def sinr_db(self, n, k, active, airtime):
         interference = 0.0
@@ -113,6 +153,7 @@ class Reference:
         snr_ok = [[self.p_user[n][k] - self.noise_dbm >= mcs0 for k in k_all] for n in n_all]
         active = [any(snr_ok[n][k] for n in n_all) for k in k_all]
         airtime = self.airtime(active)
+        useful = self.useful_airtime(active)
         rate = [[self.rate(self.sinr_db(n, k, active, airtime)) for k in k_all] for n in n_all]
         in_range = [[rate[n][k] > 0 for k in k_all] for n in n_all]
         association = [-1] * len(self.users)
@@ -129,12 +170,13 @@ class Reference:
                 continue
             for k in sorted(k_all, key=lambda k: (-self.p_user[n][k], k)):
                 rates_k = {s: rate[s][k] for s in stations[k]}
-                if in_range[n][k] and self.admits(k, stations[k], rates_k, rate[n][k], airtime):
+                if in_range[n][k] and self.admits(k, stations[k], rates_k, rate[n][k], useful):
                     association[n] = k
                     stations[k].append(n)
                     break
         served = [len(stations[k]) > 0 for k in k_all]
         airtime = self.airtime(served)
+        useful = self.useful_airtime(served)
         own_rate = [0.0] * len(self.users)
         for n in n_all:
             if association[n] >= 0:
@@ -144,9 +186,9 @@ class Reference:
             members = [n for n in stations[k] if own_rate[n] > 0]
             for n in members:
                 if self.wifi.fairness == "airtime":
-                    throughput[n] = airtime[k] * self.efficiency * own_rate[n] / len(members)
+                    throughput[n] = useful[k] * self.efficiency * own_rate[n] / len(members)
                 else:
-                    throughput[n] = airtime[k] * self.efficiency / sum(1 / own_rate[m] for m in members)
+                    throughput[n] = useful[k] * self.efficiency / sum(1 / own_rate[m] for m in members)
         return association, throughput
 
 
@@ -155,7 +197,8 @@ def tables_as_plain_numbers(path=None):
     return {"rates": [float(r) for r in tables.rate_20mhz_1ss_mbps],
             "sinr": [float(s) for s in tables.min_sinr_db],
             "efficiency": tables.mac_efficiency, "rho": tables.access_intensity,
-            "alpha": tables.interference_airtime_weighting}
+            "alpha": tables.interference_airtime_weighting, "cw_min": tables.cw_min,
+            "stages": tables.backoff_stages, "ratio": tables.collision_time_ratio}
 
 
 def random_scene(seed, tmp_path):
@@ -165,12 +208,16 @@ def random_scene(seed, tmp_path):
     width = int(rng.choice([20, 40]))
     channels = (36, 40, 44) if width == 20 else (38, 46, 151)
     tables_file = ""
-    if rng.random() < 0.3:  # hidden APs counted for their airtime share, another access intensity
+    if rng.random() < 0.3:  # hidden APs for their airtime share, other access intensity and collisions
         tables_file = str(tmp_path / f"tables-{seed}.toml")
         text = open(load_wifi_tables().source, encoding="utf-8").read()
-        text = text.replace("interference_airtime_weighting = 0.0",
-                            f"interference_airtime_weighting = {rng.uniform(0.2, 1.0):.3f}")
-        text = text.replace("access_intensity = 50.0", f"access_intensity = {rng.uniform(5, 200):.2f}")
+        for key, value in (("interference_airtime_weighting", f"{rng.uniform(0.2, 1.0):.3f}"),
+                           ("access_intensity", f"{rng.uniform(5, 200):.2f}"),
+                           ("cw_min", str(rng.choice([7, 15, 31]))),
+                           ("backoff_stages", str(rng.integers(0, 7))),
+                           ("collision_time_ratio", f"{rng.choice([0.0, rng.uniform(0.5, 3.0)]):.3f}")):
+            text, n = re.subn(rf"^{key} = .*$", f"{key} = {value}", text, count=1, flags=re.MULTILINE)
+            assert n == 1, key
         with open(tables_file, "w", encoding="utf-8") as out:
             out.write(text)
     wifi = Ieee80211Config(
@@ -179,6 +226,7 @@ def random_scene(seed, tmp_path):
         fairness=str(rng.choice(["airtime", "throughput"])),
         rate_admission=bool(rng.random() < 0.8), tx_power_dbm=float(rng.uniform(10, 23)),
         spatial_streams=int(rng.integers(1, 3)), mac_efficiency=None if rng.random() < 0.7 else 0.55,
+        guard_interval_us=float(rng.choice([0.8, 1.6, 3.2])),
         tables_file=tables_file)
     limit = int(rng.integers(1, 8)) if rng.random() < 0.2 else None
     minimum = float(rng.choice([0.0, 2.0, 5.0, 20.0]))

@@ -16,6 +16,8 @@ Examples:
     (1, 6, 11)
     >>> Ieee80211Config(channel_width_mhz=40).cca_threshold_dbm
     -79.0
+    >>> round(Ieee80211Config(guard_interval_us=3.2).guard_interval_rate_factor, 3)  # 13.6 / 16
+    0.85
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from typing import Literal
 
 from typed_config import Config, ConfigError, param
 
-__all__ = ["Ieee80211Config", "ENVIRONMENTS", "CHANNELS_5GHZ", "CHANNELS_2GHZ"]
+__all__ = ["Ieee80211Config", "ENVIRONMENTS", "CHANNELS_5GHZ", "CHANNELS_2GHZ", "GUARD_INTERVALS_US",
+           "HE_SYMBOL_US"]
 
 ENVIRONMENTS: dict[str, tuple[float, float, float, float]] = {
     "suburban": (4.88, 0.43, 0.1, 21.0),
@@ -46,6 +49,11 @@ CHANNELS_5GHZ: dict[int, tuple[int, ...]] = {
 
 CHANNELS_2GHZ: tuple[int, ...] = tuple(range(1, 14))
 """2.4 GHz channel numbers (20 MHz only here)."""
+
+GUARD_INTERVALS_US: tuple[float, ...] = (0.8, 1.6, 3.2)
+"""802.11ax's guard intervals (us)."""
+HE_SYMBOL_US = 12.8
+"""An HE OFDM symbol without its guard interval (us): rates scale by 13.6 / (12.8 + guard interval)."""
 
 _DEFAULT_CHANNELS = {20: (36, 40, 44, 48, 149, 153, 157, 161, 165), 40: (38, 46, 151, 159), 80: (42, 155)}
 
@@ -73,6 +81,9 @@ class Ieee80211Config(Config):
         None, doc="admit a station only while every station of the AP keeps min_user_rate_mbps; not given: "
         "the task's strategy decides (strategy 1: off, every user in range joins; strategy 2: on), and the "
         "model used alone admits on rate")
+    guard_interval_us: float = param(
+        0.8, doc="802.11ax guard interval (us): 0.8 (as the tables are fitted), 1.6 or 3.2 (ns-3's default); "
+        "rates scale by 13.6 / (12.8 + guard interval)")
     channels: tuple[int, ...] = param((), doc="usable channel numbers (width and band of this config); "
                                       "empty: the band's channels without radar detection")
     mac_efficiency: float | None = param(None, gt=0.0, le=1.0,
@@ -90,6 +101,9 @@ class Ieee80211Config(Config):
         if self.channel_width_mhz not in widths:
             raise ConfigError(f"Ieee80211Config.channel_width_mhz = {self.channel_width_mhz} is not allowed "
                               f"in this band: choose one of {list(widths)}")
+        if self.guard_interval_us not in GUARD_INTERVALS_US:
+            raise ConfigError(f"Ieee80211Config.guard_interval_us = {self.guard_interval_us} is not allowed: "
+                              f"choose one of {list(GUARD_INTERVALS_US)}")
         allowed = CHANNELS_2GHZ if two_four else CHANNELS_5GHZ[self.channel_width_mhz]
         wrong = [c for c in self.channels if c not in allowed]
         if wrong or len(set(self.channels)) != len(self.channels):
@@ -108,6 +122,11 @@ class Ieee80211Config(Config):
         if self.channels:
             return self.channels
         return (1, 6, 11) if self.frequency_ghz <= 2.5 else _DEFAULT_CHANNELS[self.channel_width_mhz]
+
+    @property
+    def guard_interval_rate_factor(self) -> float:
+        """PHY rate at this guard interval over the rate at 0.8 us (the tables'): ``13.6 / (12.8 + GI)``."""
+        return (HE_SYMBOL_US + GUARD_INTERVALS_US[0]) / (HE_SYMBOL_US + self.guard_interval_us)
 
     @property
     def cca_threshold_dbm(self) -> float:

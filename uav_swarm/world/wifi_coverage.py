@@ -8,8 +8,9 @@ Order of computation (each step uses only the ones before; docs/radio.md gives e
 2. **Carrier sense.** The carrier-sense graph joins co-channel APs that hear each other
    (:func:`~uav_swarm.world.wifi_airtime.carrier_sense_graph`).
 3. **Pass 1, the admission's view.** An AP is *reachable* by a user when that user's SNR reaches MCS 0;
-   every AP with a user in reach is taken as active. Airtime (ideal CSMA among them), SINR with the
-   active hidden co-channel APs and PHY rate of every (user, AP) pair follow. A user is *in range* of an
+   every AP with a user in reach is taken as active. Airtime (ideal CSMA among them) less what collisions
+   with its contenders take (Bianchi), SINR with the active hidden co-channel APs and PHY rate of every
+   (user, AP) pair follow. A user is *in range* of an
    AP when that SINR reaches MCS 0.
 4. **Association.** Incumbents (``previous``) stay while in range of their AP. The other users, strongest
    received power first (ties: lower row), try their APs in range from the strongest (ties: lower index);
@@ -17,9 +18,9 @@ Order of computation (each step uses only the ones before; docs/radio.md gives e
    station of the AP, the user included, keeps ``min_user_rate_mbps`` at the pass-1 airtime and rates.
 5. **Pass 2, what the stations get.** The active APs are now those with stations; airtime and SINR are
    computed again with them. Each station's MCS and rate come from its SINR at its AP; a station whose
-   SINR falls below MCS 0 gets nothing and takes no share. The AP's airtime ``A`` is split among the
-   others: airtime fairness gives ``A * eff * rate / n`` to each of ``n``, throughput fairness gives each
-   ``A * eff / sum(1 / rate)``.
+   SINR falls below MCS 0 gets nothing and takes no share. The AP's airtime times its collision-free share,
+   ``A``, is split among the others: airtime fairness gives ``A * eff * rate / n`` to each of ``n``,
+   throughput fairness gives each ``A * eff / sum(1 / rate)``.
 
 Examples:
     >>> import numpy as np
@@ -29,9 +30,9 @@ Examples:
     >>> links = wifi_links(users, np.zeros(3, np.int64), np.zeros((1, 1, 2)), radio,
     ...                    altitudes_m=np.array([20.0]))
     >>> links.association.tolist(), links.mcs.tolist(), links.airtime.round(3).tolist()
-    ([0, 0, -1], [11, 9, -1], [[0.998]])
+    ([0, 0, -1], [11, 9, -1], [[0.968]])
     >>> links.throughput_mbps.round(1).tolist()  # airtime fairness: half the airtime each, at its own rate
-    [62.6, 50.1, 0.0]
+    [64.5, 51.6, 0.0]
 """
 
 from __future__ import annotations
@@ -46,8 +47,9 @@ from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.wifi_airtime import (
     carrier_sense_graph,
     check_contenders,
+    collision_success_shares,
+    contention,
     hidden_interferers,
-    independent_set_airtime,
 )
 from uav_swarm.world.wifi_config import Ieee80211Config
 from uav_swarm.world.wifi_phy import (
@@ -77,7 +79,9 @@ class WifiLinks:
         offsets: (B + 1,) world ``c``'s users are ``offsets[c]:offsets[c + 1]``.
         n_users: (B,) users of each world.
         users_per_uav: (B, K) stations of each AP.
-        airtime: (B, K) each AP's airtime share (pass 2; 0 for an AP without stations).
+        airtime: (B, K) each AP's airtime share (pass 2, collided transmissions included; 0 for an AP
+            without stations).
+        collision_free: (B, K) the share of that airtime that carries data (Bianchi; 1 without contenders).
         channel: (B, K) each AP's channel number.
         throughput_per_user_mbps: (B, K) mean throughput of the AP's stations (0 without).
         covered_users: (B,) users covered in each world.
@@ -97,6 +101,7 @@ class WifiLinks:
     n_users: np.ndarray
     users_per_uav: np.ndarray
     airtime: np.ndarray
+    collision_free: np.ndarray
     channel: np.ndarray
     throughput_per_user_mbps: np.ndarray
     covered_users: np.ndarray
@@ -262,16 +267,18 @@ def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, c
 @numba.njit(cache=True, nogil=True)
 def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, channels: np.ndarray,
            noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray, rho: float, weighting: float,
-           efficiency: float, min_rate_mbps: float, airtime_fair: bool, rate_admission: bool,
-           station_limit: int, previous: np.ndarray
+           collisions: tuple[int, int, float], efficiency: float, min_rate_mbps: float, airtime_fair: bool,
+           rate_admission: bool, station_limit: int, previous: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                      np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                      np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Steps 3-5 of the module docstring for all worlds (powers and carrier-sense graph given).
 
-    Returns per user: association, in range, SINR (linear), MCS, rate, throughput; per AP: stations, airtime,
-    mean throughput of its stations; per world: users covered, users covered with the minimum rate, total
-    throughput.
+    ``collisions``: the tables' ``(cw_min, backoff_stages, collision_time_ratio)``. Returns per user:
+    association, in range, SINR (linear), MCS, rate, throughput; per AP: stations, airtime, collision-free
+    share, mean throughput of its stations; per world: users covered, users covered with the minimum rate,
+    total throughput.
     """
+    cw_min, stages, collision_ratio = collisions
     n_users, n_uavs = power_mw.shape
     n_worlds = graph.shape[0]
     # 3. Pass 1: the APs some user reaches with an SNR of MCS 0 are active.
@@ -280,7 +287,8 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
         for k in range(n_uavs):
             if power_mw[n, k] >= noise_mw * thresholds[0]:
                 active[copy_index[n], k] = True
-    airtime = independent_set_airtime(graph, active, rho)
+    airtime, contenders = contention(graph, active, rho)
+    collision_free = collision_success_shares(contenders, cw_min, stages, collision_ratio)
     weights = hidden_interferers(graph, channels, active, airtime, weighting)
     hidden = weights.sum(axis=2).sum(axis=1) > 0.0  # (B,) worlds with hidden interferers
     in_range = np.zeros((n_users, n_uavs), np.bool_)  # the pass-1 SINR reaches MCS 0
@@ -301,12 +309,13 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
             user_order[first:n] = first + np.argsort(-strongest[first:n], kind="mergesort")
             first = n
     association, stations = _admit(user_order, power_mw, in_range, copy_index, weights, hidden, noise_mw,
-                                   thresholds, ladder_mbps, airtime, efficiency, min_rate_mbps, airtime_fair,
-                                   rate_admission, station_limit, previous)
+                                   thresholds, ladder_mbps, airtime * collision_free, efficiency,
+                                   min_rate_mbps, airtime_fair, rate_admission, station_limit, previous)
     # 5. Pass 2: the APs with stations.
     served = stations > 0
     if np.any(served != active):
-        airtime = independent_set_airtime(graph, served, rho)
+        airtime, contenders = contention(graph, served, rho)
+        collision_free = collision_success_shares(contenders, cw_min, stages, collision_ratio)
         weights = hidden_interferers(graph, channels, served, airtime, weighting)
     sinr = np.zeros(n_users)
     mcs = np.full(n_users, -1, np.int64)
@@ -339,10 +348,11 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
             continue
         c, k = copy_index[n], association[n]
         rate[n] = ladder_mbps[mcs[n] + 1]
+        useful = airtime[c, k] * collision_free[c, k]
         if airtime_fair:
-            throughput[n] = airtime[c, k] * efficiency * rate[n] / sharing[c, k]
+            throughput[n] = useful * efficiency * rate[n] / sharing[c, k]
         else:
-            throughput[n] = airtime[c, k] * efficiency / inverse_sum[c, k]
+            throughput[n] = useful * efficiency / inverse_sum[c, k]
         per_ap[c, k] += throughput[n]
         total_mbps[c] += throughput[n]
         covered[c] += 1
@@ -351,13 +361,14 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
         for k in range(n_uavs):
             if not served[c, k]:
                 airtime[c, k] = 0.0
+                collision_free[c, k] = 1.0
             elif sharing[c, k]:
                 per_ap[c, k] /= sharing[c, k]
     in_range_any = np.zeros(n_users, np.bool_)
     for n in range(n_users):
         in_range_any[n] = strongest[n] > 0.0
-    return (association, in_range_any, sinr, mcs, rate, throughput, stations, airtime, per_ap, covered, fast,
-            total_mbps)
+    return (association, in_range_any, sinr, mcs, rate, throughput, stations, airtime, collision_free, per_ap,
+            covered, fast, total_mbps)
 
 
 @functools.lru_cache(maxsize=16)
@@ -405,14 +416,17 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
     power_mw = station_power_mw(users_m, copy_index, uavs_m, heights, wifi)
     graph = carrier_sense_graph(ap_pair_power_dbm(uavs_m, heights, wifi), plan, wifi.cca_threshold_dbm)
     # 3-5. Passes and association.
-    (association, in_range, sinr, mcs, rate, throughput, stations, airtime, per_ap, covered, fast,
-     total) = _links(
+    (association, in_range, sinr, mcs, rate, throughput, stations, airtime, collision_free, per_ap, covered,
+     fast, total) = _links(
         power_mw, copy_index, graph, plan, noise_mw, thresholds, ladder, tables.access_intensity,
-        tables.interference_airtime_weighting, efficiency, config.min_user_rate_mbps,
-        wifi.fairness == "airtime", wifi.admits_on_rate, config.max_stations or 0, before)
+        tables.interference_airtime_weighting,
+        (tables.cw_min, tables.backoff_stages, tables.collision_time_ratio), efficiency,
+        config.min_user_rate_mbps, wifi.fairness == "airtime", wifi.admits_on_rate, config.max_stations or 0,
+        before)
     denominator = np.maximum(n_users, 1)
     return WifiLinks(
         association=association, covered=mcs >= 0, in_range=in_range, sinr_db=10.0 * np.log10(sinr), mcs=mcs,
         rate_mbps=rate, throughput_mbps=throughput, offsets=offsets, n_users=n_users, users_per_uav=stations,
-        airtime=airtime, channel=plan, throughput_per_user_mbps=per_ap, covered_users=covered,
-        qos_s1=covered / denominator, qos_s2=fast / denominator, mean_throughput_mbps=total / denominator)
+        airtime=airtime, collision_free=collision_free, channel=plan, throughput_per_user_mbps=per_ap,
+        covered_users=covered, qos_s1=covered / denominator, qos_s2=fast / denominator,
+        mean_throughput_mbps=total / denominator)

@@ -17,7 +17,7 @@ Formulas (docs/radio.md):
 - received power ``P = tx_power + G_tx + G_rx - PL`` (dBm), thermal noise
   ``N = -174 dBm/Hz + 10 log10(width in Hz) + noise figure``;
 - MCS: the highest ``m`` with ``SINR >= min_sinr_db[m]`` (-1 below MCS 0: no usable rate); PHY rate
-  ``rate_20mhz_1ss_mbps[m] * data tones(width) / 234 * streams``.
+  ``rate_20mhz_1ss_mbps[m] * data tones(width) / 234 * streams * 13.6 / (12.8 + guard interval in us)``.
 
 The received power of every (user, UAV) pair (N x K x B at every step) is whole-array numpy, in milliwatts:
 ``10^((EIRP - FSPL(1 m) - excess) / 10) / d^2``, the same formula. SINR and MCS are computed where they are
@@ -34,6 +34,8 @@ Examples:
     (-62.09, -93.99)
     >>> rate_ladder_mbps(config)[[0, 1, 12]].tolist()  # no MCS, MCS 0, MCS 11
     [0.0, 8.6, 143.4]
+    >>> round(float(rate_ladder_mbps(Ieee80211Config(guard_interval_us=3.2))[12]), 2)  # MCS 11 at 3.2 us
+    121.89
 """
 
 from __future__ import annotations
@@ -159,7 +161,8 @@ def dbm_to_mw(power_dbm: np.ndarray | float) -> np.ndarray:
 
 
 def rate_ladder_mbps(config: Ieee80211Config, tables: WifiTables | None = None) -> np.ndarray:
-    """``(M + 1,)`` 0 (no usable rate), then the PHY rate of MCS 0..M-1 at the width and streams."""
+    """``(M + 1,)`` 0 (no usable rate), then the PHY rate of MCS 0..M-1 (width, streams, guard interval)."""
     tables = tables or load_wifi_tables(config.tables_file)
-    scale = tables.width_factor(config.channel_width_mhz) * config.spatial_streams
+    scale = tables.width_factor(config.channel_width_mhz) * config.spatial_streams \
+        * config.guard_interval_rate_factor
     return np.concatenate([[0.0], tables.rate_20mhz_1ss_mbps * scale])

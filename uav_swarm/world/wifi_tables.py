@@ -2,9 +2,10 @@
 
 The numbers live in a TOML data file (``uav_swarm/world/data/wifi_80211ax.toml``, shipped with the package,
 with the source of every value in its comments) so that a calibration can refit them without touching code.
-Schema (``schema = 1``)::
+Schema (``schema = 2``; ``schema = 1``, without the collision keys, is refused with what to add)::
 
-    [mcs]        rate_20mhz_1ss_mbps = [12 floats, increasing]   PHY rate of MCS 0..11, 1 stream, 20 MHz
+    [mcs]        rate_20mhz_1ss_mbps = [12 floats, increasing]   PHY rate of MCS 0..11, 1 stream, 20 MHz,
+                                                                  0.8 us guard interval
                  min_sinr_db          = [12 floats, increasing]   lowest SINR at which each MCS is used
     [width]      channel_width_mhz    = [ints]                    e.g. 20, 40, 80, 160
                  data_subcarriers     = [ints, same length]       rate factor = tones / tones at 20 MHz
@@ -12,6 +13,10 @@ Schema (``schema = 1``)::
     [contention] access_intensity     = float > 0                 ideal CSMA's rho (transmit / backoff time)
                  interference_airtime_weighting = float in [0, 1]
                                                     0: hidden APs always on; 1: on for their airtime share
+                 cw_min               = int in [1, 1023]          minimum contention window (slots - 1)
+                 backoff_stages       = int in [0, 10]            doublings up to the maximum window
+                 collision_time_ratio = float in [0, 10]          a collision's busy time over a success's
+                                                                  (0: collisions cost nothing)
 
 Examples:
     >>> tables = load_wifi_tables()
@@ -49,6 +54,9 @@ class WifiTables:
         mac_efficiency: Payload share of the PHY rate.
         access_intensity: Ideal CSMA's rho.
         interference_airtime_weighting: 0: hidden APs interfere always; 1: for their airtime share only.
+        cw_min: Minimum contention window (Bianchi's ``W - 1``).
+        backoff_stages: Doublings of the window up to its maximum (Bianchi's ``m``).
+        collision_time_ratio: A collision's busy time over a successful transmission's.
         source: The file read.
     """
 
@@ -59,6 +67,9 @@ class WifiTables:
     mac_efficiency: float
     access_intensity: float
     interference_airtime_weighting: float
+    cw_min: int
+    backoff_stages: int
+    collision_time_ratio: float
     source: str
 
     def width_factor(self, width_mhz: int) -> float:
@@ -97,6 +108,16 @@ def _number(data: dict[str, Any], table: str, key: str, path: str, low: float, h
     return float(value)
 
 
+def _integer(data: dict[str, Any], table: str, key: str, path: str, low: int, high: int) -> int:
+    value = data.get(table, {}).get(key)
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(f"{path}: [{table}] {key} is missing or not an integer")
+    if not low <= value <= high:
+        raise ConfigError(f"{path}: [{table}] {key} = {value} is out of range: allowed {low} <= {key} "
+                          f"<= {high}")
+    return value
+
+
 @functools.lru_cache(maxsize=8)
 def load_wifi_tables(path: str | Path | None = None) -> WifiTables:
     """Read and check the tables (cached per path).
@@ -115,8 +136,11 @@ def load_wifi_tables(path: str | Path | None = None) -> WifiTables:
         raise ConfigError(f"Wi-Fi tables file not found: {where}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{where}: invalid TOML: {exc}") from None
-    if data.get("schema") != 1:
-        raise ConfigError(f"{where}: schema = {data.get('schema')!r}; allowed: schema = 1")
+    if data.get("schema") == 1:
+        raise ConfigError(f"{where}: schema = 1 has no collision model: set schema = 2 and add [contention] "
+                          "cw_min, backoff_stages and collision_time_ratio (docs/radio.md, the tables file)")
+    if data.get("schema") != 2:
+        raise ConfigError(f"{where}: schema = {data.get('schema')!r}; allowed: schema = 2")
     rates = _array(data, "mcs", "rate_20mhz_1ss_mbps", where, float)
     sinr = _array(data, "mcs", "min_sinr_db", where, float)
     widths = _array(data, "width", "channel_width_mhz", where, np.int64)
@@ -133,4 +157,7 @@ def load_wifi_tables(path: str | Path | None = None) -> WifiTables:
         access_intensity=_number(data, "contention", "access_intensity", where, 0.0, 1e6, True),
         interference_airtime_weighting=_number(data, "contention", "interference_airtime_weighting", where,
                                                0.0, 1.0, False),
+        cw_min=_integer(data, "contention", "cw_min", where, 1, 1023),
+        backoff_stages=_integer(data, "contention", "backoff_stages", where, 0, 10),
+        collision_time_ratio=_number(data, "contention", "collision_time_ratio", where, 0.0, 10.0, False),
         source=where)
