@@ -49,7 +49,8 @@ def main() -> None:
     rows = []
     for path in paths:
         ckpt = load_checkpoint(path)
-        shape = tuple(int(v) for v in ckpt.payload["input_shape"])
+        channels, height, width = (int(v) for v in ckpt.payload["input_shape"])
+        shape = (channels, height, width)
         model = ckpt.model.eval()
         choice = select_engine(model, shape, "float32", threads=1)
         raster = np.random.default_rng(0).random((1, *shape), dtype=np.float32)
