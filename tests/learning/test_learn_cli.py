@@ -82,8 +82,9 @@ def test_train_width_and_depth_flags_set_a_new_network_or_grow_the_init_one(blob
     first = load_checkpoint(tmp_path / "a" / "checkpoint.pt")
     assert (first.model_config.width, first.model_config.depth) == (6, 1)
     assert main([*common, "--out", str(tmp_path / "b"), "--init", str(tmp_path / "a" / "checkpoint.pt"),
-                 "--depth", "2"]) == 0
+                 "--depth", "2", "--schedule", "constant"]) == 0
     grown = load_checkpoint(tmp_path / "b" / "checkpoint.pt")
+    assert grown.payload["train_config"]["schedule"] == "constant"
     assert (grown.model_config.width, grown.model_config.depth) == (6, 2)
     assert grown.payload["grown_from"] == {"width": 6, "depth": 1}
     assert main([*common, "--out", str(tmp_path / "c"), "--init", str(tmp_path / "a" / "checkpoint.pt"),

@@ -71,6 +71,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(train, "--epochs", train_cfg + "epochs", key="[train] epochs")
     config_flag(train, "--batch-size", train_cfg + "batch_size", key="[train] batch_size")
     config_flag(train, "--lr", train_cfg + "lr", key="[train] lr")
+    config_flag(train, "--schedule", train_cfg + "schedule", choices=("constant", "cosine", "step"),
+                key="[train] schedule")
     config_flag(train, "--max-steps", train_cfg + "max_steps", key="[train] max_steps")
     config_flag(train, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"),
                 key="[train] device")
@@ -159,8 +161,8 @@ def _train(args: argparse.Namespace) -> int:
         print(f"uav-swarm: {args.data} was generated with other [task] values for {differ} "
               f"than {args.config}", file=sys.stderr)
         return 2
-    train_fields = ("epochs", "batch_size", "lr", "max_steps", "device", "torch_threads", "precision",
-                    "patience", "focal_weight")
+    train_fields = ("epochs", "batch_size", "lr", "schedule", "max_steps", "device", "torch_threads",
+                    "precision", "patience", "focal_weight")
     train_cfg = settings.train.replace(**_overrides(args, train_fields))
     shape = () if args.init else ("width", "depth")  # with --init they grow the init network instead
     model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head", *shape)))
