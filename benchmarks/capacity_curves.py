@@ -2,8 +2,8 @@
 
     python benchmarks/capacity_curves.py --out curves.csv w16d3=runs/w16d3 w32d3=runs/w32d3 w16d4=runs/w16d4
 
-Reads each run folder's ``history.json`` (written by ``uav-swarm train`` after every epoch) and the
-network shape from its ``checkpoint.pt``, and writes one CSV row per (run, epoch): samples seen,
+Reads each run folder's ``checkpoint.pt`` (``uav-swarm train`` writes it after every epoch, with the
+history of the run and the network's shape), and writes one CSV row per (run, epoch): samples seen,
 training seconds (validation included), validation loss, corr, precision and their sum (the score
 ``train`` keeps its best checkpoint by). Prints a Markdown table of the curves at equal samples (one
 column per run) and each run's best epoch.
@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 from pathlib import Path
 
 from learning.checkpoint import load_checkpoint
@@ -33,8 +32,8 @@ def main() -> None:
         name, sep, folder = spec.partition("=")
         if not sep:
             parser.error(f"{spec!r}: expected NAME=FOLDER")
-        history = json.loads((Path(folder) / "history.json").read_text(encoding="utf-8"))
-        config = load_checkpoint(Path(folder) / "checkpoint.pt").model_config
+        ckpt = load_checkpoint(Path(folder) / "checkpoint.pt")
+        history, config = ckpt.payload["history"], ckpt.model_config
         curves[name] = [{k: float(v) for k, v in h.items() if isinstance(v, (int, float))} for h in history]
         for h in curves[name]:
             rows.append({"run": name, "width": config.width, "depth": config.depth, "epoch": int(h["epoch"]),
