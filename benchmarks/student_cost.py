@@ -2,7 +2,8 @@
 
     python benchmarks/student_cost.py --width 8 --rounds 300 --steps 40
 
-Builds the shipped S1 network's architecture (the teacher) and the same with ``--width`` (the student),
+Builds the shipped S1 network's architecture (the teacher) and the same with ``--width`` and
+``--depth`` (the student: narrower, or wider or deeper for a capacity experiment),
 untrained (time and arithmetic do not depend on the weights), and measures in one run: forward FLOPs
 at batch 1, the median batch-1 inference time on one thread (eager float32, the planner's exact path
 without ONNX Runtime), and the median time of a training step at batch 16 (bfloat16 autocast where the
@@ -64,6 +65,8 @@ def main() -> None:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--width", type=int, default=8,
                         help="the student's first-block width (default: %(default)s)")
+    parser.add_argument("--depth", type=int, default=None,
+                        help="the student's poolings (default: the teacher's)")
     parser.add_argument("--rounds", type=int, default=300,
                         help="timed inference rounds (default: %(default)s)")
     parser.add_argument("--steps", type=int, default=40, help="timed training steps (default: %(default)s)")
@@ -76,18 +79,20 @@ def main() -> None:
     precision = resolve_precision("auto", torch.device("cpu"))
     dtype = torch.bfloat16 if precision == "bfloat16" else torch.float32
     x = torch.rand(1, *shape)
-    print("| network | width | parameters | GFLOP (batch 1) | inference ms (1 thread, float32) "
+    print("| network | width | depth | parameters | GFLOP (batch 1) | inference ms (1 thread, float32) "
           f"| training ms per sample (batch 16, {precision}, 2 threads) |")
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     for name, config in (("teacher (shipped)", teacher_ckpt.model_config),
-                         ("student", teacher_ckpt.model_config.replace(width=args.width))):
+                         ("student", teacher_ckpt.model_config.replace(
+                             width=args.width, depth=args.depth or teacher_ckpt.model_config.depth))):
         model = build_model(config).eval()
         torch.set_num_threads(1)
         flops, infer = _flops(model, x), _infer_ms(model, x, args.rounds)
         torch.set_num_threads(2)
         train = _train_ms_per_sample(model.train(), shape, args.steps, dtype)
         params = sum(p.numel() for p in model.parameters())
-        print(f"| {name} | {config.width} | {params:,} | {flops / 1e9:.3f} | {infer:.2f} | {train:.2f} |")
+        print(f"| {name} | {config.width} | {config.depth} | {params:,} | {flops / 1e9:.3f} | {infer:.2f} "
+              f"| {train:.2f} |")
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ from tqdm.auto import tqdm
 from learning.calibrate import calibrate_peaks
 from learning.checkpoint import CHECKPOINT_FORMAT, CheckpointError, load_checkpoint, save_checkpoint
 from learning.data import load_arrays
+from learning.grow import grow_state_dict
 from learning.loader import ShardDataset
 from learning.losses import focal_loss
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
@@ -172,6 +173,7 @@ def train(
     peak_config: PeakConfig | None = None,
     resume: str | Path | None = None,
     init: str | Path | None = None,
+    grow: tuple[int | None, int | None] | None = None,
     progress: bool = True,
 ) -> TrainResult:
     """Train a utility network on the dataset in ``data_dir``; checkpoints go to ``out_dir``.
@@ -190,6 +192,8 @@ def train(
             e.g. a shipped ``best.pt`` on a larger dataset); its model config is used (but
             ``peak_head`` from ``model_config`` when given: a new head starts from scratch), the
             optimiser, schedule and history start afresh.
+        grow: With ``init``: the ``(width, depth)`` the init network is grown to first, computing
+            the same utility map (:mod:`learning.grow`); ``None`` (or ``None`` in either place) keeps it.
         progress: Show a progress bar (on a terminal only: none in a log or a pipe).
 
     Raises:
@@ -216,6 +220,14 @@ def train(
         peak_head = model_config.peak_head if model_config is not None else start.model_config.peak_head
         model_config = start.model_config.replace(peak_head=peak_head)  # a peak head may be added or dropped
         init_state = start.model.state_dict()
+        if grow is not None:
+            width, depth = grow
+            grown = model_config.replace(width=width or model_config.width, depth=depth or model_config.depth)
+            init_state = grow_state_dict(init_state, start.model_config.replace(peak_head=peak_head), grown,
+                                         seed=(train_config or TrainConfig()).seed)
+            model_config = grown
+    elif grow is not None:
+        raise ValueError("grow needs init (the network to grow)")
     vector_channels = tuple(manifest.get("vector_channels", ()))
     model_config = (model_config or ModelConfig()).replace(in_channels=manifest["channels"],
                                                            vector_channels=vector_channels)
@@ -271,6 +283,8 @@ def train(
     }
     if init is not None:
         payload["init"] = Path(init).name
+        if grow is not None:
+            payload["grown_from"] = {"width": start.model_config.width, "depth": start.model_config.depth}
     ckpt_path, best_path = out / "checkpoint.pt", out / "best.pt"
     log.info("training %s on %d samples (%d validation) on %s in %s",
              model_config.arch, len(train_set), n_val, device, precision)

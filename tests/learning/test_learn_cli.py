@@ -66,3 +66,27 @@ def test_dataset_train_evaluate_commands(blobs, tmp_path, capsys):
     assert main(["train", "--task", "blobs", "--config", str(config), "--data", str(data),
                  "--out", str(run)]) == 2
     assert "size_px" in capsys.readouterr().err
+
+
+def test_train_width_and_depth_flags_set_a_new_network_or_grow_the_init_one(blobs, tmp_path, capsys):
+    from learning.checkpoint import load_checkpoint
+
+    config = tmp_path / "blobs.toml"
+    config.write_text("[task]\nsize_px = 16\n[model]\narch = 'unet'\nwidth = 4\ndepth = 1\n"
+                      "[train]\nbatch_size = 4\ndevice = 'cpu'\n")
+    data = tmp_path / "data"
+    assert main(["dataset", "--task", "blobs", "--config", str(config), "--n", "8", "--seed", "4",
+                 "--out", str(data), "--workers", "1"]) == 0
+    common = ["train", "--task", "blobs", "--config", str(config), "--data", str(data), "--max-steps", "1"]
+    assert main([*common, "--out", str(tmp_path / "a"), "--width", "6"]) == 0
+    first = load_checkpoint(tmp_path / "a" / "checkpoint.pt")
+    assert (first.model_config.width, first.model_config.depth) == (6, 1)
+    assert main([*common, "--out", str(tmp_path / "b"), "--init", str(tmp_path / "a" / "checkpoint.pt"),
+                 "--depth", "2", "--schedule", "constant"]) == 0
+    grown = load_checkpoint(tmp_path / "b" / "checkpoint.pt")
+    assert grown.payload["train_config"]["schedule"] == "constant"
+    assert (grown.model_config.width, grown.model_config.depth) == (6, 2)
+    assert grown.payload["grown_from"] == {"width": 6, "depth": 1}
+    assert main([*common, "--out", str(tmp_path / "c"), "--init", str(tmp_path / "a" / "checkpoint.pt"),
+                 "--width", "4"]) == 2
+    assert "only grows" in capsys.readouterr().err

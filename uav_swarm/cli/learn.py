@@ -71,6 +71,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     config_flag(train, "--epochs", train_cfg + "epochs", key="[train] epochs")
     config_flag(train, "--batch-size", train_cfg + "batch_size", key="[train] batch_size")
     config_flag(train, "--lr", train_cfg + "lr", key="[train] lr")
+    config_flag(train, "--schedule", train_cfg + "schedule", choices=("constant", "cosine", "step"),
+                key="[train] schedule")
     config_flag(train, "--max-steps", train_cfg + "max_steps", key="[train] max_steps")
     config_flag(train, "--device", train_cfg + "device", choices=("auto", "cpu", "cuda"),
                 key="[train] device")
@@ -79,6 +81,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                 key="[train] precision")
     config_flag(train, "--patience", train_cfg + "patience", key="[train] patience")
     config_flag(train, "--arch", model_cfg + "arch", choices=("paper", "unet"), key="[model] arch")
+    config_flag(train, "--width", model_cfg + "width", key="[model] width",
+                help="channels of the first block; with --init, the init network is grown to it, computing "
+                "the same map (learning.grow)")
+    config_flag(train, "--depth", model_cfg + "depth", key="[model] depth",
+                help="number of 2x poolings; with --init, the init network is grown to it, computing the "
+                "same map (learning.grow)")
     train.add_argument("--peak-head", action="store_true", default=None,
                        help="add the peak head and its focal loss ([model] peak_head)")
     config_flag(train, "--focal-weight", train_cfg + "focal_weight", key="[train] focal_weight")
@@ -153,13 +161,15 @@ def _train(args: argparse.Namespace) -> int:
         print(f"uav-swarm: {args.data} was generated with other [task] values for {differ} "
               f"than {args.config}", file=sys.stderr)
         return 2
-    train_fields = ("epochs", "batch_size", "lr", "max_steps", "device", "torch_threads", "precision",
-                    "patience", "focal_weight")
+    train_fields = ("epochs", "batch_size", "lr", "schedule", "max_steps", "device", "torch_threads",
+                    "precision", "patience", "focal_weight")
     train_cfg = settings.train.replace(**_overrides(args, train_fields))
-    model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head")))
+    shape = () if args.init else ("width", "depth")  # with --init they grow the init network instead
+    model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head", *shape)))
+    grow = (args.width, args.depth) if args.init and (args.width or args.depth) else None
     result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
                    train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from,
-                   init=args.init)
+                   init=args.init, grow=grow)
     last = result.history[-1] if result.history else {}
     print(f"checkpoint: {result.checkpoint} (best: {result.best_checkpoint}); last epoch: "
           + ", ".join(f"{k} {v:.4g}" for k, v in last.items()))
@@ -209,13 +219,14 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``dataset``, ``train`` or ``evaluate``; dataset and checkpoint problems exit with code 2."""
+    """Run ``dataset``, ``train`` or ``evaluate``; bad data, checkpoints or growth exit with code 2."""
     from learning.checkpoint import CheckpointError
     from learning.data import DatasetError
+    from learning.grow import GrowError
 
     command = {"dataset": _dataset, "train": _train, "evaluate": _evaluate}[args.command]
     try:
         return command(args)
-    except (CheckpointError, DatasetError) as exc:
+    except (CheckpointError, DatasetError, GrowError) as exc:
         print(f"uav-swarm {args.command}: {exc}", file=sys.stderr)
         return 2
