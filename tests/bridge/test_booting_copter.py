@@ -138,8 +138,8 @@ def test_fly_right_after_boot_waits_for_each_fix_and_home_with_one_restart(tmp_p
     finally:
         close_all(vehicles)
     statuses = {v["system_id"]: v for v in summary["vehicles"]}
-    assert all(v["status"] == "ended" for v in statuses.values())
-    assert all(v["launches"] == (2 if sid == restarted else 1) for sid, v in statuses.items())
+    assert all(v["status"] == "ended" for v in statuses.values()), statuses
+    assert all(v["launches"] == (2 if sid == restarted else 1) for sid, v in statuses.items()), statuses
     for vehicle in vehicles:  # each armed at the first request: it was ready when asked
         assert vehicle.commands.count(mavlink.MAV_CMD_COMPONENT_ARM_DISARM) == 1
         assert vehicle.custom_mode == RTL
