@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _pytest.mark import ParameterSet
 
 from uav_swarm.runs.guard_trial import (
     AUTOPILOTS,
@@ -35,7 +36,7 @@ _NOT_YET = {
 }
 
 
-def _cases() -> list[object]:
+def _cases() -> list[ParameterSet]:
     cases = []
     for case in EVENT_TRIALS:
         for autopilot in AUTOPILOTS:
