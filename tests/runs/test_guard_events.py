@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _pytest.mark import ParameterSet
 
 from uav_swarm.runs.guard_trial import (
     AUTOPILOTS,
@@ -32,7 +33,7 @@ _NOT_YET: dict[tuple[str, str], str] = {
 """(case, autopilot) the guard does not cover yet, with why (strict xfail)."""
 
 
-def _cases() -> list[object]:
+def _cases() -> list[ParameterSet]:
     cases = []
     for case in EVENT_TRIALS:
         for autopilot in AUTOPILOTS:
