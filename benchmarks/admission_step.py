@@ -23,7 +23,7 @@ SCENARIO = {"n_groups_min": 12, "n_groups_max": 14, "group_size_min": 70, "group
 
 def step_ms(station_limit: str | None, steps: int) -> tuple[float, int]:
     """Median wall time of one step (ms) and the crowd size."""
-    radio = {} if station_limit is None else {"station_limit": station_limit}
+    radio = {"propagation": "paper"} | ({} if station_limit is None else {"station_limit": station_limit})
     env = parallel_env(n_uavs=10, strategy=2, max_cycles=steps + 1, scenario=SCENARIO, radio=radio)
     env.reset(seed=3)
     rng = np.random.default_rng(0)

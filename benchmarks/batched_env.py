@@ -4,10 +4,11 @@ For each crowd size (default 200 pedestrians per copy, 5 groups of 40; 516, the 
 6 groups of 86; 1,000, 10 groups of 100) and 10 UAVs, in one run:
 
 - ``copies`` copies (default 64): one ``BatchedUAVSwarm(copies)`` and ``copies`` separate ``uav_swarm_v0``
-  parallel envs stepped in a Python loop, both with the current crowd and with the crowd before its pair
-  forces were compiled ("before": ``uav_swarm/world/crowd.py`` and ``crowd_batch.py`` as they were at
-  ``--before``, by default the commit before ``uav_swarm/world/pair_forces.py`` was added, put over a
-  copy of the current packages in a temporary folder); with ``--vmas``, also VMAS's ``navigation``
+  parallel envs stepped in a Python loop, both with the current crowd and with the crowd of another commit
+  ("before": the crowd's files, ``uav_swarm/world/crowd.py``, ``crowd_batch.py``, ``walls.py``,
+  ``walls_batch.py`` and ``pair_forces.py``, as they were at ``--before`` (those it had), by default the
+  commit before ``uav_swarm/world/pair_forces.py`` was added, put over a copy of the current packages in a
+  temporary folder); with ``--vmas``, also VMAS's ``navigation``
   scenario with ``num_envs=copies`` and 10 agents on the CPU (the ``bench`` extra);
 - one env (``uav_swarm_v0``, one copy) with the current crowd and with the one before.
 
@@ -43,9 +44,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("uav_swarm", "typed_config", "learning", "bridge")
-CROWD_FILES = ("uav_swarm/world/crowd.py", "uav_swarm/world/crowd_batch.py")  # replaced by their old versions
 KERNEL = "uav_swarm/world/pair_forces.py"
+PACKAGES = ("uav_swarm", "typed_config", "learning", "bridge")
+CROWD_FILES = ("uav_swarm/world/crowd.py", "uav_swarm/world/crowd_batch.py", "uav_swarm/world/walls.py",
+               "uav_swarm/world/walls_batch.py", KERNEL)  # replaced by their old versions (if they existed)
 N_UAVS = 10
 GROUPS = {200: 5, 516: 6, 1000: 10}  # pedestrians -> groups of equal size
 Clocks = tuple[dict[str, list[float]], dict[str, list[float]]]  # wall, CPU seconds per step and round
@@ -71,7 +73,11 @@ def stepper(kind: str, copies: int, pedestrians: int) -> Callable[[], None]:
         batch = BatchedUAVSwarm(copies, n_uavs=N_UAVS, scenario=crowd_of(pedestrians), max_cycles=10**6)
         batch.reset(seed=0)
         assert (batch.crowd.counts() == pedestrians).all()
-        return lambda: batch.step(rng.uniform(-1.0, 1.0, size=(copies, N_UAVS, 2)))
+
+        def step_batch() -> None:
+            batch.step(rng.uniform(-1.0, 1.0, size=(copies, N_UAVS, 2)))
+
+        return step_batch
     if kind == "separate":
         from uav_swarm.env.parallel import parallel_env
 
@@ -196,7 +202,8 @@ def before_tree(rev: str | None, folder: Path) -> str:
             if (ROOT / package).is_dir():
                 shutil.copytree(ROOT / package, folder / package, ignore=shutil.ignore_patterns("*.pyc"))
         for name in CROWD_FILES:
-            (folder / name).write_text(git("show", f"{commit}:{name}") + "\n", encoding="utf-8")
+            if git("ls-tree", "--name-only", commit, "--", name):
+                (folder / name).write_text(git("show", f"{commit}:{name}") + "\n", encoding="utf-8")
     except subprocess.CalledProcessError as error:
         raise SystemExit(f"--before {rev}: {error.stderr.strip()}") from None
     return commit[:10]
@@ -304,6 +311,7 @@ def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> N
         rate = copies * N_UAVS / statistics.fmean(clocks[1]["batched"])
         report("batched/separate now", "separate", "batched", clocks, f"   ({rate:.0f} agent-steps/CPU-s)")
         report("batched/separate before", "separate before", "batched before", clocks)
+        report("batched now/separate before", "separate before", "batched", clocks)
         report("batched now/before", "batched before", "batched", clocks, "   as fast")
         report("separate now/before", "separate before", "separate", clocks, "   as fast")
         if args.vmas:

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from typed_config import load_toml
+from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.planner import make_planner
 from uav_swarm.runs.service import static_reference
 from uav_swarm.runs.simulate import run_sequence, sequence_crowds
@@ -43,7 +44,7 @@ REPO = Path(__file__).resolve().parents[1]
 def sequence_config(strategy: int, seed: int, duration_s: float, radio: str = "admission") -> SimulateConfig:
     """The sequence a user would fly for ``strategy`` (strategy 2: the shipped refined config, ``radio``)."""
     config = (load_toml(SimulateConfig, REPO / "configs" / "simulate" / "wifi-s2-refined.toml")
-              if strategy == 2 else SimulateConfig())
+              if strategy == 2 else SimulateConfig(task=WifiConfig()))  # the paper's radio, as measured
     if strategy == 2 and radio == "paper":
         paper = config.task.radio.replace(station_limit="off")
         config = config.replace(task=config.task.replace(radio=paper))

@@ -28,6 +28,7 @@ from uav_swarm.world.wifi_channels import plan_channels
 
 SCENARIO = {"n_groups_min": 6, "n_groups_max": 6, "group_size_min": 86, "group_size_max": 86}
 WIFI = {"propagation": "802.11"}
+PAPER = {"propagation": "paper"}
 
 
 def median_ms(step: Callable[[], object], steps: int) -> float:
@@ -45,7 +46,7 @@ def env_step_ms(radio: dict[str, str], steps: int) -> tuple[float, int, float]:
     env = parallel_env(n_uavs=10, strategy=2, max_cycles=steps + 2, scenario=SCENARIO, radio=radio)
     env.reset(seed=3)
     hold = {agent: np.zeros(2) for agent in env.possible_agents}
-    if radio:
+    if radio == WIFI:
         env.set_channel_plan(plan_channels(env.uav_positions_m, env.radio, env.uav_altitudes_m))
     env.step(hold)  # first calls (compilation) outside the timing
     qos = float(env.coverage.qos_s2)
@@ -57,7 +58,7 @@ def batched_step_ms(radio: dict[str, str], steps: int, worlds: int) -> float:
     env = BatchedUAVSwarm(worlds, n_uavs=10, strategy=2, max_cycles=steps + 2, scenario=SCENARIO, radio=radio)
     env.reset(seed=list(range(worlds)))
     hold = np.zeros((worlds, 10, 2))
-    if radio:
+    if radio == WIFI:
         heights = np.full(10, env.config.uav.alt_m) + env.config.uav.layer_step_m * np.arange(10)
         env.set_channel_plan(plan_channels(env.uav_positions_m, env.radio, heights))
     env.step(hold)
@@ -102,11 +103,11 @@ def main() -> None:
     paper, model, paper_b, model_b = [], [], [], []
     n, qos = 0, 0.0
     for _ in range(args.rounds):
-        ms, n, _ = env_step_ms({}, args.steps)
+        ms, n, _ = env_step_ms(PAPER, args.steps)
         paper.append(ms)
         ms, _, qos = env_step_ms(WIFI, args.steps)
         model.append(ms)
-        paper_b.append(batched_step_ms({}, args.batched_steps, 64))
+        paper_b.append(batched_step_ms(PAPER, args.batched_steps, 64))
         model_b.append(batched_step_ms(WIFI, args.batched_steps, 64))
     if args.rounds:
         report_envs(paper, model, paper_b, model_b, n, qos)

@@ -26,6 +26,7 @@ from scipy.spatial.distance import pdist, squareform
 
 from typed_config import load_toml
 from uav_swarm.env import parallel_env
+from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.planner import make_planner
 from uav_swarm.runs.simulate_config import SimulateConfig
 
@@ -35,7 +36,7 @@ REPO = Path(__file__).resolve().parents[1]
 def shipped_config(strategy: int, seed: int, duration_s: float) -> SimulateConfig:
     """The sequence a user flies for ``strategy`` with the shipped configs."""
     config = (load_toml(SimulateConfig, REPO / "configs" / "simulate" / "wifi-s2-refined.toml")
-              if strategy == 2 else SimulateConfig())
+              if strategy == 2 else SimulateConfig(task=WifiConfig()))  # the paper's radio, as measured
     return config.replace(seed=seed, duration_s=duration_s, gif=False, publish_telemetry=False,
                           compare_expert=False)
 

@@ -17,6 +17,9 @@ SMALL_WIFI_TASK = {"warmup_min_s": 1.0, "warmup_max_s": 2.0,
                                 "group_size_max": 45}}
 """A fast Wi-Fi task config: few groups, short warm-up (64 px raster over 200 m, as shipped)."""
 
+SMALL_PAPER_TASK = {**SMALL_WIFI_TASK, "radio": {"propagation": "paper"}}
+""":data:`SMALL_WIFI_TASK` on the paper's radio, which ``simulate`` and ``fly`` fly only when told."""
+
 
 @pytest.fixture(scope="session")
 def small_wifi_task() -> dict:

@@ -20,7 +20,7 @@ PER_PLANNER = ("mean_qos_s1", "min_qos_s1", "mean_qos_s2", "min_qos_s2", "mean_t
                "median_latency_ms", "p95_latency_ms", "n_replans", "mean_target_changes_per_replan",
                "flown_qos", "static_reference_qos", "flown_over_static", "target_jumps_per_replan",
                "metres_per_uav_minute", "association", "separation")
-TOP_LEVEL = ("static_reference", "ratios_learned_over_expert", "checkpoint", "config")
+TOP_LEVEL = ("static_reference", "ratios_learned_over_expert", "checkpoint", "expert", "config")
 
 
 def _summary() -> dict:
@@ -47,6 +47,13 @@ def test_the_committed_run_is_the_demos_run():
     assert (summary["n_uavs"], summary["seed"], round(summary["duration_s"])) == (10, 0, 180)
     for name in ("qos.png", "scene.gif", "timeseries.csv", "summary.json"):
         assert (RUN / name).is_file(), name
+    # today's default: the 802.11 radio, its shipped strategy-1 network and its expert
+    from uav_swarm.runs.simulate_config import SimulateConfig
+
+    default = SimulateConfig().task
+    assert summary["config"]["task"]["radio"]["propagation"] == default.radio.propagation == "802.11"
+    assert summary["checkpoint"] == "uav_swarm/checkpoints/wifi-s1-80211.pt (shipped)"
+    assert summary["expert"] == "802.11 expert (strategy 1, the 802.11 radio without admission on rate)"
 
 
 def _printed_blocks(text: str, header: str) -> list[list[str]]:

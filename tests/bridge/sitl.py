@@ -126,13 +126,18 @@ class Instances:
             env |= {"PX4_HOME_LAT": str(home[0]), "PX4_HOME_LON": str(home[1]), "PX4_HOME_ALT": str(home[2])}
         return self._start(f"px4-{instance}", [str(binary), "-i", str(instance), "-d"], build, env)
 
-    def start_arducopter(self, root: Path, instance: int,
-                         home: tuple[float, float, float] = CMAC_HOME) -> subprocess.Popen:
-        """ArduCopter instance ``instance`` at ``home`` (lat, lon, alt), in its own working folder."""
+    def start_arducopter(self, root: Path, instance: int, home: tuple[float, float, float] = CMAC_HOME,
+                         params: dict[str, float] | None = None) -> subprocess.Popen:
+        """ArduCopter instance ``instance`` at ``home`` (lat, lon, alt), in its own working folder.
+
+        ``params`` are set at boot beside its system id (e.g. the simulator's weather: ``SIM_WIND_SPD``,
+        ``SIM_WIND_TURB``, and its late GPS: ``SIM_GPS_LAG_MS``).
+        """
         binary, shim = ardupilot_paths(root)
         work = self.log_dir / f"arducopter-{instance}"
         work.mkdir(exist_ok=True)
-        (work / "sysid.parm").write_text(f"SYSID_THISMAV {instance + 1}\n")
+        extra = "".join(f"{name} {value:g}\n" for name, value in (params or {}).items())
+        (work / "sysid.parm").write_text(f"SYSID_THISMAV {instance + 1}\n{extra}")
         defaults = root / "ardupilot/Tools/autotest/default_params/copter.parm"
         argv = [str(binary), "--model", "+", "--speedup", "1", f"-I{instance}", "--wipe",
                 "--defaults", f"{defaults},{work / 'sysid.parm'}", "--home", ",".join(map(str, home)) + ",0"]

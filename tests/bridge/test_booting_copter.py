@@ -12,7 +12,6 @@ import threading
 import time
 
 import numpy as np
-import pytest
 from booting_copter import PREARM_TEXT, BootingCopter
 from lossy_relay import free_tcp_port, free_udp_port
 from peer_fleet import bridge_toml, close_all, swift
@@ -102,9 +101,6 @@ def test_the_tracker_keeps_no_position_before_the_fix_and_the_ekf():
     assert any(not s.has_fix and s.fix_type == mavlink.GPS_FIX_TYPE_3D_FIX for _, s in positioned)
 
 
-@pytest.mark.xfail(strict=False, reason="since the certified-disc guard, the restarted vehicle sometimes "
-                   "does not end in the run beside other fly tests (failed in one whole-suite run, passed "
-                   "alone)")
 def test_fly_right_after_boot_waits_for_each_fix_and_home_with_one_restart(tmp_path, caplog):
     """10 vehicles just booted: each launched once when ready; no 0, 0 state; one restarted in flight."""
     caplog.set_level(logging.INFO, logger="bridge")

@@ -183,10 +183,10 @@ def test_px4_mission_upload_and_the_clear_guard_at_its_take_off_item(tmp_path, c
 
 
 @needs_px4
-def test_three_px4_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
+def test_three_px4_on_homes_6_m_apart_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(3):
-            sitl.start_px4(PX4_ROOT, i, home=home_apart(PX4_HOME, i))
+            sitl.start_px4(PX4_ROOT, i, home=home_apart(PX4_HOME, i, spacing_m=6.0))
         observer = Observer(PX4_GCS_URL, ask=(1, 2, 3))
         try:
             observers = {sid: observer for sid in (1, 2, 3)}
@@ -222,11 +222,19 @@ def test_two_px4_fly_60_s_in_mission_mode(tmp_path):
         assert "MISSION" in values["modes_seen"] and "RTL" in values["modes_seen"], (sid, values)
 
 
+WEATHER = {"SIM_WIND_SPD": 8.0, "SIM_WIND_TURB": 4.0, "SIM_WIND_DIR": 90.0, "SIM_GPS_LAG_MS": 400.0}
+"""8 m/s of gusting wind across the launch line and GPS positions 400 ms late."""
+
+
 @needs_ardupilot
-def test_five_arducopters_fly_60_s_at_the_cruise_altitude_and_return(tmp_path):
+@pytest.mark.parametrize("weather", [pytest.param({}, id="quiet"),
+                                     pytest.param(WEATHER, id="wind-and-late-gps")])
+def test_five_arducopters_on_homes_6_m_apart_launch_fly_60_s_and_return(tmp_path, weather):
+    """Five real ArduCopters on homes 6 m apart (a real launch line) at a 5 m minimum: all launch, fly the
+    planner's targets, return and land by themselves, never closer than the minimum on their own reports."""
     with Instances(tmp_path / "sitl") as sitl:
         for i in range(5):
-            sitl.start_arducopter(AP_ROOT, i, home=home_apart(CMAC_HOME, i))
+            sitl.start_arducopter(AP_ROOT, i, home=home_apart(CMAC_HOME, i, spacing_m=6.0), params=weather)
         time.sleep(2.0)  # the TCP ports open
         observers = {i + 1: Observer(_ardupilot_url(i, serial=0), ask=(i + 1,)) for i in range(5)}
         try:
@@ -339,7 +347,7 @@ def test_kill_9_of_fly_sends_every_real_autopilot_home_by_its_own_failsafe(tmp_p
     timeout + 5 s (its own parameter, set by ``--set-failsafe``), and they land without two closer than
     the minimum on their reported positions."""
     with Instances(tmp_path / "sitl") as sitl:
-        observers, urls, home = _start(sitl, kind, 3)
+        observers, urls, home = _start(sitl, kind, 3, spacing_m=6.0)
         try:
             _wait_homes(observers, 180.0)
             toml = _bridge_toml(tmp_path / "bridge.toml", home, urls)

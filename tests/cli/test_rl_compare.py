@@ -41,12 +41,13 @@ def test_planned_episodes_fly_in_lockstep_as_they_fly_alone() -> None:
     import numpy as np
 
     from uav_swarm.marl import compare
+    from uav_swarm.missions.wifi.task import WifiConfig
     from uav_swarm.planning.planner import make_planner
     from uav_swarm.runs.simulate_config import SimulateConfig
 
     [score] = compare.compare_controllers(["learned"], episodes=3, duration_s=2.0, n_uavs=3, seed=11,
                                           replan_every=5)
-    world = SimulateConfig(n_uavs=3, duration_s=2.0, replan_every=5)
+    world = SimulateConfig(n_uavs=3, duration_s=2.0, replan_every=5, task=WifiConfig())  # the paper's radio
     planner = make_planner("learned", 3, world.task, config=world.planning, uav_config=world.uav)
     held = {}
 

@@ -18,7 +18,7 @@ from bridge.missions.files import load_plan
 from bridge.telemetry import SwarmSubscriber
 from bridge.telemetry.config import TelemetryConfig
 from bridge.telemetry.schema import Plan, Qos, UavState
-from conftest import SMALL_WIFI_TASK
+from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from uav_swarm.cli import main
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -34,6 +34,9 @@ n_groups_min = 2
 n_groups_max = 3
 group_size_min = 35
 group_size_max = 45
+
+[task.radio]
+propagation = "paper"   # the tiny network's radio (simulate's default is 802.11)
 """
 
 
@@ -46,7 +49,7 @@ def small_config(tmp_path):
 
 def tiny(checkpoint_path, **changes) -> SimulateConfig:
     base = {"duration_s": 3.0, "n_uavs": 3, "gif_max_frames": 6, "gif_width_px": 900,
-            "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_WIFI_TASK}
+            "publish_telemetry": False, "checkpoint": str(checkpoint_path), "task": SMALL_PAPER_TASK}
     return SimulateConfig.from_dict({**base, **changes})
 
 
@@ -64,6 +67,7 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
     assert "3 UAVs" in printed and "\nlearned " in printed and "\nexpert " in printed
     assert "learned / expert: QoS S1" in printed
     assert "learned network: " in printed and " engine, float32" in printed
+    assert "\nexpert: search expert (strategy 1, the paper's radio without admission control)\n" in printed
 
     summary = json.loads((out / "summary.json").read_text())
     assert set(summary["planners"]) == {"learned", "expert"} and summary["flown"] == "learned"
@@ -73,6 +77,7 @@ def test_simulate_command_writes_the_figure_animation_summary_and_plans(tmp_path
         assert s["mean_throughput_mbps"] >= 0.0 and s["n_replans"] == 3 and s["n_pedestrians"] > 0
         assert 0.0 < s["median_latency_ms"] <= s["p95_latency_ms"]
     assert summary["planners"]["learned"]["planner"] == "cnn-peaks-hungarian"
+    assert summary["checkpoint"].endswith("best.pt") and summary["expert"].startswith("search expert")
     assert summary["config"]["seed"] == 2 and summary["config"]["n_uavs"] == 3
     assert summary["ratios_learned_over_expert"]["expert_over_learned_median_latency"] > 0.0
     assert summary["inference_engine"] in ("onnxruntime", "torch-jit", "torch-eager")

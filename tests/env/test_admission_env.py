@@ -1,4 +1,7 @@
-"""The environment under admission control: the sequence association, capped cells, the infos say which."""
+"""The environment under admission control: the sequence association, capped cells, the infos say which.
+
+Admission control is the paper's radio's; the environment flies the 802.11 radio unless told.
+"""
 
 import numpy as np
 
@@ -18,18 +21,18 @@ def fly(env, seed, steps=30):
 
 
 def test_no_uav_serves_more_than_its_limit_and_the_coverage_names_the_association():
-    env = parallel_env(n_uavs=3, strategy=2, radio={"station_limit": "auto"})
+    env = parallel_env(n_uavs=3, strategy=2, radio={"propagation": "paper", "station_limit": "auto"})
     for reward, qos_s2, association, served in fly(env, seed=4):
         assert max(served) <= 40
         assert association == "admission control (40 stations per UAV)"
         assert reward <= qos_s2  # the team reward is the QoS less the separation penalty
-    paper = parallel_env(n_uavs=3, strategy=2)
+    paper = parallel_env(n_uavs=3, strategy=2, radio={"propagation": "paper"})
     assert fly(paper, seed=4, steps=1)[0][2] == "paper (no admission control)"
 
 
 def test_same_seed_same_associations():
     def run():
-        env = parallel_env(n_uavs=4, strategy=2, radio={"station_limit": 20})
+        env = parallel_env(n_uavs=4, strategy=2, radio={"propagation": "paper", "station_limit": 20})
         env.reset(seed=9)
         hold = {a: np.array([60.0 + 25 * i, 100.0]) for i, a in enumerate(env.possible_agents)}
         associations = []
@@ -41,7 +44,7 @@ def test_same_seed_same_associations():
 
 
 def test_the_batched_view_matches_single_environments_under_admission_control():
-    radio = {"station_limit": 15}
+    radio = {"propagation": "paper", "station_limit": 15}
     batched = BatchedUAVSwarm(2, n_uavs=3, strategy=2, radio=radio)
     batched.reset(seed=[5, 6])
     singles = [parallel_env(n_uavs=3, strategy=2, radio=radio) for _ in range(2)]

@@ -151,7 +151,8 @@ def test_observation_layout():
 
 
 def test_reward_infos_and_accessors_agree_with_the_world():
-    par_env = parallel_env(**small(n_uavs=4, strategy=1, separation_weight=0.0))
+    paper = {"propagation": "paper"}  # compared with the paper's snapshot model below
+    par_env = parallel_env(**small(n_uavs=4, strategy=1, separation_weight=0.0, radio=paper))
     par_env.reset(seed=3)
     _, rewards, _, _, infos = par_env.step({a: np.zeros(2) for a in par_env.agents})
     cov = evaluate_coverage(par_env.pedestrian_positions_m, par_env.uav_positions_m, par_env.radio)
@@ -251,11 +252,14 @@ def test_too_many_uavs_and_bad_settings_are_errors():
 
 def test_kwargs_and_config_map_onto_env_config():
     par_env = parallel_env(config=EnvConfig(n_uavs=2), uav={"max_speed_m_s": 3.0},
-                           radio={"sigma_sq_m2": 450.0})
+                           radio={"propagation": "paper", "sigma_sq_m2": 450.0})
     assert par_env.config.n_uavs == 2
     assert par_env.config.uav.max_speed_m_s == 3.0 and par_env.config.uav.max_accel_m_s2 == 5.0
     assert par_env.radio.sigma_sq_m2 == 450.0
     assert par_env.metadata["name"] == "uav_swarm_v0"
+    assert parallel_env(n_uavs=2).radio.propagation == "802.11"  # the default
+    with pytest.raises(ConfigError, match="sigma_sq_m2 belongs to propagation = 'paper': set propagation"):
+        parallel_env(config=EnvConfig(n_uavs=2), radio={"sigma_sq_m2": 450.0})  # given: applied or refused
 
 
 def test_state_before_reset_is_a_clear_error():

@@ -22,7 +22,8 @@ def test_the_env_reports_the_802_11_coverage():
     rewards, infos = hold(env, 5)
     coverage = env.coverage
     assert coverage.model.startswith("802.11")
-    assert coverage.sinr_db is not None and coverage.channel.tolist() == [36, 36, 36]
+    # 30 m apart the three hear each other: the environment's own plan puts them on three channels
+    assert coverage.sinr_db is not None and coverage.channel.tolist() == [36, 40, 44]
     assert 0.0 <= infos["uav_0"]["qos_s2"] <= infos["uav_0"]["qos_s1"] <= 1.0
     assert np.all(coverage.throughput_mbps[~coverage.covered] == 0.0)
     served = sum(infos[a]["users_served"] for a in env.possible_agents)
@@ -61,6 +62,22 @@ def test_a_channel_plan_reaches_the_radio_and_a_wrong_one_is_refused():
     assert env.coverage.channel.tolist() == [40, 44, 48]
     with pytest.raises(ValueError, match="channels \\[52\\] are not usable"):
         env.set_channel_plan(np.array([52, 40, 44]))
-    paper = parallel_env(n_uavs=3)
+    paper = parallel_env(n_uavs=3, radio={"propagation": "paper"})
     with pytest.raises(ValueError, match="applies only with RadioConfig.propagation = '802.11'"):
         paper.set_channel_plan(np.array([36, 40, 44]))
+
+
+def test_the_environment_flies_the_802_11_radio_and_plans_channels_unless_told():
+    env = parallel_env(n_uavs=3)
+    assert env.radio.propagation == "802.11"
+    assert env.radio.ieee80211.rate_admission is False  # strategy 1: nobody refused on rate
+    assert parallel_env(n_uavs=3, strategy=2).radio.ieee80211.rate_admission is True
+    hold(env, 2)
+    assert sorted(env.coverage.channel.tolist()) == [36, 40, 44]  # three APs that hear each other
+    env.set_channel_plan(np.array([36, 36, 36]))  # a plan given stays
+    env.step({a: np.zeros(2) for a in env.possible_agents})
+    assert env.coverage.channel.tolist() == [36, 36, 36]
+    env.set_channel_plan(None)  # planned again from the next step
+    env.step({a: np.zeros(2) for a in env.possible_agents})
+    assert sorted(env.coverage.channel.tolist()) == [36, 40, 44]
+    assert parallel_env(n_uavs=3, radio={"propagation": "paper"}).radio.propagation == "paper"

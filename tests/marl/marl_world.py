@@ -10,8 +10,10 @@ SMALL_WORLD = {
                  "group_size_min": 10, "group_size_max": 10, "n_obstacles": 2},
     "density_shape": (16, 16),
     "patch_px": 5,
+    "radio": {"propagation": "paper"},
 }
-"""80 m x 80 m, 20 pedestrians: three UAVs cover part of the crowd, so rewards are not all zero."""
+"""80 m x 80 m, 20 pedestrians: three UAVs cover part of the crowd, so rewards are not all zero (nor all one:
+the paper's radio, 30 m; the 802.11 radio, the environment's default, reaches every user of this area)."""
 
 
 def random_actions(env, n_steps: int, seed: int, spread: float = 1.0) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The scene GIF, drawn for people: square map in metres, whole discs, legend, title, size."""
+"""The scene GIF, drawn for people: square map in metres, discs or 802.11 service, legend, title, size."""
 
 from types import SimpleNamespace
 
@@ -9,6 +9,7 @@ from PIL import Image
 
 from typed_config import ConfigError
 from uav_swarm.runs.animation import SceneAnimation, write_scene_gif
+from uav_swarm.runs.radio_report import SERVICE_COLOURS
 from uav_swarm.runs.records import Frame
 from uav_swarm.runs.simulate_config import SimulateConfig
 
@@ -38,7 +39,7 @@ def _frames(n_frames, n_uavs=10, n_pedestrians=1500, utility=True, seed=0):
 
 
 def test_a_frame_is_a_square_map_in_metres_with_whole_discs_a_legend_and_a_title():
-    config = SimulateConfig()
+    config = SimulateConfig.from_dict({"task": {"radio": {"propagation": "paper"}}})
     frames = _frames(1)
     animation = SceneAnimation(config, OBSTACLES, 10, utility=True)
     image = animation.draw(frames[0])
@@ -59,6 +60,36 @@ def test_a_frame_is_a_square_map_in_metres_with_whole_discs_a_legend_and_a_title
     (bar,) = [a for a in scene.artists if isinstance(a, AnchoredSizeBar)]
     assert bar.txt_label.get_text() == "50 m"
     assert "Utility map" in panel.get_title()
+
+
+def test_under_802_11_each_uav_shows_its_channel_and_the_users_it_serves_in_its_colour():
+    config = SimulateConfig()  # the 802.11 radio
+    frame = _frames(1, n_uavs=3, n_pedestrians=300)[0]
+    distances = np.linalg.norm(frame.pedestrians_m[:, None] - frame.uavs_m[None], axis=-1)
+    association = np.where(distances.min(axis=1) < 60.0, distances.argmin(axis=1), -1)
+    frame = Frame(**{**vars(frame), "covered": association >= 0, "association": association,
+                     "channels": np.array([36, 40, 36])})
+    animation = SceneAnimation(config, OBSTACLES, 3, utility=True, wifi=True)
+    animation.draw(frame)
+    scene = animation.figure.axes[0]
+    assert not scene.patches[1:]  # the area's outline only: no coverage disc
+    served = association >= 0
+    colours = animation._covered.get_facecolor()
+    expected = np.array([matplotlib_rgba(SERVICE_COLOURS[k]) for k in association[served]])
+    assert len(animation._covered.get_offsets()) == served.sum() and np.allclose(colours, expected)
+    assert len(animation._uncovered.get_offsets()) == (~served).sum()
+    labels = [t.get_text() for t in scene.texts]
+    assert labels == ["ch 36", "ch 40", "ch 36"]
+    legend = [t.get_text() for t in animation.figure.legends[0].get_texts()]
+    assert "pedestrian served by the UAV of its colour ('ch N': the UAV's channel)" in legend
+    assert not any("coverage disc" in label for label in legend)
+    assert "served with a usable rate" in animation.title.get_text()
+
+
+def matplotlib_rgba(colour: str) -> tuple[float, ...]:
+    from matplotlib.colors import to_rgba
+
+    return to_rgba(colour)
 
 
 def test_the_expert_run_shows_the_crowd_density_on_the_right():

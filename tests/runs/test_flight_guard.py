@@ -93,3 +93,95 @@ def test_a_climbing_vehicle_is_an_obstacle_the_others_keep_off():
     guard.acknowledged(0, guard.decide(rows, now_s=0.05)[0].seq, now_s=0.05)
     decision = guard.decide(rows, now_s=0.1)[0]
     assert decision.point_m is not None and np.hypot(*np.subtract(decision.point_m, (30.0, 0.0))) >= 5.0
+
+
+def _disc_distance(guard, a, point):
+    """Distance from ``point`` to vehicle ``a``'s certified disc."""
+    return float(np.hypot(*(guard.fleet.centre_m(a) - np.asarray(point)))) - guard.fleet.radius_m(a)
+
+
+def test_a_silent_vehicle_keeps_its_disc_and_no_one_is_sent_through_it():
+    """Vehicle 1 goes unheard (link lost or no fix) between two others: 0 may not be sent across its disc."""
+    guard = FlightGuard(GuardConfig(margin_m=0.0), min_separation_m=5.0, n_vehicles=2)
+    guard.homes_m = {0: (0.0, 0.0), 1: (40.0, 0.0)}
+    rows = _rows([(0.0, 0.0), (40.0, 0.0)], [(80.0, 0.0), (40.0, 0.0)])
+    _joined(guard, rows, now_s=0.05)
+    for step in range(1, 200):  # 20 s of decisions with vehicle 1 silent from the start
+        now_s = 0.05 + 0.1 * step
+        x0 = float(guard.fleet.centre_m(0)[0])
+        for decision in guard.decide([(0, (x0, 0.0), (0.0, 0.0), now_s, (80.0, 0.0), True)], now_s):
+            if decision.point_m is not None:
+                guard.acknowledged(0, decision.seq, now_s)
+        assert guard.fleet.is_silent(1) and guard.fleet.joined(1)
+        assert guard.gap_m(0, 1) >= 5.0 - 1e-9
+    assert float(guard.fleet.centre_m(0)[0]) < 40.0  # it never passed through the silent one
+
+
+def test_a_vehicle_never_measured_blocks_every_step_near_it():
+    guard = FlightGuard(GuardConfig(margin_m=0.0, position_age_s=1.0), min_separation_m=5.0, n_vehicles=2)
+    rows = _rows([(0.0, 0.0)], [(60.0, 0.0)])
+    _joined(guard, rows, now_s=0.05)
+    stale = (1, (30.0, 0.0), (0.0, 0.0), -5.0, (30.0, 0.0), True)  # its first row already too old
+    decisions = guard.decide([(0, (0.0, 0.0), (0.0, 0.0), 0.1, (60.0, 0.0), True), stale], now_s=0.1)
+    assert math.isinf(guard.fleet.radius_m(1))
+    assert decisions[0].point_m is None or decisions[0].point_m[0] < 1.0 + 1e-9  # not towards it
+
+
+def test_a_vehicle_taken_back_in_flight_keeps_the_disc_of_the_point_it_was_sent():
+    """Lost with a point 16 m ahead, then climbing back under `launch`: its disc still covers that point."""
+    guard = FlightGuard(GuardConfig(margin_m=0.0), min_separation_m=5.0, n_vehicles=1)
+    rows = _rows([(0.0, 0.0)], [(100.0, 0.0)])
+    _joined(guard, rows, now_s=0.05)
+    sent = guard.decide(rows, now_s=0.1)[0]
+    assert sent.point_m == (16.0, 0.0)
+    guard.decide([], now_s=2.0)  # unheard: kept
+    guard.decide([(0, (5.0, 0.0), (3.0, 0.0), 3.0, None, False)], now_s=3.0)  # taken back: not steered yet
+    assert guard.fleet.joined(0) and _disc_distance(guard, 0, (16.0, 0.0)) <= 0.0
+
+
+def test_two_vehicles_over_homes_6_m_apart_part_instead_of_freezing():
+    """Closer than the guard can certify (6 m at a 5 m minimum with the default errors): both reach goals
+    to the north, apart, instead of being held for as long as they stay close."""
+    guard = FlightGuard(GuardConfig(), min_separation_m=5.0, n_vehicles=2)
+    here = [np.array([0.0, 0.0]), np.array([6.0, 0.0])]
+    goals = [(-20.0, 60.0), (26.0, 60.0)]
+    points = [p.copy() for p in here]
+    rows = _rows([tuple(p) for p in here], goals)
+    _joined(guard, rows, now_s=0.05)
+    for step in range(1, 600):  # 60 s at 10 decisions a second; each flies at most 5 m/s to its point
+        now_s = 0.05 + 0.1 * step
+        rows = [(i, tuple(here[i]), (0.0, 0.0), now_s, goals[i], True) for i in range(2)]
+        for (i, *_), decision in zip(rows, guard.decide(rows, now_s), strict=True):
+            if decision.point_m is not None:
+                guard.acknowledged(i, decision.seq, now_s)
+                points[i] = np.array(decision.point_m)
+        for i in range(2):
+            way = points[i] - here[i]
+            here[i] = here[i] + way * min(1.0, 0.5 / max(float(np.hypot(*way)), 1e-9))
+        assert np.hypot(*(here[0] - here[1])) >= 6.0 - 1e-9  # parting never closes on the other
+    assert all(np.hypot(*(here[i] - goals[i])) < 1.0 for i in range(2))
+
+
+def test_the_guard_is_one_lock_for_the_loop_and_the_sending_threads():
+    import threading
+
+    guard = FlightGuard(GuardConfig(margin_m=0.0), min_separation_m=5.0, n_vehicles=3)
+    rows = _rows([(0.0, 0.0), (30.0, 0.0), (60.0, 0.0)], [(0.0, 50.0), (30.0, 50.0), (60.0, 50.0)])
+    _joined(guard, rows, now_s=0.05)
+    errors: list[BaseException] = []
+
+    def answer() -> None:
+        try:
+            for seq in range(1, 400):
+                for row in range(3):
+                    guard.acknowledged(row, seq, now_s=0.06)
+        except BaseException as exc:  # noqa: BLE001 - any error is the failure
+            errors.append(exc)
+
+    thread = threading.Thread(target=answer)
+    thread.start()
+    for step in range(200):
+        guard.decide(rows, now_s=0.1 + 0.01 * step)
+    thread.join()
+    assert not errors
+    assert guard.fleet._lock is not None

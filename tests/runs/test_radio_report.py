@@ -8,14 +8,15 @@ incumbents step to step) and must give the same SINR and MCS figures, step by st
 
 from __future__ import annotations
 
+import base64
 import csv
 import json
 
 import numpy as np
 import pytest
-from foxglove_readback import read_back
+from foxglove_readback import conform, read_back
 
-from conftest import SMALL_WIFI_TASK
+from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from typed_config import ConfigError
 from uav_swarm.cli.simulate import format_summary
 from uav_swarm.env.parallel import parallel_env
@@ -23,6 +24,7 @@ from uav_swarm.runs.radio_report import MCS_BANDS, mcs_band_shares
 from uav_swarm.runs.simulate import sequence_crowds, simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.world.comms import Association
+from uav_swarm.world.wifi_channels import plan_channels
 from uav_swarm.world.wifi_phy import ap_pair_power_dbm
 
 N_UAVS, REPLAN_EVERY = 4, 5
@@ -51,7 +53,9 @@ def _replay(config: SimulateConfig, run) -> list:
     env.reset(seed=config.seed)
     crowds = [users for _, users, _ in sequence_crowds(config, config.dt_s)] + [run.final_pedestrians_m]
     link = Association(env.radio)
-    link.update(crowds[0], np.array(env.uav_positions_m), altitudes_m=env.uav_altitudes_m)  # the reset
+    start = np.array(env.uav_positions_m)  # at the reset the environment plans the channels itself
+    link.update(crowds[0], start, altitudes_m=env.uav_altitudes_m,
+                channels=plan_channels(start, env.radio, env.uav_altitudes_m))
     return [link.update(crowds[step + 1], run.uav_tracks_m[step], altitudes_m=env.uav_altitudes_m,
                         channels=run.radio.channels[step]) for step in range(config.n_steps)]
 
@@ -128,6 +132,26 @@ def test_the_outputs_show_the_radio_channels_and_sinr(wifi_run):
     assert qos["co_channel_pairs"] == int(run.radio.sharing[-1].sum())
 
 
+def test_the_foxglove_scene_shows_each_uav_s_channel_and_whom_it_serves(wifi_run):
+    config, result, out = wifi_run
+    run = result.runs["expert"]
+    topics = read_back(out / "run.mcap")["topics"]
+    scene = topics["/scene"]["messages"][-1]
+    assert not conform(scene, "foxglove.SceneUpdate")
+    entities = {entity["id"]: entity for entity in scene["entities"]}
+    assert not entities["coverage"].get("cylinders")  # no coverage disc under 802.11
+    texts = [text["text"] for text in entities["channels"]["texts"]]
+    cloud = topics["/pedestrians"]["messages"][-1]
+    assert [field["name"] for field in cloud["fields"]] == ["x", "y", "z", "covered", "uav"]
+    points = np.frombuffer(base64.b64decode(cloud["data"]), "<f4").reshape(-1, 5)
+    served = [int(np.count_nonzero(points[:, 4] == k)) for k in range(N_UAVS)]
+    channels = run.radio.channels[-1]
+    assert texts == [f"UAV {k}, ch {channels[k]}, {served[k]} users" for k in range(N_UAVS)]
+    lines = entities["service"].get("lines", [])
+    assert sum(len(line["points"]) for line in lines) == 2 * sum(served)  # one line per user served
+    assert sum(served) == int(np.count_nonzero(points[:, 3]))  # every user served, no other
+
+
 def test_one_channel_puts_every_pair_that_hears_each_other_on_shared_airtime(tmp_path):
     task = {**WIFI_TASK, "radio": {"propagation": "802.11", "ieee80211": {"channels": [36]}}}
     result = simulate(_config(task=task, duration_s=0.5), tmp_path, progress=False)
@@ -141,7 +165,7 @@ def test_one_channel_puts_every_pair_that_hears_each_other_on_shared_airtime(tmp
 
 
 def test_the_paper_radio_reports_no_802_11_figures(tmp_path):
-    result = simulate(_config(task=SMALL_WIFI_TASK, duration_s=0.3), tmp_path, progress=False)
+    result = simulate(_config(task=SMALL_PAPER_TASK, duration_s=0.3), tmp_path, progress=False)
     assert result.runs["expert"].radio is None
     assert "wifi_80211" not in result.summary["planners"]["expert"]
     assert result.summary["radio"].startswith("radio: the paper's")
@@ -159,7 +183,7 @@ def test_the_802_11_radio_flies_at_the_uav_altitude():
 @pytest.mark.parametrize(("changes", "message"), [
     ({"task": {**WIFI_TASK, "radio": {"propagation": "802.11", "altitude_m": 20.0}}},
      "SimulateConfig.task.radio.altitude_m = 20.0 differs from uav.alt_m = 10.0"),
-    ({"task": {**SMALL_WIFI_TASK, "radio": {"altitude_m": 20.0}}},
+    ({"task": {**SMALL_WIFI_TASK, "radio": {"propagation": "paper", "altitude_m": 20.0}}},
      "SimulateConfig.task.radio.altitude_m = 20.0: the paper's radio flies at uav.alt_m"),
 ], ids=["802.11-other-altitude", "paper-altitude"])
 def test_a_radio_altitude_the_run_would_not_fly_is_refused_in_one_line(changes, message):

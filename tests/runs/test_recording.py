@@ -17,7 +17,7 @@ from foxglove_readback import PUBLISHED, conform, read_back
 
 from bridge.geo import Home
 from bridge.telemetry.schema import Qos, UavState
-from conftest import SMALL_WIFI_TASK
+from conftest import SMALL_PAPER_TASK
 from typed_config import ConfigError
 from uav_swarm.cli import main
 from uav_swarm.runs.recording import RUN_METADATA, SceneInfo, open_recorder
@@ -39,7 +39,7 @@ def recorded(tmp_path_factory):
     config = SimulateConfig.from_dict({
         "duration_s": 3.0, "n_uavs": N_UAVS, "planner": "expert", "compare_expert": False, "gif": False,
         "publish_telemetry": False, "replan_every": REPLAN_EVERY, "telemetry_every": RECORD_EVERY,
-        "task": SMALL_WIFI_TASK})
+        "task": SMALL_PAPER_TASK})
     result = simulate(config, out / "outputs", progress=False, record=out / "replay" / "run.mcap")
     return config, result, read_back(out / "replay" / "run.mcap")
 
@@ -203,7 +203,7 @@ def test_the_telemetry_channels_carry_what_zenoh_carries(tmp_path):
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     config = SimulateConfig.from_dict({
         "duration_s": 2.0, "n_uavs": 2, "planner": "expert", "compare_expert": False, "gif": False,
-        "publish_telemetry": True, "wait_for_subscriber_s": 60.0, "task": SMALL_WIFI_TASK,
+        "publish_telemetry": True, "wait_for_subscriber_s": 60.0, "task": SMALL_PAPER_TASK,
         "telemetry": {"swarm": "rectest", "listen": [endpoint], "multicast_scouting": False}})
     received: list = []
     watch = TelemetryConfig(swarm="rectest", listen=(), connect=(endpoint,), multicast_scouting=False)

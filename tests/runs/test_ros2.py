@@ -39,6 +39,8 @@ n_groups_min = 2
 n_groups_max = 3
 group_size_min = 35
 group_size_max = 45
+[task.radio]
+propagation = "paper"  # the markers' coverage discs are the paper's radio's (simulate's default: 802.11)
 """
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 import pytest
 
@@ -131,3 +133,17 @@ def test_replace_rejects_bad_arguments():
         batch.replace([0], [other])
     with pytest.raises(ValueError, match="at least one"):
         BatchedCrowd([])
+
+
+def test_kept_states_stay_valid_and_unkept_arrays_are_reused():
+    batch = BatchedCrowd(_sims((0, 1), ScenarioConfig(**SMALL)))
+    batch.step()
+    kept = [batch.positions_m, batch.positions_of(1), batch.velocities_m_s]  # arrays and a view
+    copies = [array.copy() for array in kept]
+    batch.step(4)
+    for array, copy in zip(kept, copies, strict=True):
+        np.testing.assert_array_equal(array, copy)
+    unkept = weakref.ref(batch.positions_m)  # nothing else holds it: two steps on, it is written again
+    batch.step(2)
+    assert batch.positions_m is unkept()
+    assert not batch.positions_m.flags.writeable

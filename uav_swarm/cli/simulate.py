@@ -31,10 +31,11 @@ from uav_swarm.cli.conventions import config_flag, number
 
 __all__ = ["register", "run", "format_summary", "wrote_line", "CHECKPOINT_HELP"]
 
-CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: wifi-s1.pt for "
-                   "strategy 1, wifi-s2-ac.pt for strategy 2 under admission control, wifi-s2.pt for "
-                   "strategy 2 with station_limit = \"off\", wifi-s<strategy>-80211.pt under the 802.11 "
-                   "radio)")
+CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the task: "
+                   "wifi-s<strategy>-80211.pt under the 802.11 radio, the default; on the paper's radio "
+                   "wifi-s1.pt for strategy 1, wifi-s2-ac.pt for strategy 2 under admission control, "
+                   "wifi-s2.pt for strategy 2 with station_limit = \"off\"); one trained for another radio, "
+                   "strategy or admission is refused)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -110,7 +111,9 @@ def format_summary(summary: dict[str, Any]) -> str:
         lines.append(summary["radio"])
     if "association" in first:
         lines.append(f"radio association: {first['association']}")
-        lines.extend(_why_s2_is_low(first["association"], summary.get("config", {}).get("task", {})))
+        lines.extend(_why_s2_is_low(first, summary.get("config", {}).get("task", {})))
+    if "expert" in summary:
+        lines.append(f"expert: {summary['expert']}")
     for kind, s in summary["planners"].items():
         if "wifi_80211" in s:
             lines.append(_wifi_line(kind, s["wifi_80211"]))
@@ -131,17 +134,29 @@ def format_summary(summary: dict[str, Any]) -> str:
                      f"S2 {show(ratios['mean_qos_s2'])}, throughput {show(ratios['mean_throughput_mbps'])}; "
                      f"expert / learned planning time {show(ratios['expert_over_learned_median_latency'])}x")
     if "inference_engine" in summary:
-        lines.append(f"learned network: {summary['inference_engine']} engine, {summary['network_precision']}")
+        checkpoint = f"{summary['checkpoint']}, " if "checkpoint" in summary else ""
+        lines.append(f"learned network: {checkpoint}{summary['inference_engine']} engine, "
+                     f"{summary['network_precision']}")
     return "\n".join(lines)
 
 
-def _why_s2_is_low(association: str, task: dict[str, Any]) -> list[str]:
-    """On the paper's radio, one line saying why few users reach the S2 rate (none on another radio)."""
-    radio = task.get("radio", {})
+def _why_s2_is_low(first: dict[str, Any], task: dict[str, Any]) -> list[str]:
+    """Where QoS S2 is low by the radio's design, one line saying why (none otherwise).
+
+    The paper's radio shares a UAV's capacity among every user in range; under 802.11 strategy 1 admits
+    every user in range however slow its share of the airtime.
+    """
+    association, radio = first["association"], task.get("radio", {})
+    strategy = task.get("strategy", 1)
+    if association.startswith("802.11") and strategy == 1 and "admission on rate" not in association:
+        rate = radio.get("min_user_rate_mbps", 5.0)
+        return [f"  strategy 1 refuses no user on rate: every user in range shares its access point's "
+                f"airtime (mean {first['mean_throughput_mbps']:.2f} Mbps per user), so QoS S2 stays low "
+                f"(strategy 2 admits a user only while all keep {rate:g} Mbps)"]
     if not association.startswith("paper") or "capacity_mbps" not in radio:
         return []
     capacity, rate = radio["capacity_mbps"], radio["min_user_rate_mbps"]
-    aim = "strategy 1 places for S1; " if task.get("strategy", 1) == 1 else ""
+    aim = "strategy 1 places for S1; " if strategy == 1 else ""
     return [f"  on this radio every user in range shares its UAV's {capacity:g} Mbps: over "
             f"{capacity / rate:.0f} users a UAV gives each under {rate:g} Mbps, so QoS S2 stays low ({aim}"
             "admission control: docs/admission.md)"]

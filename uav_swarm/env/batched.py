@@ -151,7 +151,8 @@ class BatchedUAVSwarm:
     def set_channel_plan(self, channels: np.ndarray | None) -> None:
         """Each UAV's channel from the next step on (``propagation = "802.11"``).
 
-        ``channels``: (n,) or (B, n) channel numbers; None puts all on the first usable channel.
+        ``channels``: (n,) or (B, n) channel numbers; None: the environment plans them itself at every step
+        (the default: ``plan_channels`` on the UAVs' positions, the plan in force kept while valid).
 
         Raises:
             ValueError: The paper's radio, or a channel outside ``radio.ieee80211``'s usable channels.

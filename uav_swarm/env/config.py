@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from typed_config import Config, ConfigError, param
-from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.crowd import CrowdConfig
+from uav_swarm.world.radio_config import RUN_PROPAGATION, RadioConfig
 from uav_swarm.world.scenario import ScenarioConfig
 from uav_swarm.world.separation import check_fleet_fits
 from uav_swarm.world.uav import UAVConfig
@@ -48,7 +48,17 @@ class EnvConfig(Config):
     uav: UAVConfig = param(UAVConfig(), doc="UAV flight limits")
     scenario: ScenarioConfig = param(ScenarioConfig(), doc="random scenario generation")
     crowd: CrowdConfig = param(CrowdConfig(), doc="crowd simulation")
-    radio: RadioConfig = param(RadioConfig(), doc="Wi-Fi model")
+    radio: RadioConfig = param(
+        RadioConfig(propagation=RUN_PROPAGATION), doc="Wi-Fi model: the 802.11 radio unless propagation = "
+        "'paper' (under 802.11 an admission on rate not given is the strategy's)")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> EnvConfig:
+        """As :meth:`Config.from_dict`; a ``radio`` table without ``propagation`` is the 802.11 radio."""
+        radio = data.get("radio")
+        if isinstance(radio, Mapping) and "propagation" not in radio:
+            data = {**data, "radio": {**radio, "propagation": RUN_PROPAGATION}}
+        return super().from_dict(data, where=where)
 
     def check(self) -> None:
         """Cross-field rules: density map size, odd patch, one source for the altitude."""
@@ -68,8 +78,13 @@ class EnvConfig(Config):
 
     @property
     def effective_radio(self) -> RadioConfig:
-        """The radio model with the flight altitude when ``use_3d_distance`` is set."""
-        return self.radio.replace(altitude_m=self.uav.alt_m) if self.use_3d_distance else self.radio
+        """The radio model of the strategy, with the flight altitude when ``use_3d_distance`` is set.
+
+        Under 802.11 an admission on rate not given is the strategy's
+        (:meth:`~uav_swarm.world.radio_config.RadioConfig.for_strategy`).
+        """
+        radio = self.radio.for_strategy(self.strategy)
+        return radio.replace(altitude_m=self.uav.alt_m) if self.use_3d_distance else radio
 
 
 def merge_overrides(config: EnvConfig, overrides: Mapping[str, Any]) -> EnvConfig:

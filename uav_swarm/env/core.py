@@ -45,6 +45,7 @@ from uav_swarm.world.separation import (
 )
 from uav_swarm.world.step_guard import guard_commands
 from uav_swarm.world.uav import fly_step, waypoint_velocity
+from uav_swarm.world.wifi_channels import plan_channels
 from uav_swarm.world.wifi_coverage import uav_channels
 
 __all__ = ["SwarmCore"]
@@ -93,7 +94,9 @@ class SwarmCore:
         wifi = self.radio.propagation == "802.11"
         self._radio_altitudes_m = self.altitudes_m if (cfg.use_3d_distance and layered) or wifi else None
         self.channel_plan: np.ndarray | None = None
-        """(B, K) each UAV's channel (802.11 model, :meth:`set_channel_plan`); None: the first usable one."""
+        """(B, K) each UAV's channel (802.11 model): :meth:`set_channel_plan`'s, else the environment's."""
+        self._plans_channels = wifi
+        """Whether the environment plans the channels itself (802.11, no plan given)."""
         self._guard_altitudes_m = self.altitudes_m if layered else None
         # UAVs start apart: a draw closer than the minimum is drawn again (world/separation.draw_apart_m).
         self._start_gaps_m = required_distances_m(cfg.uav.min_separation_m, self._guard_altitudes_m,
@@ -188,15 +191,18 @@ class SwarmCore:
     def set_channel_plan(self, channels: np.ndarray | None) -> None:
         """Each UAV's channel from the next step on (802.11 radio).
 
-        ``channels``: (K,) or (B, K) channel numbers; None puts all on the first usable channel.
+        ``channels``: (K,) or (B, K) channel numbers; None: the environment plans them itself after every
+        reset and step (:func:`~uav_swarm.world.wifi_channels.plan_channels` on the UAVs' positions and
+        altitudes, the plan in force kept while it stays valid), the default.
 
         Raises:
             ValueError: The paper's radio, a shape or a channel the radio does not take.
         """
         if channels is not None and self.radio.propagation != "802.11":
             raise ValueError("a channel plan applies only with RadioConfig.propagation = '802.11'")
-        self.channel_plan = None if channels is None else \
-            uav_channels(channels, self.num_worlds, self.config.n_uavs, self.radio).copy()
+        self._plans_channels = channels is None and self.radio.propagation == "802.11"
+        if channels is not None:
+            self.channel_plan = uav_channels(channels, self.num_worlds, self.config.n_uavs, self.radio).copy()
 
     def step(self, values: np.ndarray, given: np.ndarray | None = None, active: np.ndarray | None = None
              ) -> None:
@@ -263,6 +269,9 @@ class SwarmCore:
         n_users = stacked.counts() if stacked is not None else np.array([len(peds)])
         self.share_map = self.density / np.maximum(n_users, 1).astype(np.float32)[:, None, None]
         self._padded_share_map[:, half:half + h, half:half + w] = self.share_map
+        if self._plans_channels:  # a channel per UAV for where it is, few changes (docs/radio.md, section 7)
+            self.channel_plan = plan_channels(self.positions_m, self.radio, self.altitudes_m,
+                                              self.channel_plan)
         self.coverage: CoverageBatch = coverage_batch(peds, copy, self.positions_m, self.radio, self._links,
                                                       self._radio_altitudes_m, self.channel_plan)
         distances_m = pair_distances_m(self.positions_m, self._guard_altitudes_m)

@@ -39,9 +39,11 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
 
     **Description.** Up to 10 UAVs fly at a fixed altitude over a rectangular area where a
     crowd walks (a social-force simulation of a random scenario: obstacles, waypoints,
-    groups). Each UAV is a Wi-Fi access point (the paper's model: a Gaussian rescaled
-    signal, 0.1 at 30 m; users join their strongest UAV; 200 Mbps shared by its users).
-    The team is rewarded for the share of the crowd it serves.
+    groups). Each UAV is a Wi-Fi access point: by default the 802.11 model (docs/radio.md: air-to-ground
+    path loss, SINR, 802.11ax rates, airtime shared by co-channel access points that hear each other, a
+    channel per UAV that the environment plans unless given one); ``radio={"propagation": "paper"}`` runs
+    the paper's model (a Gaussian rescaled signal, 0.1 at 30 m; users join their strongest UAV; 200 Mbps
+    shared by its users). The team is rewarded for the share of the crowd it serves.
 
     **Agents.** ``uav_0`` ... ``uav_{n-1}``, ``1 <= n_uavs <= 10``, all acting at once.
 
@@ -86,8 +88,9 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
     followed by all UAV positions / (width_m, height_m).
 
     **Rewards.** One shared team reward, a Python float: the chosen strategy's QoS (strategy 1:
-    share of pedestrians with network; strategy 2: share with network and at least
-    ``radio.min_user_rate_mbps``, 5 Mbps) minus
+    share of pedestrians with network, under 802.11 a usable rate with no user refused on rate; strategy 2:
+    share with network and at least ``radio.min_user_rate_mbps``, 5 Mbps, under 802.11 with admission on
+    rate) minus
     ``separation_weight * separation_penalty``, where the penalty sums ``1 - d / min_separation_m``
     over UAV pairs closer than ``uav.min_separation_m``. ``infos[agent]`` holds the team's ``qos_s1``,
     ``qos_s2``, ``mean_throughput_mbps``, ``covered_users``, ``n_pedestrians``,
@@ -98,10 +101,11 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
 
     **Altitudes.** UAV ``k`` flies at ``uav.alt_m + k * uav.layer_step_m`` (``env.uav_altitudes_m``; one
     layer by default). With layers, distances between UAVs (the guard, the penalty, the closest pair) are
-    3-D, and with ``use_3d_distance`` the radio measures each user's distance to each UAV at that UAV's
-    own altitude.
+    3-D, and with ``use_3d_distance`` the paper's radio measures each user's distance to each UAV at that
+    UAV's own altitude (the 802.11 radio always does).
 
-    **Association.** ``radio.station_limit`` chooses it (:mod:`uav_swarm.world.comms`): ``None``, the
+    **Association.** Under 802.11 a user keeps its access point while its link holds (docs/radio.md).
+    On the paper's radio ``radio.station_limit`` chooses it (:mod:`uav_swarm.world.comms`): ``None``, the
     paper's model, joins every user in range to its strongest UAV at every step; a limit (an integer, or
     ``"auto"`` = capacity / minimum rate = 40) is admission control as a deployed access point does it:
     a full UAV refuses newcomers, who try their next UAV in range, and a user keeps its UAV while it stays
@@ -295,7 +299,8 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
         """Each UAV's channel from the next step on (``propagation = "802.11"``).
 
         ``channels``: (K,) channel numbers (``uav_swarm.world.wifi_channels.plan_channels`` computes them);
-        None puts all on the first usable channel.
+        None: the environment plans them itself at every step (the default: ``plan_channels`` on the UAVs'
+        positions, the plan in force kept while valid).
 
         Raises:
             ValueError: The paper's radio, or a channel outside ``radio.ieee80211``'s usable channels.

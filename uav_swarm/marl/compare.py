@@ -125,6 +125,7 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
     Raises:
         ValueError: An unknown controller, or ``mappo`` without a policy.
     """
+    from uav_swarm.missions.wifi.task import WifiConfig
     from uav_swarm.runs.simulate_config import SimulateConfig
 
     unknown = [name for name in controllers if name not in CONTROLLERS]
@@ -132,8 +133,9 @@ def compare_controllers(controllers: list[str], *, episodes: int = 20, seed: int
         raise ValueError(f"unknown controller(s) {unknown}: choose from {list(CONTROLLERS)}")
     if "mappo" in controllers and mappo_policy is None:
         raise ValueError("the mappo controller needs a policy file (--policy, written by uav-swarm rl-train)")
-    world = SimulateConfig(n_uavs=n_uavs, duration_s=duration_s, replan_every=replan_every)
-    world = world.replace(task=world.task.replace(strategy=strategy))
+    # the paper's radio, which the MAPPO baseline was trained on (simulate's default is the 802.11 radio)
+    world = SimulateConfig(n_uavs=n_uavs, duration_s=duration_s, replan_every=replan_every,
+                           task=WifiConfig(strategy=strategy))
     velocity = world.env_config().replace(action_mode="velocity")
     steps = world.n_steps
     scores = []

@@ -62,6 +62,7 @@ from __future__ import annotations
 import importlib.resources
 import logging
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -81,6 +82,7 @@ from uav_swarm.planning.base import (
     check_n_uavs,
     separated_task,
 )
+from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["PLANNER_KINDS", "PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "LearnedPlanner",
@@ -151,6 +153,28 @@ def _missing_checkpoint_message(path: Path, task_name: str, shipped: str) -> str
             "or pass --checkpoint PATH (or use --planner expert)")
 
 
+def _check_radio(path: Path, trained: dict[str, Any], task_config: WifiConfig, shipped: str, *,
+                 from_shipped: bool) -> None:
+    """Refuse a network trained for another radio or admission than the task flies, in one line.
+
+    Raises:
+        learning.checkpoint.CheckpointError: The checkpoint's task was on another radio or admission.
+    """
+    from learning.checkpoint import CheckpointError
+
+    try:
+        radio = RadioConfig.from_dict(trained.get("radio", {})).for_strategy(int(trained.get("strategy", 1)))
+    except (ConfigError, TypeError, ValueError) as exc:
+        raise CheckpointError(f"{path}: its radio is not a valid RadioConfig: {exc}") from None
+    flown = task_config.radio
+    if radio.radio_and_admission != flown.radio_and_admission:
+        fix = ("train one for it" if from_shipped else "leave --checkpoint out (the shipped one for this "
+               f"task is uav_swarm/checkpoints/{shipped}.pt)")
+        raise CheckpointError(f"{path}: trained for {radio.radio_and_admission}, this run flies strategy "
+                              f"{task_config.strategy} on {flown.radio_and_admission}: {fix}, or set "
+                              "[task.radio] to what the network was trained for")
+
+
 class LearnedPlanner(AssigningPlanner):
     """Utility network -> peaks -> Hungarian (see the module docstring).
 
@@ -199,6 +223,7 @@ class LearnedPlanner(AssigningPlanner):
         side = task_config.size_px
         ckpt = load_checkpoint(path, task_name=task_name)
         trained = ckpt.task_config
+        _check_radio(path, trained, task_config, shipped, from_shipped=checkpoint in (None, ""))
         velocity = bool(trained.get("velocity_channels", False))
         if velocity != task_config.velocity_channels:  # the raster is the network's: take its channels
             task_config = task_config.replace(velocity_channels=velocity)

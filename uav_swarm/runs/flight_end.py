@@ -16,6 +16,7 @@ from bridge.errors import BridgeError
 from bridge.flight.guided import end_flight
 from uav_swarm.runs.flight_launch import FlightLaunch
 from uav_swarm.runs.flight_vehicles import TICK_S, FlightVehicle
+from uav_swarm.world.guard.reach import segment_distances_m
 
 __all__ = ["FlightEnd"]
 
@@ -75,10 +76,12 @@ class FlightEnd(FlightLaunch):
         self._event(action, vehicle)
 
     def _return_home(self) -> None:
-        """Staggered returns: every live vehicle flies home through the guard, and RTL once over it.
+        """Staggered returns: every live vehicle flies home through the guard, sent RTL once its way is clear.
 
-        A vehicle sent RTL climbs to its return layer and lands where it is, an obstacle the guard keeps
-        the others away from; until none is left or ``guard.return_timeout_s`` has passed.
+        A vehicle sent RTL climbs where it is to its own return layer (above every cruise layer, the
+        layers apart), flies home at it and lands: an obstacle the guard keeps the others away from, with
+        the column over its home. It is sent RTL once over its home, or sooner where that way is clear
+        (:meth:`_rtl_clear`); until none is left or ``guard.return_timeout_s`` has passed.
         """
         homes, deadline_s = self.safety.homes_m, time.monotonic() + self.config.guard.return_timeout_s
         self.flight_status.enter("return", self.config.guard.return_timeout_s)
@@ -89,10 +92,12 @@ class FlightEnd(FlightLaunch):
             self._guard_if_due()
             for vehicle in (v for v in flying if v.status == "live"):
                 state, home = self._state(vehicle), homes[vehicle.system_id]
-                over = (state is not None and state.x_m is not None and state.y_m is not None
-                        and np.hypot(state.x_m - home[0], state.y_m - home[1]) <= _HOME_M)
+                if state is None or state.x_m is None or state.y_m is None:
+                    continue
+                here = (float(state.x_m), float(state.y_m))
+                over = np.hypot(here[0] - home[0], here[1] - home[1]) <= _HOME_M
                 idle = all(job is None or job.done() for job in (vehicle.job, vehicle.guard_job))
-                if over and idle:  # its RTL after its last guard point, never before
+                if (over or self._rtl_clear(vehicle, here)) and idle:  # after its last guard point
                     vehicle.status = "ending"
                     vehicle.job = self._pool.submit(self._end_one, vehicle, "rtl")
             self.flight_status.tick()
@@ -104,3 +109,39 @@ class FlightEnd(FlightLaunch):
         self.flight_status.wait([(v.system_id, v.job) for v in flying], "the answer to its RTL")
         for vehicle in (v for v in flying if v.status == "ending"):  # its RTL failed: sent again below
             vehicle.status = "live"
+
+    def _rtl_clear(self, vehicle: FlightVehicle, here_m: tuple[float, float]) -> bool:
+        """Whether ``vehicle`` may be sent RTL from ``here_m``: where its autopilot takes it keeps clear.
+
+        Its RTL climbs over ``here_m`` (inside its certified disc), flies at its own return layer to its
+        home and descends there. That way (the segment from ``here_m`` to its home) keeps the minimum
+        (with the guard's margin) horizontally from the way of every vehicle already returning under RTL
+        (whichever of the two is higher crosses the other's climb or descent), and its home keeps it from
+        the certified disc of every vehicle still flying under the guard (it descends through their
+        layer). A vehicle of unknown position in the air keeps every way closed.
+        """
+        guard = self.safety.guard
+        need_m, homes = guard.need_m, self.safety.homes_m
+        mine = np.array([here_m, homes[vehicle.system_id]], dtype=np.float64)
+        for other in self.vehicles:
+            if other is vehicle:
+                continue
+            state = self._state(other)
+            if state is None or state.armed is False:
+                continue
+            if state.x_m is None or state.y_m is None:
+                return False
+            row = self.safety.uav_of(other.system_id)
+            if other.status in ("ending", "ended"):
+                if other.system_id not in homes:
+                    return False
+                theirs = np.array([(state.x_m, state.y_m), homes[other.system_id]], dtype=np.float64)
+                if float(segment_distances_m(mine[0], mine[1], theirs[0], theirs[1])) < need_m:
+                    return False
+            elif guard.fleet.joined(row) or guard.fleet.is_obstacle(row):
+                gap = float(np.hypot(*(guard.fleet.centre_m(row) - mine[1]))) - guard.fleet.radius_m(row)
+                if not gap >= need_m:
+                    return False
+            elif np.hypot(state.x_m - mine[1][0], state.y_m - mine[1][1]) < need_m:
+                return False
+        return True

@@ -4,13 +4,13 @@ This is a thin adapter of :class:`uav_swarm.world.guard.FleetGuard` (the guard a
 times a second (``[guard] rate_hz``, at least 5) it takes each vehicle's measured position and velocity
 (its GLOBAL_POSITION_INT in the flight's East-North frame) with the time it was received (its age is
 judged from that; the time it was true is taken as ``position_age_s`` earlier, the soonest it may have
-been), and decides each steered vehicle's next
-point; a vehicle not steered (climbing, landing, flying home in RTL) is a disc the others keep away
-from, with the column over its home where it lands. A vehicle steered before that goes unheard, loses
-its fix or is being taken back keeps its disc (and its home column: its failsafe may take it home)
-until it is measured again; only one known to be on the ground leaves the guard. Each vehicle is planned with the smaller of ``[guard] accel_m_s2`` / ``jerk_m_s3`` and what it
-reports (:func:`bridge.flight.limits.read_horizontal_limits`, read before arming); the guard's limits
-are its own, apart from the env's ``[uav]`` kinematics.
+been), and decides each steered vehicle's next point; a vehicle not steered (climbing, landing, flying
+home in RTL) is a disc the others keep away from, with the column over its home where it lands. A
+vehicle steered before that goes unheard, loses its fix or is being taken back keeps its disc (and its
+home column: its failsafe may take it home) until it is measured again; only one known to be on the
+ground leaves the guard. Each vehicle is planned with the smaller of ``[guard] accel_m_s2`` /
+``jerk_m_s3`` and what it reports (:func:`bridge.flight.limits.read_horizontal_limits`, read before
+arming); the guard's limits are its own, apart from the env's ``[uav]`` kinematics.
 
 A hold needs no command: a vehicle whose next point is refused keeps flying to the point it has, inside
 its certified disc. The points are sent by the caller (one command, one copy, answered within
@@ -80,10 +80,6 @@ class GuardConfig(Config):
                                         "(wind, gusts), metres")
     sidestep_after_s: float = param(2.0, ge=0.0, le=60.0,
                                     doc="a vehicle held this long may step round what blocks it, seconds")
-    slack_m: float = param(1.0, ge=0.0, le=10.0,
-                           doc="a pair closer than the guard can certify (homes a few metres apart, a vehicle "
-                               "taken back) may come this much closer than it was, on a step that parts it, "
-                               "metres")
     max_step_m: float = param(16.0, ge=1.0, le=64.0,
                               doc="the farthest ahead a vehicle is committed at a time, metres (shorter: "
                                   "smaller certified discs, slower vehicles)")
@@ -110,7 +106,7 @@ class FlightGuard:
         required = required_distances_m(min_separation_m, altitudes_m, n_vehicles)
         required = np.where(required > 0, required + config.margin_m, 0.0)
         self.fleet = FleetGuard(required, detour_after_s=config.sidestep_after_s, detour_m=self.need_m,
-                                area_m=area_m, slack_m=config.slack_m, max_step_m=config.max_step_m)
+                                area_m=area_m, max_step_m=config.max_step_m)
         self.homes_m: dict[int, tuple[float, float]] = {}
         """Each vehicle's home (East, North) by row, where its RTL or failsafe lands it."""
         self._bounds = [self._stated() for _ in range(n_vehicles)]

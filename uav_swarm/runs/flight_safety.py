@@ -243,6 +243,10 @@ class FlightSafety:
             self._event("guard_hold", sid, f"{state} for vehicle {blocker}" if blocker is not None else state)
         return [(sid, decision) for (sid, _, _, _), decision in zip(flying, decisions, strict=True)]
 
+    def uav_of(self, system_id: int) -> int:
+        """The guard's row of a vehicle."""
+        return self._uav_of[system_id]
+
     def _sid_of(self, row: int) -> int | None:
         return next((sid for sid, k in self._uav_of.items() if k == row), None)
 

@@ -44,7 +44,7 @@ from uav_swarm.runs.flight_loop import Flight
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.records import QosTrace
-from uav_swarm.runs.summary import summarise_flight
+from uav_swarm.runs.summary import planner_names, summarise_flight
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
@@ -165,7 +165,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     if planner is None:
         planner = make_planner(config.planner, n, config.task, checkpoint=config.checkpoint or None,
                                config=config.planning, uav_config=config.uav)
-    summary: dict[str, Any] = {"config": config.to_dict(), "mode": config.mode}
+    summary: dict[str, Any] = {"config": config.to_dict(), "mode": config.mode, **planner_names(planner)}
     trace: QosTrace | None = None
     track: list[dict[str, Any]] = []
     error: BaseException | None = None

@@ -31,7 +31,7 @@ from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
 from uav_swarm.runs.flight_guard import GuardConfig
 from uav_swarm.runs.launch_plan import LaunchConfig, check_launch_grid
-from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, with_flight_altitude
+from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, run_task, with_run_radio
 from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
@@ -60,7 +60,8 @@ class FlyConfig(Config):
         "guided", doc="how targets reach the vehicles: 'guided' (MAV_CMD_DO_REPOSITION) or 'mission' "
                       "(a new mission uploaded and flown in AUTO)")
     publish_telemetry: bool = param(True, doc="publish states, plans and QoS over Zenoh ([telemetry])")
-    task: WifiConfig = param(WifiConfig(), doc="the crowd world and Wi-Fi model ([task])")
+    task: WifiConfig = param(run_task(), doc="the crowd world and Wi-Fi model (802.11 unless [task.radio] "
+                             "propagation = \"paper\") ([task])")
     uav: UAVConfig = param(UAVConfig(), doc="alt_m: cruise altitude above each vehicle's home ([uav])")
     planning: PlannerConfig = param(PlannerConfig(), doc="assignment and inference ([planning])")
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
@@ -73,8 +74,8 @@ class FlyConfig(Config):
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> FlyConfig:
-        """As :meth:`Config.from_dict`; the 802.11 radio takes ``uav.alt_m`` when given no altitude."""
-        return super().from_dict(with_flight_altitude(data), where=where)
+        """As :meth:`Config.from_dict`; the 802.11 radio unless told, at ``uav.alt_m`` unless told."""
+        return super().from_dict(with_run_radio(data), where=where)
 
     def check(self) -> None:
         """A bridge config; S2 takes admission control unless told; the radio's altitude; one separation.
@@ -87,6 +88,8 @@ class FlyConfig(Config):
         if not self.bridge_config:
             raise ConfigError("bridge_config is empty: name the bridge TOML that lists the "
                               "vehicles (--bridge-config FILE)")
+        if self.task == run_task():  # the default task flies at the UAVs' altitude
+            object.__setattr__(self, "task", run_task(self.uav))
         object.__setattr__(self, "task", radio_for_run(self.task))
         check_launch_grid(self.launch, self.uav, 2)
         check_radio_altitude(self.task, self.uav, "FlyConfig")

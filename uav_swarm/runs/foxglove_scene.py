@@ -1,8 +1,10 @@
 """A run's scene as Foxglove's own message types (``foxglove.messages`` of the ``foxglove-sdk``).
 
 Foxglove draws these in its 3D, Map and Plot panels without setup: ``SceneUpdate`` (the area, the
-obstacles, the UAVs, their coverage discs, their targets, their separation circles and conflicts),
-``PointCloud`` (the crowd, with a ``covered`` field), ``FrameTransforms``, ``LocationFix`` and
+obstacles, the UAVs, their coverage discs, their targets, their separation circles and conflicts; under
+the 802.11 radio, which has no coverage disc, each UAV in a colour of its own with its channel written
+above it and a line to each user it serves), ``PointCloud`` (the crowd, with a ``covered`` field and,
+under 802.11, the ``uav`` that serves each user), ``FrameTransforms``, ``LocationFix`` and
 ``PosesInFrame``. Each builder takes numbers and returns one SDK message; the recorder
 (:mod:`uav_swarm.runs.recording`) logs them.
 
@@ -44,6 +46,7 @@ from foxglove.messages import (
     SceneEntity,
     SceneUpdate,
     SpherePrimitive,
+    TextPrimitive,
     Timestamp,
     Vector3,
 )
@@ -55,6 +58,8 @@ MAP_FRAME = "map"
 """The run's local East-North-Up frame."""
 
 Vec3 = tuple[float, float, float]
+Service = tuple[int, int | None, np.ndarray | None]
+"""A UAV's service under the 802.11 radio: its id, its channel and the users it serves (None: unknown)."""
 
 _UAV, _TARGET = Color(r=0.10, g=0.35, b=0.85, a=1.0), Color(r=0.90, g=0.45, b=0.05, a=1.0)
 _DISC = Color(r=0.10, g=0.35, b=0.85, a=0.15)
@@ -63,6 +68,8 @@ _CONFLICT, _CONFLICT_LINE = Color(r=0.90, g=0.10, b=0.10, a=0.6), Color(r=0.90, 
 _WALL, _OUTLINE = Color(r=0.25, g=0.25, b=0.25, a=1.0), Color(r=0.55, g=0.55, b=0.55, a=1.0)
 _UAV_SIZE_M, _TARGET_SIZE_M, _DISC_HEIGHT_M = 3.0, 2.0, 0.1
 _COVERED_FIELDS = ("x", "y", "z", "covered")
+_SERVED_FIELDS = ("x", "y", "z", "covered", "uav")
+_LABEL_ABOVE_M, _LABEL_SIZE_PX = 4.0, 14.0
 _UNROTATED = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
 _FOREVER = Duration(0, 0)  # an entity's lifetime: kept until replaced
 _UAV_BOX = Vector3(x=_UAV_SIZE_M, y=_UAV_SIZE_M, z=_UAV_SIZE_M)
@@ -112,7 +119,8 @@ def static_scene(width_m: float, height_m: float, obstacles_m: np.ndarray,
 
 
 def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]], coverage_radius_m: float,
-                min_separation_m: float = 0.0, held: Sequence[bool] = ()) -> SceneUpdate:
+                min_separation_m: float = 0.0, held: Sequence[bool] = (),
+                service: Sequence[Service] | None = None) -> SceneUpdate:
     """The UAVs (``uavs``), their coverage discs (``coverage``) and targets (``targets``, a leg to each).
 
     With a minimum separation also each UAV's separation circle (``separation``: a flat disc of radius
@@ -120,17 +128,27 @@ def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]], cover
     the minimum; red for a UAV in such a pair, amber for one the guard holds, green otherwise) and a red
     line between the UAVs of every such pair (``conflicts``; 3-D distances).
 
+    With ``service`` (the 802.11 radio) there is no coverage disc: each UAV takes its colour
+    (:data:`~uav_swarm.runs.radio_report.SERVICE_COLOURS`), a label above it names it and its channel
+    (``channels``: ``UAV 3, ch 40, 52 users``) and a line of its colour joins it to every user it serves
+    (``service``).
+
     Args:
         time_s: Run time.
         placed: Position and target (or None) of each UAV with a position fix.
-        coverage_radius_m: Radius of a disc on the ground.
+        coverage_radius_m: Radius of a disc on the ground (the paper's radio).
         min_separation_m: The minimum distance between two UAVs (0: no circles).
         held: Whether the separation guard holds each UAV of ``placed`` (empty: none known).
+        service: For each UAV of ``placed``, its id, channel and the ``(M, 2)`` users it serves (None: not
+            known, no lines).
     """
-    uavs = [SpherePrimitive(pose=pose(*position), size=_UAV_BOX, color=_UAV) for position, _ in placed]
+    colours = [_UAV] * len(placed) if service is None else [_service_colour(uav) for uav, _, _ in service]
+    uavs = [SpherePrimitive(pose=pose(*position), size=_UAV_BOX, color=colour)
+            for (position, _), colour in zip(placed, colours, strict=True)]
     disc = Vector3(x=2.0 * coverage_radius_m, y=2.0 * coverage_radius_m, z=_DISC_HEIGHT_M)
-    discs = [CylinderPrimitive(pose=pose(x, y, _DISC_HEIGHT_M / 2), size=disc, bottom_scale=1.0,
-                               top_scale=1.0, color=_DISC) for (x, y, _), _ in placed]
+    discs = [] if service is not None else [
+        CylinderPrimitive(pose=pose(x, y, _DISC_HEIGHT_M / 2), size=disc, bottom_scale=1.0, top_scale=1.0,
+                          color=_DISC) for (x, y, _), _ in placed]
     aimed = [(position, target) for position, target in placed if target is not None]
     targets = [CubePrimitive(pose=pose(*target), size=_TARGET_BOX, color=_TARGET) for _, target in aimed]
     legs = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=pose(0.0, 0.0, 0.0), thickness=0.3,
@@ -138,9 +156,40 @@ def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]], cover
     t = stamp(time_s)
     entities = [_entity("uavs", t, spheres=uavs), _entity("coverage", t, cylinders=discs),
                 _entity("targets", t, cubes=targets, lines=[legs] if aimed else [])]
+    if service is not None:
+        entities += _service(t, [position for position, _ in placed], service)
     if min_separation_m > 0:
         entities += _separation(t, [position for position, _ in placed], min_separation_m, held)
     return SceneUpdate(entities=entities)
+
+
+def _service_colour(uav_id: int, alpha: float = 1.0) -> Color:
+    """UAV ``uav_id``'s colour in the pictures of an 802.11 run."""
+    from uav_swarm.runs.radio_report import SERVICE_COLOURS
+
+    code = SERVICE_COLOURS[uav_id % len(SERVICE_COLOURS)].lstrip("#")
+    r, g, b = (int(code[i:i + 2], 16) / 255.0 for i in (0, 2, 4))
+    return Color(r=r, g=g, b=b, a=alpha)
+
+
+def _service(t: Timestamp, positions: Sequence[Vec3], service: Sequence[Service]) -> list[SceneEntity]:
+    """Each UAV's label (entity ``channels``) and its lines to the users it serves (entity ``service``)."""
+    labels, lines = [], []
+    for (x, y, z), (uav_id, channel, users_m) in zip(positions, service, strict=True):
+        colour = _service_colour(uav_id)
+        users = np.zeros((0, 2)) if users_m is None else np.asarray(users_m, np.float64).reshape(-1, 2)
+        on = "" if channel is None else f", ch {channel}"
+        count = "" if users_m is None else f", {len(users)} users"
+        labels.append(TextPrimitive(pose=pose(x, y, z + _LABEL_ABOVE_M), billboard=True,
+                                    font_size=_LABEL_SIZE_PX, scale_invariant=True, color=colour,
+                                    text=f"UAV {uav_id}{on}{count}"))
+        if len(users):
+            ends = [_point(x, y, z) if i % 2 == 0 else _point(users[i // 2, 0], users[i // 2, 1], 0.0)
+                    for i in range(2 * len(users))]
+            lines.append(LinePrimitive(type=LinePrimitiveLineType.LineList, pose=pose(0.0, 0.0, 0.0),
+                                       thickness=0.15, color=_service_colour(uav_id, 0.5),
+                                       points=ends))
+    return [_entity("channels", t, texts=labels), _entity("service", t, lines=lines)]
 
 
 def _separation(t: Timestamp, positions: Sequence[Vec3], min_separation_m: float, held: Sequence[bool]
@@ -163,14 +212,22 @@ def _separation(t: Timestamp, positions: Sequence[Vec3], min_separation_m: float
             _entity("conflicts", t, lines=[lines] if ends else [])]
 
 
-def crowd_cloud(time_s: float, users_m: np.ndarray, covered: np.ndarray) -> PointCloud:
-    """The crowd ``(N, 2)`` on the ground as float32 ``x, y, z, covered`` (1 for a user a UAV serves)."""
+def crowd_cloud(time_s: float, users_m: np.ndarray, covered: np.ndarray,
+                association: np.ndarray | None = None) -> PointCloud:
+    """The crowd ``(N, 2)`` on the ground as float32 ``x, y, z, covered`` (1 for a user a UAV serves).
+
+    With ``association`` (``(N,)`` each user's UAV, -1 for none; the 802.11 radio) also ``uav``, the UAV
+    that serves the user (-1: none), by which Foxglove's point cloud can be coloured.
+    """
     users = np.asarray(users_m, np.float64).reshape(-1, 2)
-    packed = np.zeros((len(users), len(_COVERED_FIELDS)), "<f4")
+    names = _COVERED_FIELDS if association is None else _SERVED_FIELDS
+    packed = np.zeros((len(users), len(names)), "<f4")
     packed[:, :2] = users
     packed[:, 3] = np.asarray(covered, bool)
+    if association is not None:
+        packed[:, 4] = np.where(np.asarray(covered, bool), np.asarray(association), -1)
     fields = [PackedElementField(name=name, offset=4 * i, type=PackedElementFieldNumericType.Float32)
-              for i, name in enumerate(_COVERED_FIELDS)]
+              for i, name in enumerate(names)]
     return PointCloud(timestamp=stamp(time_s), frame_id=MAP_FRAME, pose=pose(0.0, 0.0, 0.0),
                       point_stride=packed.itemsize * packed.shape[1], fields=fields, data=packed.tobytes())
 

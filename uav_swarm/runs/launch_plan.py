@@ -125,7 +125,7 @@ def return_altitudes_m(n_vehicles: int, uav: UAVConfig, margin_m: float = 0.0) -
 
 
 class TakeoffGate:
-    """Take-offs from clear columns (module docstring): a vehicle climbs once no airborne one is near its home.
+    """Take-offs from clear columns (module docstring): each climbs once no airborne vehicle is near its home.
 
     Args:
         cancel: Set when the flight ends: a vehicle waiting for its turn gives up.

@@ -90,7 +90,8 @@ class RunOutputs:
              throughput_mbps: np.ndarray | None = None) -> None:
         """One recorded step at run time ``time_s``: the UAVs' states, the QoS, the crowd, who is served.
 
-        ``association`` and ``throughput_mbps`` (each user's UAV and rate) reach ROS 2 summed per UAV.
+        ``association`` and ``throughput_mbps`` (each user's UAV and rate) reach ROS 2 summed per UAV; under
+        the 802.11 radio the recording draws whom each UAV serves from ``association``.
         """
         if self.publisher is not None:
             if not self.states_on_arrival:
@@ -98,7 +99,7 @@ class RunOutputs:
                     self.publisher.publish_state(state)
             self.publisher.publish_qos(qos)
         if self.recorder is not None:
-            self.recorder.step(time_s, states, qos, pedestrians_m, covered)
+            self.recorder.step(time_s, states, qos, pedestrians_m, covered, association=association)
         if self.ros is not None:
             self.ros.step(time_s, states, qos, pedestrians_m, covered, with_states=not self.states_on_arrival,
                           association=association, throughput_mbps=throughput_mbps)

@@ -58,12 +58,14 @@ def write_qos_figure(runs: Mapping[str, QosSeries], path: Path, reference: Stati
     ax_qos, ax_rate = axes[0], axes[1]
     for kind, run in runs.items():
         style = _STYLE.get(kind, {})
-        ax_qos.plot(run.times_s, run.qos_s1, label=f"{kind}: S1 (share covered)", **style)
+        served = "served with a usable rate" if kind in traces else "covered"  # 802.11: an MCS, no disc
+        ax_qos.plot(run.times_s, run.qos_s1, label=f"{kind}: S1 (share {served})", **style)
         paper = getattr(run, "qos_s2_paper", None)  # the same flight under the paper's radio, if recorded
         paper = paper if paper is not None and len(paper) else None
         radio = " (admission control)" if paper is not None else ""
         ax_qos.plot(run.times_s, run.qos_s2, linestyle="--",
-                    label=f"{kind}: S2 (covered with >= min rate){radio}", **style)
+                    label=f"{kind}: S2 ({'served' if kind in traces else 'covered'} with >= min rate){radio}",
+                    **style)
         if paper is not None:
             ax_qos.plot(run.times_s, paper, linestyle=":", label=f"{kind}: S2, paper's radio",
                         **style)

@@ -1,17 +1,21 @@
-"""The radio's height in ``simulate`` and ``fly``: the paper's radio is 2-D, the 802.11 radio flies.
+"""The radio of ``simulate`` and ``fly``: the 802.11 radio by default, at the UAVs' flight altitude.
+
+A run flies the 802.11 radio (:data:`RUN_PROPAGATION`) unless ``[task.radio] propagation = "paper"`` asks for
+the paper's; the learning tasks (``uav-swarm dataset / train / evaluate``) keep the paper's radio unless
+their task file says otherwise (:class:`uav_swarm.world.radio_config.RadioConfig`'s own default).
 
 The paper's radio judges horizontal distances: ``task.radio.altitude_m`` must stay 0 (the UAVs fly at
 ``uav.alt_m`` over a 2-D radio). The 802.11 radio sees each UAV's own altitude (``uav.alt_m`` plus its
 layer, :meth:`uav_swarm.world.uav.UAVConfig.altitudes_m`); its experts and channel plans plan at
 ``task.radio.altitude_m``, which is therefore ``uav.alt_m``: taken from it when not given
-(:func:`with_flight_altitude`), refused when different (:func:`check_radio_altitude`).
+(:func:`with_run_radio`, :func:`run_task`), refused when different (:func:`check_radio_altitude`).
 
 Examples:
-    >>> data = {"task": {"radio": {"propagation": "802.11"}}, "uav": {"alt_m": 15.0}}
-    >>> with_flight_altitude(data)["task"]["radio"]["altitude_m"]
-    15.0
-    >>> with_flight_altitude({"task": {"strategy": 2}})
-    {'task': {'strategy': 2}}
+    >>> data = {"task": {"radio": {"min_user_rate_mbps": 4.0}}, "uav": {"alt_m": 15.0}}
+    >>> with_run_radio(data)["task"]["radio"]
+    {'min_user_rate_mbps': 4.0, 'propagation': '802.11', 'altitude_m': 15.0}
+    >>> with_run_radio({"task": {"radio": {"propagation": "paper"}}})
+    {'task': {'radio': {'propagation': 'paper'}}}
 """
 
 from __future__ import annotations
@@ -21,28 +25,44 @@ from typing import Any
 
 from typed_config import ConfigError
 from uav_swarm.missions.wifi.task import WifiConfig
+from uav_swarm.world.radio_config import RUN_PROPAGATION, RadioConfig
 from uav_swarm.world.uav import UAVConfig
 
-__all__ = ["with_flight_altitude", "check_radio_altitude", "radio_for_run"]
+__all__ = ["RUN_PROPAGATION", "with_run_radio", "run_task", "check_radio_altitude", "radio_for_run"]
 
 
-def with_flight_altitude(data: Mapping[str, Any]) -> Mapping[str, Any]:
-    """``data`` (a run's TOML tables) with ``task.radio.altitude_m = uav.alt_m`` under the 802.11 radio.
+def with_run_radio(data: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``data`` (a run's TOML tables) with the run's radio where ``[task.radio]`` leaves it out.
 
-    Only where ``[task.radio]`` sets ``propagation = "802.11"`` and gives no ``altitude_m`` (or 0); anything
-    else is returned as it is (the configs' own checks judge it).
+    ``task.radio.propagation`` not given becomes :data:`RUN_PROPAGATION`; under the 802.11 radio an
+    ``altitude_m`` not given (or 0) becomes ``uav.alt_m``. Values given are kept (the configs' own checks
+    judge them).
     """
-    task = data.get("task")
+    task = data.get("task", {})
     if not isinstance(task, Mapping):
         return data
-    radio = task.get("radio")
-    if not isinstance(radio, Mapping) or radio.get("propagation") != "802.11" or radio.get("altitude_m"):
+    radio = task.get("radio", {})
+    if not isinstance(radio, Mapping):
         return data
-    uav = data.get("uav")
-    alt_m = uav.get("alt_m", UAVConfig.alt_m) if isinstance(uav, Mapping) else UAVConfig.alt_m
-    if not isinstance(alt_m, (int, float)) or isinstance(alt_m, bool) or not alt_m > 0:
-        return data  # UAVConfig names a wrong value; check_radio_altitude refuses a zero
-    return {**data, "task": {**task, "radio": {**radio, "altitude_m": float(alt_m)}}}
+    if "propagation" not in radio:
+        radio = {**radio, "propagation": RUN_PROPAGATION}
+    if radio.get("propagation") == "802.11" and not radio.get("altitude_m"):
+        uav = data.get("uav")
+        alt_m = uav.get("alt_m", UAVConfig.alt_m) if isinstance(uav, Mapping) else UAVConfig.alt_m
+        if isinstance(alt_m, (int, float)) and not isinstance(alt_m, bool) and alt_m > 0:
+            radio = {**radio, "altitude_m": float(alt_m)}  # else UAVConfig names the wrong value
+    return {**data, "task": {**task, "radio": radio}}
+
+
+def run_task(uav: UAVConfig | None = None) -> WifiConfig:
+    """The task of a run given none: strategy 1 on the 802.11 radio at ``uav.alt_m``.
+
+    Examples:
+        >>> run_task().radio.association_name
+        '802.11 (airtime fairness)'
+    """
+    alt_m = (uav or UAVConfig()).alt_m
+    return WifiConfig(radio=RadioConfig(propagation=RUN_PROPAGATION, altitude_m=alt_m))
 
 
 def check_radio_altitude(task: WifiConfig, uav: UAVConfig, where: str) -> None:

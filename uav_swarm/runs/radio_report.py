@@ -34,12 +34,17 @@ from uav_swarm.world.coverage import Coverage
 from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.wifi_coverage import channel_conflicts
 
-__all__ = ["MCS_BANDS", "RadioTrace", "RadioLog", "mcs_band_shares", "median_sinr_db", "sharing_pairs",
+__all__ = ["MCS_BANDS", "SERVICE_COLOURS", "RadioTrace", "RadioLog", "mcs_band_shares", "median_sinr_db",
+           "sharing_pairs",
            "radio_summary", "radio_line", "telemetry_fields"]
 
 MCS_BANDS: tuple[tuple[str, int, int], ...] = (("not served", -1, -1), ("MCS 0-3", 0, 3), ("MCS 4-7", 4, 7),
                                                 ("MCS 8-11", 8, 11))
 """``(name, lowest, highest)`` MCS index of each band a report counts users in (-1: not served)."""
+
+SERVICE_COLOURS: tuple[str, ...] = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
+                                    "#e377c2", "#bcbd22", "#17becf", "#393b79")
+"""The colour of UAV ``k`` and of the users it serves in the pictures of an 802.11 run (``k % 10``)."""
 
 
 def mcs_band_shares(mcs: np.ndarray) -> np.ndarray:

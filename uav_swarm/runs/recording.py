@@ -216,7 +216,7 @@ class RunRecorder:
         self._log_json("/qos", "uav_swarm.Qos", time_s, qos)
 
     def step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
-             covered: np.ndarray) -> None:
+             covered: np.ndarray, *, association: np.ndarray | None = None) -> None:
         """One recorded step: each UAV's state (and fix), the frames, the scene, the crowd and the QoS.
 
         Args:
@@ -226,6 +226,9 @@ class RunRecorder:
             qos: The QoS of those UAVs over the crowd.
             pedestrians_m: ``(N, 2)`` crowd positions.
             covered: ``(N,)`` True for a user a UAV serves.
+            association: ``(N,)`` each user's UAV (-1: none). With the UAVs' channels in their states (the
+                802.11 radio) the scene shows each UAV's channel, and with ``association`` the users it
+                serves, instead of coverage discs.
         """
         self._keep_pace(time_s)
         self._streaming = self._stream_due()
@@ -233,7 +236,7 @@ class RunRecorder:
             self._streaming = True
             return
         try:
-            self._log_step(time_s, states, qos, pedestrians_m, covered)
+            self._log_step(time_s, states, qos, pedestrians_m, covered, association)
         finally:
             self._streaming = True
 
@@ -268,7 +271,7 @@ class RunRecorder:
         return True
 
     def _log_step(self, time_s: float, states: Sequence[UavState], qos: Qos, pedestrians_m: np.ndarray,
-                  covered: np.ndarray) -> None:
+                  covered: np.ndarray, association: np.ndarray | None) -> None:
         # a state without its WGS84 position gets it from the home, as the telemetry publisher sends it
         located = self._fixes_from_home({
             s.uav_id: s.position_enu_m for s in states
@@ -289,12 +292,20 @@ class RunRecorder:
                     fox.location_fix, time_s, state.uav_id, fix.lat_deg, fix.lon_deg, fix.alt_m))
         self._log("/tf", _RUN_CHANNELS["/tf"], time_s,
                   lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
-        held = [bool(s.separation_held) for s in states if s.position_enu_m is not None]
+        drawn = [s for s in states if s.position_enu_m is not None]
+        held = [bool(s.separation_held) for s in drawn]
+        service, served_by = None, None  # under the 802.11 radio: each UAV's channel and whom it serves
+        if any(s.wifi_channel is not None for s in drawn):
+            served_by = association
+            users = np.asarray(pedestrians_m)
+            uav_of = None if association is None else np.where(np.asarray(covered, bool), association, -1)
+            service = [(s.uav_id, s.wifi_channel, None if uav_of is None else users[uav_of == s.uav_id])
+                       for s in drawn]
         self._log(_SCENE, _scene_channel, time_s,
                   lambda: fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m,
-                                          self.scene.min_separation_m, held))
+                                          self.scene.min_separation_m, held, service))
         self._log("/pedestrians", _RUN_CHANNELS["/pedestrians"], time_s,
-                  lambda: fox.crowd_cloud(time_s, pedestrians_m, covered))
+                  lambda: fox.crowd_cloud(time_s, pedestrians_m, covered, served_by))
         self.qos(time_s, qos)
 
 

@@ -28,6 +28,10 @@ class Frame:
     utility: np.ndarray | None
     qos_s1: float
     qos_s2: float
+    association: np.ndarray | None = None
+    """``(N,)`` each pedestrian's UAV, -1 for none (the 802.11 radio; None on the paper's)."""
+    channels: np.ndarray | None = None
+    """``(K,)`` each UAV's channel (the 802.11 radio; None on the paper's)."""
 
 
 @dataclass

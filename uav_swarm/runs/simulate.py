@@ -19,10 +19,10 @@ Outputs in ``out_dir`` (:mod:`uav_swarm.runs.plots` draws the pictures):
   users' median SINR and MCS shares, and each UAV's channel, of the flown planner);
 - ``scene.gif``: the flown planner's run (UAVs, coverage discs, pedestrians; utility map panel);
 - ``summary.json`` (atomic): per planner mean/min QoS S1 and S2, mean throughput, median/p95
-  planning latency; learned/expert ratios; the resolved config; the learned planner's peak settings and
-  their source (``peaks``); which radio ran (``radio``) and, under the 802.11 radio, each planner's
-  channels, SINR/MCS shares, airtime and co-channel sharing (``wifi_80211``,
-  :mod:`uav_swarm.runs.radio_report`);
+  planning latency; learned/expert ratios; the resolved config; the learned planner's checkpoint
+  (``checkpoint``), its peak settings and their source (``peaks``); the expert that ran (``expert``);
+  which radio ran (``radio``) and, under the 802.11 radio, each planner's channels, SINR/MCS shares,
+  airtime and co-channel sharing (``wifi_80211``, :mod:`uav_swarm.runs.radio_report`);
 - ``timeseries.csv``: the per-step values of every run (802.11: median SINR, MCS shares, channels, airtime);
 - ``missions/vehicle_<id>.plan``: each UAV's mission to its final target (QGroundControl files);
   with a bridge config that lists vehicles, the missions are also uploaded
@@ -43,7 +43,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.planning.planner import LearnedPlanner, Planner, default_checkpoint, make_planner
+from uav_swarm.planning.planner import LearnedPlanner, Planner, make_planner
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs import RunOutputs
 from uav_swarm.runs.radio_report import RadioLog, radio_line, telemetry_fields
@@ -51,7 +51,12 @@ from uav_swarm.runs.records import Frame, SequenceRun
 from uav_swarm.runs.separation_watch import SeparationWatch
 from uav_swarm.runs.service import static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
-from uav_swarm.runs.summary import ratios_learned_over_expert, reference_record, summarise_run
+from uav_swarm.runs.summary import (
+    planner_names,
+    ratios_learned_over_expert,
+    reference_record,
+    summarise_run,
+)
 from uav_swarm.world.comms import evaluate_coverage
 from uav_swarm.world.wifi_channels import plan_channels
 
@@ -212,7 +217,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                 time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
                 covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=np.array(flown),
                 peaks_m=result.peaks_m.copy(), utility=result.utility, qos_s1=float(cov.qos_s1),
-                qos_s2=float(cov.qos_s2)))
+                qos_s2=float(cov.qos_s2),
+                association=None if radio_log is None else np.array(cov.association),
+                channels=None if radio_log is None or cov.channel is None else np.array(cov.channel)))
     return SequenceRun(
         planner=kind, planner_name=planner.name, times_s=np.arange(1, steps + 1) * env.dt_s, qos_s1=qos_s1,
         qos_s2=qos_s2, throughput_mbps=rate, latency_ms=np.asarray(latencies),
@@ -261,15 +268,6 @@ def _load_bridge(config: SimulateConfig) -> BridgeConfig:
     corners = [(0.0, 0.0, alt_m), (width_m, 0.0, alt_m), (0.0, height_m, alt_m), (width_m, height_m, alt_m)]
     check_geofence([(0.0, 0.0, takeoff_altitude(corners, bridge.mission)), *corners], bridge.geofence)
     return bridge
-
-
-def _checkpoint_name(path: Path) -> str:
-    """The checkpoint as a user can name it on any machine: the shipped one by its package path."""
-    from learning.checkpoint import checkpoint_label
-
-    if path.resolve() == default_checkpoint(path.stem).resolve():
-        return f"uav_swarm/checkpoints/{path.name} (shipped)"
-    return checkpoint_label(path)
 
 
 def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, uav: UAVConfig, area_m: np.ndarray
@@ -396,9 +394,10 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     if "learned" in runs and "expert" in runs:
         summary["ratios_learned_over_expert"] = ratios_learned_over_expert(summary["planners"]["learned"],
                                                                            summary["planners"]["expert"])
+    for planner in planners.values():
+        summary |= planner_names(planner)  # the checkpoint and the expert that ran
     learned = planners.get("learned")
     if isinstance(learned, LearnedPlanner):  # make_planner's learned planner
-        summary["checkpoint"] = _checkpoint_name(learned.checkpoint_path)
         summary["network_precision"] = learned.precision
         summary["inference_engine"] = learned.engine
         summary["peaks"] = learned.peak_choice.to_dict()

@@ -31,7 +31,7 @@ from uav_swarm.env.config import MAX_UAVS, EnvConfig
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
-from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, with_flight_altitude
+from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, run_task, with_run_radio
 from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
@@ -62,7 +62,8 @@ class SimulateConfig(Config):
     wait_for_subscriber_s: float = param(0.0, ge=0.0, le=600.0,
                                          doc="wait this long for a telemetry subscriber before flying (s)")
     bridge_config: str = param("", doc="bridge TOML (home, mission, vehicles); vehicles: upload the plans")
-    task: WifiConfig = param(WifiConfig(), doc="Wi-Fi task: raster, scenario, crowd, radio, expert ([task])")
+    task: WifiConfig = param(run_task(), doc="Wi-Fi task: raster, scenario, crowd, radio (802.11 unless "
+                             "[task.radio] propagation = \"paper\"), expert ([task])")
     uav: UAVConfig = param(UAVConfig(), doc="UAV flight limits ([uav])")
     planning: PlannerConfig = param(PlannerConfig(), doc="assignment and inference ([planning])")
     telemetry: TelemetryConfig = param(TelemetryConfig(), doc="Zenoh session ([telemetry]); loopback only")
@@ -70,8 +71,8 @@ class SimulateConfig(Config):
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, where: str | None = None) -> SimulateConfig:
-        """As :meth:`Config.from_dict`; the 802.11 radio takes ``uav.alt_m`` when given no altitude."""
-        return super().from_dict(with_flight_altitude(data), where=where)
+        """As :meth:`Config.from_dict`; the 802.11 radio unless told, at ``uav.alt_m`` unless told."""
+        return super().from_dict(with_run_radio(data), where=where)
 
     def check(self) -> None:
         """Strategy 2 takes admission control unless told; the radio's altitude; one separation.
@@ -79,6 +80,8 @@ class SimulateConfig(Config):
         The radio's altitude and admission: :mod:`uav_swarm.runs.radio_altitude`. The placements keep
         ``[uav] min_separation_m``, which the fleet must be able to keep in the area.
         """
+        if self.task == run_task():  # the default task flies at the UAVs' altitude
+            object.__setattr__(self, "task", run_task(self.uav))
         object.__setattr__(self, "task", radio_for_run(self.task))
         check_radio_altitude(self.task, self.uav, "SimulateConfig")
         object.__setattr__(self, "task", task_with_uav_separation(self.task, self.uav, self.n_uavs))

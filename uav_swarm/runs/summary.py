@@ -24,11 +24,30 @@ from uav_swarm.runs.records import QosTrace, SequenceRun
 from uav_swarm.runs.service import StaticReference, flight_figures, metres_per_uav_minute
 
 if TYPE_CHECKING:
+    from uav_swarm.planning.base import Planner
     from uav_swarm.runs.fly_config import FlyConfig
     from uav_swarm.runs.simulate_config import SimulateConfig
 
 __all__ = ["qos_figures", "summarise_run", "ratios_learned_over_expert", "reference_record",
-           "summarise_flight"]
+           "summarise_flight", "planner_names"]
+
+
+def planner_names(planner: Planner) -> dict[str, str]:
+    """What a planner ran, for ``summary.json``: the learned network's ``checkpoint``, the ``expert``.
+
+    The shipped checkpoint is named by its package path (the same on every machine).
+    """
+    from learning.checkpoint import checkpoint_label
+    from uav_swarm.planning.planner import ExpertPlanner, LearnedPlanner, default_checkpoint
+
+    if isinstance(planner, LearnedPlanner):
+        path = planner.checkpoint_path
+        shipped = path.resolve() == default_checkpoint(path.stem).resolve()
+        return {"checkpoint": f"uav_swarm/checkpoints/{path.name} (shipped)" if shipped
+                else checkpoint_label(path)}
+    if isinstance(planner, ExpertPlanner):
+        return {"expert": planner.task.expert_name}
+    return {}
 
 
 def qos_figures(qos_s1: np.ndarray, qos_s2: np.ndarray, throughput_mbps: np.ndarray) -> dict[str, float]:

@@ -1,4 +1,4 @@
-"""Vectorised social-force crowd in the spirit of libpedsim (Pedsim): pedestrians walk their group's route.
+"""Compiled social-force crowd in the spirit of libpedsim (Pedsim): pedestrians walk their group's route.
 
 Each step (explicit Euler, ``dt_s``) sums, per pedestrian ``i`` (accelerations in m/s²):
 
@@ -20,6 +20,10 @@ loses its normal component (the pedestrian slides along the wall); a move that s
 few corrections is cancelled. A pedestrian switches to the next waypoint of its route once inside the
 current waypoint's circle; routes loop. Dynamics are deterministic: the generator is used only at
 construction (spawn positions, desired speeds).
+
+The step is a few numba loops over the pedestrians of every world (goals, walls, pair forces, cohesion,
+then the Euler step with the walls' corrections and the route bookkeeping), into buffers kept between
+steps; :class:`~uav_swarm.world.crowd_batch.BatchedCrowd` runs the same loops over B stacked worlds.
 """
 
 from __future__ import annotations
@@ -27,15 +31,16 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import sys
 
 import numba
 import numpy as np
 
 from typed_config import Config, ConfigError, param
 from uav_swarm.world.geometry import point_segment_distances
-from uav_swarm.world.pair_forces import pair_forces
+from uav_swarm.world.pair_forces import PAIRS_AT_ONCE, pair_forces_into
 from uav_swarm.world.scenario import Scenario, ScenarioError
-from uav_swarm.world.walls import SKIN_M, Walls
+from uav_swarm.world.walls import SKIN_M, Walls, resolve_move
 
 __all__ = ["CrowdConfig", "CrowdSim"]
 
@@ -97,7 +102,7 @@ class CrowdConfig(Config):
 
 
 class CrowdSim:
-    """The crowd of a :class:`Scenario`, stepped with a vectorised social-force model.
+    """The crowd of a :class:`Scenario`, stepped with a compiled social-force model.
 
     Args:
         scenario: Obstacles, waypoints and groups; pedestrians spawn uniformly in their group's
@@ -165,10 +170,12 @@ class CrowdSim:
         )
         for array in (self.desired_speeds_m_s, self.max_speeds_m_s):
             array.flags.writeable = False
+        self._wall_reach_m = _wall_reach_m(self.max_speeds_m_s, self.dt_s)
         self._velocities = np.zeros((n, 2))
         self._velocities.flags.writeable = False
         self._world_starts = np.array([0, n], dtype=np.int64)  # one world (B worlds in BatchedCrowd)
         self._sweep_order = np.arange(n, dtype=np.int64)  # the pair sweep's order, kept between steps
+        self._scratch = _Scratch(self._route_length[self.group_ids])
         logger.debug(
             "crowd of %d pedestrians in %d groups, %d obstacles", n, len(sizes), self._walls.n_obstacles
         )
@@ -239,54 +246,80 @@ class CrowdSim:
             self.time_s += self.dt_s
 
     def _step_once(self) -> None:
-        cfg = self.config
-        p, v = self._positions, self._velocities
-        target = self._route_flat[self._route_start[self.group_ids] + self._route_position]
-        goal_m = self._waypoints_m[target]
-        direction = _directions(p, goal_m, self._has_route)
-        wall_distance2, wall_force, near = self._walls.repulsion(
-            p,
-            cfg.obstacle_repulsion_m_s2,
-            cfg.obstacle_repulsion_range_m,
-            cfg.pedestrian_radius_m,
-            cfg.neighbour_cutoff_m,
-        )
-        self._walls.steer_around(p, target, goal_m, direction, wall_distance2, near)
-        pair_force = pair_forces(p, direction, self._world_starts, self._sweep_order, cfg.neighbour_cutoff_m,
-                                 cfg.ped_repulsion_m_s2, cfg.ped_repulsion_range_m, cfg.pedestrian_radius_m,
-                                 cfg.ped_anisotropy)
-        v_new, move, step_m = _integrate(
-            v, direction, self.desired_speeds_m_s, self.max_speeds_m_s, pair_force, wall_force,
-            self._cohesion_forces(p), cfg.relaxation_time_s, self.dt_s,
-        )
-        changed = self._walls.resolve(p, move, wall_distance2, step_m)
-        if len(changed):
-            v_new[changed] = move[changed] / self.dt_s
-
-        positions = p + move
-        to_goal = goal_m - positions
-        radius = self._waypoint_radius_m[target]
-        reached = self._has_route & (to_goal[:, 0] ** 2 + to_goal[:, 1] ** 2 <= radius * radius)
-        if reached.any():
-            lengths = self._route_length[self.group_ids[reached]]
-            self._route_position[reached] = (self._route_position[reached] + 1) % lengths
-            self.waypoints_reached[reached] += 1
+        cfg, s, walls = self.config, self._scratch, self._walls
+        p = self._positions
+        _goals(p, self.group_ids, self._route_start, self._route_position, self._route_flat,
+               self._waypoints_m, self._has_route, s.target, s.goal_m, s.direction)
+        wall_force = walls.repulsion(p, cfg.obstacle_repulsion_m_s2, cfg.obstacle_repulsion_range_m,
+                                     cfg.pedestrian_radius_m, cfg.neighbour_cutoff_m, self._wall_reach_m)
+        walls.steer_around(p, s.target, s.goal_m, s.direction)
+        pair_forces_into(p, s.direction, self._world_starts, self._sweep_order, cfg.neighbour_cutoff_m,
+                         cfg.ped_repulsion_m_s2, cfg.ped_repulsion_range_m, cfg.pedestrian_radius_m,
+                         cfg.ped_anisotropy, s.pair_force, s.rows, s.sorted_m, s.pairs)
+        if cfg.group_cohesion_m_s2 == 0:
+            s.cohesion[:] = 0.0
+        else:
+            _cohesion(p, self.group_ids, self._group_sizes, self._group_radius_m, cfg.group_cohesion_m_s2,
+                      s.cohesion)
+        positions, velocities = s.unused(self._positions, self._velocities)
+        start, contact_wall, dist2, wall_a, wall_unit, wall_length = walls.resolve_arguments()
+        _advance(p, self._velocities, s.direction, self.desired_speeds_m_s, self.max_speeds_m_s, s.pair_force,
+                 wall_force, s.cohesion, cfg.relaxation_time_s, self.dt_s, s.goal_m, s.target,
+                 self._waypoint_radius_m, self._has_route, s.route_length, self._route_position,
+                 self.waypoints_reached, start, contact_wall, dist2, wall_a, wall_unit, wall_length,
+                 positions, velocities)
         positions.flags.writeable = False
-        v_new.flags.writeable = False
-        self._positions, self._velocities = positions, v_new
+        velocities.flags.writeable = False
+        self._positions, self._velocities = positions, velocities
 
-    def _cohesion_forces(self, p: np.ndarray) -> np.ndarray:
-        """Pull towards the group centroid for pedestrians farther than the group radius, ``(N, 2)``."""
-        strength_m_s2 = self.config.group_cohesion_m_s2
-        if strength_m_s2 == 0:
-            return np.zeros_like(p)
-        return _cohesion(p, self.group_ids, self._group_sizes, self._group_radius_m, strength_m_s2)
+
+class _Scratch:
+    """Per-pedestrian buffers of a step, reused from step to step, and each pedestrian's route length.
+
+    The positions and velocities of a step are new arrays for whoever keeps them; :meth:`unused` hands out
+    those of two steps before when nothing refers to them any more (a large crowd then costs no fresh
+    memory, page faults included, at every step).
+    """
+
+    def __init__(self, route_length: np.ndarray) -> None:
+        n = len(route_length)
+        self.route_length = route_length
+        self.target = np.empty(n, dtype=np.int64)
+        self.goal_m, self.direction, self.pair_force, self.cohesion = np.empty((4, n, 2))
+        self.rows = np.empty((2, n), dtype=np.int64)
+        self.sorted_m = np.empty((2, n))
+        self.pairs = np.empty((2, PAIRS_AT_ONCE), dtype=np.int64)
+        self._retired: list[np.ndarray] = []  # the positions and velocities replaced at the last step
+
+    def unused(self, positions: np.ndarray, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Two ``(N, 2)`` arrays for the next positions and velocities.
+
+        ``positions`` and ``velocities``, the current ones, are retired: offered again at the next call if
+        nothing refers to them then.
+        """
+        fresh = []
+        for array in self._retired:
+            # referred to only by the list, the loop and getrefcount's argument (a view holds its base): reuse
+            if sys.getrefcount(array) == 3 and array.base is None:
+                array.flags.writeable = True
+                fresh.append(array)
+            else:
+                fresh.append(np.empty_like(positions))
+        while len(fresh) < 2:
+            fresh.append(np.empty_like(positions))
+        self._retired = [positions, velocities]
+        return fresh[0], fresh[1]
+
+
+def _wall_reach_m(max_speeds_m_s: np.ndarray, dt_s: float) -> np.ndarray:
+    """``(N,)`` the farthest a wall can be and still stop a pedestrian's move (``resolve_move``)."""
+    return max_speeds_m_s * dt_s + 2 * SKIN_M
 
 
 @numba.njit(cache=True, nogil=True)
 def _cohesion(p: np.ndarray, group_ids: np.ndarray, group_sizes: np.ndarray, group_radius_m: np.ndarray,
-              strength_m_s2: float) -> np.ndarray:
-    """``(N, 2)`` pull ``strength * clip(d - R_g, 0, 1)`` towards each group's centroid (compiled).
+              strength_m_s2: float, pull: np.ndarray) -> None:
+    """``pull`` ``(N, 2)``: ``strength * clip(d - R_g, 0, 1)`` towards each group's centroid (compiled).
 
     The centroid sums run over the pedestrians in index order, as ``numpy.bincount`` adds them.
     """
@@ -296,38 +329,46 @@ def _cohesion(p: np.ndarray, group_ids: np.ndarray, group_sizes: np.ndarray, gro
         sum_x[group_ids[k]] += p[k, 0]
         sum_y[group_ids[k]] += p[k, 1]
     centre_x, centre_y = sum_x / group_sizes, sum_y / group_sizes
-    pull = np.empty((n, 2))
     for k in range(n):
         g = group_ids[k]
         to_x, to_y = centre_x[g] - p[k, 0], centre_y[g] - p[k, 1]
         dist = math.sqrt(to_x * to_x + to_y * to_y)
         scale = strength_m_s2 * min(max(dist - group_radius_m[g], 0.0), 1.0) / max(dist, _EPS)
         pull[k, 0], pull[k, 1] = to_x * scale, to_y * scale
-    return pull
 
 
 @numba.njit(cache=True, nogil=True)
-def _directions(p: np.ndarray, goal_m: np.ndarray, has_route: np.ndarray) -> np.ndarray:
-    """``(N, 2)`` unit directions to the goals (zero without a route), compiled."""
-    direction = np.empty_like(p)
+def _goals(p: np.ndarray, group_ids: np.ndarray, route_start: np.ndarray, route_position: np.ndarray,
+           route_flat: np.ndarray, waypoints_m: np.ndarray, has_route: np.ndarray, target: np.ndarray,
+           goal_m: np.ndarray, direction: np.ndarray) -> None:
+    """Each pedestrian's waypoint, its position and the unit direction to it; compiled.
+
+    Written into the buffers ``target`` ``(N,)``, ``goal_m`` and ``direction`` ``(N, 2)`` (zero direction
+    without a route).
+    """
     for k in range(p.shape[0]):
+        t = route_flat[route_start[group_ids[k]] + route_position[k]]
+        target[k] = t
+        goal_m[k, 0], goal_m[k, 1] = waypoints_m[t, 0], waypoints_m[t, 1]
         to_x, to_y = goal_m[k, 0] - p[k, 0], goal_m[k, 1] - p[k, 1]
         scale = (1.0 if has_route[k] else 0.0) / max(math.sqrt(to_x * to_x + to_y * to_y), _EPS)
         direction[k, 0], direction[k, 1] = to_x * scale, to_y * scale
-    return direction
 
 
 @numba.njit(cache=True, nogil=True)
-def _integrate(v: np.ndarray, direction: np.ndarray, desired_m_s: np.ndarray, max_m_s: np.ndarray,
-               pair: np.ndarray, wall: np.ndarray, cohesion: np.ndarray, relaxation_s: float, dt_s: float
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One explicit Euler step of the velocities under the summed forces, capped; compiled.
+def _advance(p: np.ndarray, v: np.ndarray, direction: np.ndarray, desired_m_s: np.ndarray,
+             max_m_s: np.ndarray, pair: np.ndarray, wall: np.ndarray, cohesion: np.ndarray,
+             relaxation_s: float, dt_s: float, goal_m: np.ndarray, target: np.ndarray,
+             waypoint_radius_m: np.ndarray, has_route: np.ndarray, route_length: np.ndarray,
+             route_position: np.ndarray, waypoints_reached: np.ndarray, start: np.ndarray,
+             contact_wall: np.ndarray, dist2: np.ndarray, wall_a: np.ndarray, wall_unit: np.ndarray,
+             wall_length: np.ndarray, positions: np.ndarray, v_new: np.ndarray) -> None:
+    """One explicit Euler step under the summed forces, speeds capped, moves kept off the walls; compiled.
 
-    Returns the new velocities, the moves ``v dt`` and the bound ``min(|v|, cap) dt`` of each move.
+    Writes the new positions and velocities into ``positions`` and ``v_new``; a pedestrian that reaches
+    its waypoint's circle moves on along its route (``route_position``, ``waypoints_reached`` updated).
     """
-    n = v.shape[0]
-    v_new, move, step_m = np.empty((n, 2)), np.empty((n, 2)), np.empty(n)
-    for k in range(n):
+    for k in range(v.shape[0]):
         force_x = (direction[k, 0] * desired_m_s[k] - v[k, 0]) / relaxation_s
         force_y = (direction[k, 1] * desired_m_s[k] - v[k, 1]) / relaxation_s
         force_x += pair[k, 0]
@@ -341,7 +382,18 @@ def _integrate(v: np.ndarray, direction: np.ndarray, desired_m_s: np.ndarray, ma
         cap = min(1.0, max_m_s[k] / max(speed, _EPS))
         v_x *= cap
         v_y *= cap
+        step_m = min(speed, max_m_s[k]) * dt_s  # bounds the move
+        m_x, m_y = v_x * dt_s, v_y * dt_s
+        if start[k] < start[k + 1]:  # walls within reach
+            m_x, m_y, changed = resolve_move(k, p, m_x, m_y, step_m, start, contact_wall, dist2, wall_a,
+                                             wall_unit, wall_length)
+            if changed:
+                v_x, v_y = m_x / dt_s, m_y / dt_s
         v_new[k, 0], v_new[k, 1] = v_x, v_y
-        move[k, 0], move[k, 1] = v_x * dt_s, v_y * dt_s
-        step_m[k] = min(speed, max_m_s[k]) * dt_s
-    return v_new, move, step_m
+        x, y = p[k, 0] + m_x, p[k, 1] + m_y
+        positions[k, 0], positions[k, 1] = x, y
+        to_x, to_y = goal_m[k, 0] - x, goal_m[k, 1] - y
+        radius = waypoint_radius_m[target[k]]
+        if has_route[k] and to_x * to_x + to_y * to_y <= radius * radius:
+            route_position[k] = (route_position[k] + 1) % route_length[k]
+            waypoints_reached[k] += 1

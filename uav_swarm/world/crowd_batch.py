@@ -6,10 +6,9 @@ bit for bit as the same crowd stepped alone (same equations, same operations in 
 - pedestrians of all copies are stacked, copy by copy, in one ``(N, 2)`` array (``copy_index``,
   ``offsets``); group, waypoint and route indices are made global by offsets;
 - every copy's walls (obstacles, the four area bounds, then padding) get global indices; each copy's
-  area is cut into square cells that list the walls within reach, so wall distances are ``(K, N)``
-  arrays (K: the most walls near one cell) gathered per pedestrian
-  (:class:`~uav_swarm.world.walls_batch.BatchedWalls`): the cost is linear in B and does not grow with
-  the number of walls far away;
+  area is cut into square cells that list the walls within reach, and a pedestrian meets only the walls
+  of its cell (:class:`~uav_swarm.world.walls_batch.BatchedWalls`): the cost is linear in B and does not
+  grow with the number of walls far away;
 - the pair forces come from the compiled kernel :func:`~uav_swarm.world.pair_forces.pair_forces` that
   :class:`CrowdSim` calls for one world, here over the B copies (``offsets``): it never pairs two copies,
   and sums each pedestrian's pair forces in an order fixed by its own copy.
@@ -33,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from uav_swarm.world.crowd import CrowdSim
+from uav_swarm.world.crowd import CrowdSim, _Scratch, _wall_reach_m
 from uav_swarm.world.scenario import Scenario
 from uav_swarm.world.walls import SKIN_M
 from uav_swarm.world.walls_batch import BatchedWalls, walls_near_cells
@@ -189,6 +188,7 @@ class BatchedCrowd(CrowdSim):
         self.max_speeds_m_s = np.concatenate([sim.max_speeds_m_s for sim in parts])
         for array in (self.desired_speeds_m_s, self.max_speeds_m_s):
             array.flags.writeable = False
+        self._wall_reach_m = _wall_reach_m(self.max_speeds_m_s, self.dt_s)
         positions, velocities, route_position, reached, time_s = zip(*states, strict=True)
         self._positions = np.concatenate(positions).reshape(-1, 2)
         self._velocities = np.concatenate(velocities).reshape(-1, 2)
@@ -200,6 +200,7 @@ class BatchedCrowd(CrowdSim):
         self._walls = self._batched_walls(parts)
         self._world_starts = self.offsets
         self._sweep_order = np.arange(self.offsets[-1], dtype=np.int64)
+        self._scratch = _Scratch(self._route_length[self.group_ids])
 
     def _batched_walls(self, parts: list[CrowdSim]) -> BatchedWalls:
         """The walls of ``parts``, with the cell lists of the crowds seen before taken from the cache."""

@@ -1,7 +1,9 @@
 """The settings of the UAV Wi-Fi models: :class:`RadioConfig` (``[task.radio]``).
 
-``propagation`` chooses the model: ``"paper"`` (:mod:`uav_swarm.world.comms`, the default) or ``"802.11"``
-(:mod:`uav_swarm.world.wifi_coverage`, its settings in ``ieee80211``, :mod:`uav_swarm.world.wifi_config`).
+``propagation`` chooses the model: ``"paper"`` (:mod:`uav_swarm.world.comms`, this class's default, which the
+learning tasks keep) or ``"802.11"`` (:mod:`uav_swarm.world.wifi_coverage`, its settings in ``ieee80211``,
+:mod:`uav_swarm.world.wifi_config`; the default of ``simulate``, ``fly`` and ``uav_swarm_v0``,
+:data:`RUN_PROPAGATION`).
 
 Examples:
     >>> RadioConfig().association_name
@@ -19,7 +21,10 @@ from typing import Literal
 from typed_config import Config, ConfigError, param
 from uav_swarm.world.wifi_config import Ieee80211Config
 
-__all__ = ["RadioConfig"]
+__all__ = ["RadioConfig", "RUN_PROPAGATION"]
+
+RUN_PROPAGATION: Literal["paper", "802.11"] = "802.11"
+"""The radio ``simulate``, ``fly`` and ``uav_swarm_v0`` fly when not told (``RadioConfig()``: the paper's)."""
 
 
 @dataclass(frozen=True)
@@ -46,7 +51,7 @@ class RadioConfig(Config):
         "an integer 1..floor(capacity_mbps / min_user_rate_mbps), 'auto' for that floor (40 by default), "
         "or 'off' for the paper's model (every user in range joins its strongest UAV); None (not given) is "
         "the paper's model too, except in simulate and fly with strategy 2, which take 'auto'; with "
-        "propagation '802.11' an integer caps the stations, 'auto' and 'off' do not")
+        "propagation '802.11' an integer caps the stations, 'off' does not, and 'auto' is refused")
     ieee80211: Ieee80211Config = param(Ieee80211Config(),
                                        doc="the 802.11 model's settings (used with propagation = '802.11')")
 
@@ -59,8 +64,13 @@ class RadioConfig(Config):
             paper = [name for name in ("range_m", "signal_at_range", "sigma_sq_m2", "capacity_mbps")
                      if getattr(self, name) != getattr(RadioConfig, name)]
             if paper:
-                raise ConfigError(f"RadioConfig.{paper[0]} belongs to propagation = 'paper'; with "
-                                  "propagation = '802.11' leave it out (the 802.11 settings: ieee80211)")
+                raise ConfigError(f"RadioConfig.{paper[0]} belongs to propagation = 'paper': set "
+                                  "propagation = 'paper' for it, or leave it out with propagation = '802.11' "
+                                  "(the 802.11 settings: ieee80211)")
+            if self.station_limit == "auto":
+                raise ConfigError("RadioConfig.station_limit = 'auto' (capacity / minimum rate) belongs to "
+                                  "propagation = 'paper': set propagation = 'paper' for it; under '802.11' "
+                                  "admission on rate decides, and an integer caps the stations")
             return
         if self.ieee80211 != Ieee80211Config():
             raise ConfigError("RadioConfig.ieee80211 applies only with propagation = '802.11'; "
@@ -81,6 +91,22 @@ class RadioConfig(Config):
                 f"RadioConfig.station_limit = {self.station_limit} is out of range: allowed "
                 f"1 <= station_limit <= {most} (capacity_mbps / min_user_rate_mbps = {self.capacity_mbps} / "
                 f"{self.min_user_rate_mbps}: more stations could not all get the minimum rate)")
+
+    def for_strategy(self, strategy: int) -> RadioConfig:
+        """The radio a strategy runs: under 802.11 an admission on rate not given is the strategy's.
+
+        Strategy 1 counts the users with a usable rate, so no station is refused on rate; strategy 2 counts
+        those with ``min_user_rate_mbps``, so an AP admits a station only while every station keeps it. A
+        ``rate_admission`` given is kept, and the paper's radio is returned as it is.
+
+        Examples:
+            >>> radio = RadioConfig(propagation="802.11")
+            >>> radio.for_strategy(1).ieee80211.rate_admission, radio.for_strategy(2).ieee80211.rate_admission
+            (False, True)
+        """
+        if self.propagation != "802.11" or self.ieee80211.rate_admission is not None:
+            return self
+        return self.replace(ieee80211=self.ieee80211.replace(rate_admission=strategy == 2))
 
     @property
     def rate_bound_stations(self) -> int | None:
@@ -109,7 +135,7 @@ class RadioConfig(Config):
         if self.propagation == "802.11":
             wifi = self.ieee80211
             rules = [f"{wifi.fairness} fairness"]
-            if wifi.rate_admission:
+            if wifi.admits_on_rate:
                 rules.append(f"admission on rate ({self.min_user_rate_mbps:g} Mbps)")
             if self.max_stations is not None:
                 rules.append(f"{self.max_stations} stations per UAV")
@@ -117,6 +143,23 @@ class RadioConfig(Config):
         limit = self.max_stations
         return "paper (no admission control)" if limit is None else \
             f"admission control ({limit} stations per UAV)"
+
+    @property
+    def radio_and_admission(self) -> str:
+        """The radio and the admission a placement is made for, in words (a network must match them).
+
+        Examples:
+            >>> RadioConfig(propagation="802.11").for_strategy(1).radio_and_admission
+            'the 802.11 radio without admission on rate'
+            >>> RadioConfig(station_limit="auto").radio_and_admission
+            "the paper's radio with admission control (40 stations per UAV)"
+        """
+        limit = self.max_stations
+        if self.propagation == "802.11":
+            rule = "with admission on rate" if self.ieee80211.admits_on_rate else "without admission on rate"
+            return f"the 802.11 radio {rule}" + ("" if limit is None else f" and {limit} stations per UAV")
+        return ("the paper's radio without admission control" if limit is None else
+                f"the paper's radio with admission control ({limit} stations per UAV)")
 
     @property
     def effective_sigma_sq_m2(self) -> float:

@@ -2,8 +2,8 @@
 
 Each copy's area is cut into square cells that list the walls within reach of them
 (:func:`walls_near_cells`); a pedestrian's wall distances are then taken only to the walls of its own
-cell, so :class:`~uav_swarm.world.crowd_batch.BatchedCrowd` pays per pedestrian for the few walls near
-it, not for every wall of every copy.
+cell (:class:`~uav_swarm.world.walls.Cells`), so :class:`~uav_swarm.world.crowd_batch.BatchedCrowd` pays
+per pedestrian for the few walls near it, not for every wall of every copy.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from uav_swarm.world.geometry import point_segment_distances
-from uav_swarm.world.walls import Walls
+from uav_swarm.world.walls import Cells, Contacts, Walls
 
 __all__ = ["BatchedWalls", "walls_near_cells"]
 
@@ -24,12 +24,11 @@ _FAR_M = 1e7  # padding walls sit here: never within any cutoff or step of a ped
 class BatchedWalls(Walls):
     """The walls of B copies for their stacked pedestrians (see the module docstring).
 
-    Wall ``s`` of copy ``c`` has the index ``c * S + s`` in the per-wall arrays (the last slot of every
-    copy is a padding wall). Each copy's area is cut into square cells; a cell lists, in ascending order,
-    the walls within reach of it (``near_cells``), padded to a common length K with the padding wall.
-    The distance arrays of :meth:`repulsion` are ``(K, N)``: row ``k`` holds each pedestrian's distance
-    to the ``k``-th wall of its cell, so each pedestrian meets its near walls in the order of its copy's
-    :class:`Walls` (and the sums of forces are the same).
+    Wall ``s`` of copy ``c`` has the index ``c * S + s`` in the per-wall arrays (``S`` the most walls of
+    a copy; the slots a copy does not fill are padding, far away and listed by no cell). Each copy's area
+    is cut into square cells; a cell lists, in ascending order, the walls within reach of it
+    (``near_cells``), so each pedestrian meets its near walls in the order of its copy's :class:`Walls`
+    (and the sums of forces are the same).
 
     Args:
         walls: Each copy's walls.
@@ -49,12 +48,12 @@ class BatchedWalls(Walls):
 
     def __init__(self, walls: Sequence[Walls], copy_index: np.ndarray, waypoint_offsets: np.ndarray,
                  near_cells: Sequence[np.ndarray], grid: tuple[int, int], cell_m: float) -> None:
-        n_copies, slots = len(walls), max(len(w.segments) for w in walls) + 1  # + a padding wall
+        n_copies, slots = len(walls), max(len(w.segments) for w in walls)
         n_goals = max(1, max(w._onward_cost.shape[2] for w in walls))
         segments = np.full((n_copies, slots, 4), _FAR_M)
         unit = np.zeros((n_copies, slots, 2))
         length = np.zeros((n_copies, slots))
-        inv_len2 = np.zeros((n_copies, slots))  # 0 on padding: its closest point is its (far) start
+        inv_len2 = np.zeros((n_copies, slots))
         is_obstacle = np.zeros((n_copies, slots), dtype=bool)
         aims = np.zeros((n_copies, slots, 2, 2))
         onward = np.zeros((n_copies, slots, 2, n_goals))
@@ -63,7 +62,7 @@ class BatchedWalls(Walls):
             segments[c, :n_walls] = w.segments
             unit[c, :n_walls] = w._unit
             length[c, :n_walls] = w._length
-            inv_len2[c, :n_walls] = w._inv_len2[:, 0]
+            inv_len2[c, :n_walls] = w._inv_len2
             is_obstacle[c, :n_obstacles] = True
             aims[c, :n_obstacles] = w._aims
             onward[c, :n_obstacles, :, : w._onward_cost.shape[2]] = w._onward_cost
@@ -73,52 +72,22 @@ class BatchedWalls(Walls):
         self._a = self.segments[:, :2].copy()
         self._unit = unit.reshape(-1, 2)
         self._length = length.ravel()
+        self._inv_len2 = inv_len2.ravel()
         self._is_obstacle = is_obstacle.ravel()
         self._aims = aims.reshape(-1, 2, 2)
         self._onward_cost = onward.reshape(-1, 2, n_goals)
-        self._goal_offset = np.repeat(np.asarray(waypoint_offsets), slots)
+        self._goal_offset = np.repeat(np.asarray(waypoint_offsets, dtype=np.int64), slots)
         w_xy = (self.segments[:, 2:] - self._a).T
         self._per_wall = (self._a[:, 0].copy(), self._a[:, 1].copy(), w_xy[0].copy(), w_xy[1].copy(),
-                          inv_len2.ravel())
-        # (K, B * G) global ids of the walls near each cell, ascending, padded with the copy's padding wall.
+                          self._inv_len2)
+        # (K, B * G) global ids of the walls near each cell, ascending, padded with -1.
         k = max(len(near) for near in near_cells)
-        lists = np.full((k, n_copies, grid[0] * grid[1]), slots - 1)
+        lists = np.full((k, n_copies, grid[0] * grid[1]), -1, dtype=np.int64)
         for c, near in enumerate(near_cells):
-            lists[:len(near), c] = np.where(near >= 0, near, slots - 1)
-        lists += (np.arange(n_copies) * slots)[:, None]
-        self._cell_walls = lists.reshape(k, -1)
-        self._grid, self._cell_scale = grid, 1.0 / cell_m
-        self._cell_base = copy_index * (grid[0] * grid[1])
-        n = len(copy_index)
-        self._wall_ids = np.zeros((k, n), dtype=np.intp)
-        self._gathered = np.empty((5, k, n))
-        self._columns, self._inv_len2 = tuple(self._gathered[:4]), self._gathered[4]
-        self._buffers = np.empty((4, k, n))
-
-    def repulsion(
-        self, p: np.ndarray, strength_m_s2: float, range_m: float, radius_m: float, cutoff_m: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`Walls.repulsion` over the walls near each pedestrian's cell; distances are ``(K, N)``."""
-        columns, rows = self._grid
-        cell = (p[:, 0] * self._cell_scale).astype(np.intp)  # positions are inside the area (>= 0)
-        np.minimum(cell, columns - 1, out=cell)
-        row = (p[:, 1] * self._cell_scale).astype(np.intp)
-        np.minimum(row, rows - 1, out=row)
-        row *= columns
-        cell += row
-        cell += self._cell_base
-        self._wall_ids = np.take(self._cell_walls, cell, axis=1)  # (K, N)
-        for values, out in zip(self._per_wall, self._gathered, strict=True):
-            np.take(values, self._wall_ids, out=out)
-        return super().repulsion(p, strength_m_s2, range_m, radius_m, cutoff_m)
-
-    def _wall_of(self, slot: np.ndarray, ped: np.ndarray) -> np.ndarray:
-        """Global index of the wall in row ``slot`` of the distances for pedestrian ``ped``."""
-        return self._wall_ids[slot, ped]
-
-    def _onward_cost_of(self, wall: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """``(K, 2)`` onward cost; ``target`` is a global waypoint index of the wall's copy."""
-        return self._onward_cost[wall, :, target - self._goal_offset[wall]]
+            lists[:len(near), c] = np.where(near >= 0, near + c * slots, -1)
+        self._cells = Cells(lists.reshape(k, -1), copy_index.astype(np.int64) * (grid[0] * grid[1]), grid,
+                            1.0 / cell_m)
+        self._contacts = Contacts(len(copy_index), k)
 
 
 def walls_near_cells(

@@ -69,8 +69,10 @@ class Ieee80211Config(Config):
     fairness: Literal["airtime", "throughput"] = param(
         "airtime", doc="how an AP splits its airtime: equal airtime per station (modern APs) or equal "
         "throughput (first-in first-out queues: the 802.11 performance anomaly)")
-    rate_admission: bool = param(True, doc="admit a station only while every station of the AP keeps "
-                                 "min_user_rate_mbps")
+    rate_admission: bool | None = param(
+        None, doc="admit a station only while every station of the AP keeps min_user_rate_mbps; not given: "
+        "the task's strategy decides (strategy 1: off, every user in range joins; strategy 2: on), and the "
+        "model used alone admits on rate")
     channels: tuple[int, ...] = param((), doc="usable channel numbers (width and band of this config); "
                                       "empty: the band's channels without radar detection")
     mac_efficiency: float | None = param(None, gt=0.0, le=1.0,
@@ -94,6 +96,11 @@ class Ieee80211Config(Config):
             raise ConfigError(f"Ieee80211Config.channels = {list(self.channels)}: each channel once, from "
                               f"{list(allowed)} ({self.channel_width_mhz} MHz, "
                               f"{'2.4' if two_four else '5'} GHz)")
+
+    @property
+    def admits_on_rate(self) -> bool:
+        """Whether admission on rate runs: ``rate_admission``, on when not given (no strategy decided it)."""
+        return self.rate_admission is not False
 
     @property
     def usable_channels(self) -> tuple[int, ...]:

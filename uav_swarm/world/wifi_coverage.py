@@ -409,7 +409,7 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
      total) = _links(
         power_mw, copy_index, graph, plan, noise_mw, thresholds, ladder, tables.access_intensity,
         tables.interference_airtime_weighting, efficiency, config.min_user_rate_mbps,
-        wifi.fairness == "airtime", wifi.rate_admission, config.max_stations or 0, before)
+        wifi.fairness == "airtime", wifi.admits_on_rate, config.max_stations or 0, before)
     denominator = np.maximum(n_users, 1)
     return WifiLinks(
         association=association, covered=mcs >= 0, in_range=in_range, sinr_db=10.0 * np.log10(sinr), mcs=mcs,

@@ -104,7 +104,12 @@ class WifiConfig(Config):
         return super().from_dict(data, where=where)
 
     def check(self) -> None:
-        """A square area, ordered warm-ups, a radius or an altitude, the expert, a separation that fits."""
+        """A square area, ordered warm-ups, a radius or an altitude, the expert, a separation that fits.
+
+        Under the 802.11 radio an admission on rate not given is the strategy's
+        (:meth:`~uav_swarm.world.radio_config.RadioConfig.for_strategy`).
+        """
+        object.__setattr__(self, "radio", self.radio.for_strategy(self.strategy))
         if self.warmup_min_s > self.warmup_max_s:
             raise ConfigError(f"WifiConfig.warmup_min_s = {self.warmup_min_s} must be <= "
                               f"warmup_max_s = {self.warmup_max_s}")
@@ -264,6 +269,20 @@ class WifiTask:
         """Raster pixel coordinates ``(x, y)`` to metres."""
         return pixels_to_metres(np.asarray(xy_px, np.float64).reshape(-1, 2), self.width_m, self.height_m,
                                 self.shape)
+
+    @property
+    def expert_name(self) -> str:
+        """The expert that places for this task, in words (the table and ``summary.json`` name it).
+
+        Examples:
+            >>> WifiTask(WifiConfig()).expert_name
+            "search expert (strategy 1, the paper's radio without admission control)"
+        """
+        config = self.config
+        method = "802.11" if config.radio.propagation == "802.11" else {
+            "search": "search", "groups": "group", "capacitated": "capacitated", "stable": "stable"}[
+            config.expert.method_for(self.rules)]
+        return f"{method} expert (strategy {config.strategy}, {config.radio.radio_and_admission})"
 
     def expert_placement_m(self, users_m: np.ndarray, velocities_m_s: np.ndarray | None = None) -> np.ndarray:
         """The expert's ``(k, 2)`` UAV positions (metres) for any crowd ``users_m`` (metres).

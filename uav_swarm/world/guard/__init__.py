@@ -24,7 +24,10 @@ smaller of those and its ``[guard]`` settings):
      turning included, is at most ``a``: it wants the speed ``min(v_max, sqrt(2 a d))`` toward ``c``
      (``d`` the distance) and changes its velocity toward that at its limit (ArduCopter's and PX4's
      position controllers, :class:`bridge.simulated.dynamics.PointMassCopter`); a jerk limit ``j``
-     delays the braking by at most ``a / j`` (its run-on ``|v| a / j``).
+     takes at most ``2 a / j`` to turn an acceleration of ``a`` away into braking, over which it flies at
+     most ``2 |v| a / j + a^3 / j^2`` beyond the braking distance (its run-on; its speed grows by at
+     most ``a^2 / 2j`` meanwhile). PX4 limits its acceleration per axis (up to ``sqrt(2)`` times
+     ``MPC_ACC_HOR`` on a diagonal): (B1) is not proved for it, only judged by the fuzz.
 (B2) The true position is within ``e_t`` of the controller's set point (wind, gusts); a measured
      position within ``e_p`` of the truth, a measured velocity within ``e_v``.
 (B3) Commands to a vehicle take effect in the order they are sent: a new point is sent only once the
@@ -53,11 +56,28 @@ and those sent after it, ``c_0, ..., c_n``. Switching from ``c_i`` to ``c_{i+1}`
 ``|c_i - c_{i+1}|`` (triangle inequality), so, by (B3) and the lemma, whatever arrives when, the vehicle
 stays within ``R = max_i (E_i + |c_i - c_{i+1}| + ... + |c_{n-1} - c_n|)`` of ``c_n``, with ``E_i`` its energy
 towards ``c_i`` at any instant the chain held. From a measurement, (B2) and (B4) bound ``E_i`` by
-``|x_m - c_i| + e_p + e_t + (|v_m| + e_v)^2 / (2 a) + (|v_m| + e_v) a / j``, and the true position lies
-``e_t`` further: :meth:`Commitment.fresh_radius_m`. Sending a new point ``c`` moves the disc onto it with
-radius ``R + |c_n - c|``, which contains the old disc; a hold sends nothing. Hence the **invariant**: each
+``|x_m - c_i| + e_p + e_t + u^2 / (2 a) + 2 u a / j + a^3 / j^2`` (``u = |v_m| + e_v``), and the true
+position lies ``e_t`` further: :meth:`Commitment.fresh_radius_m`. Sending a new point ``c`` moves the disc
+onto it with radius ``R + |c_n - c|``, which contains the old disc; a hold sends nothing. Hence the
+**invariant**: each
 vehicle is inside its disc at all times, however late or lost its commands and its positions are, and a
 pair whose discs keep ``d`` keeps ``d``. The rule above keeps the discs apart.
+
+**Every state of a flight** (:class:`FleetGuard`). The invariant needs no measurement, so a vehicle that
+goes silent or loses its fix keeps its disc (the column over its home is added: its link-loss failsafe
+may take it there, climbing first to its own return layer above every cruise layer); a vehicle joins
+with the points it may still be flying to in its chain (where its take-off left it, the point it was last
+sent before it was taken back), so its disc covers them; a disc of unknown radius refuses every offer near
+it; a vehicle under its autopilot's own mode (climbing, RTL, landing) is a disc on its measured position
+and the column over its home; only a vehicle known to be on the ground leaves. One lock serialises the
+guard's calls.
+
+**Pairs inside** (discs closer than required: homes a few metres apart, a vehicle taken back, a bound
+broken) are outside the invariant from the start; the guard lets them only part, by short steps along
+which the distance to the other's centre never shrinks, taken only by a vehicle near rest at its point
+and not closing on the other. Such a vehicle flies along its step (an autopilot at rest flying to a point
+flies the segment to it); the swing off the segment caused by the velocity it still has is bounded in
+simulation, not by this proof. Every pair apart keeps the proved rule.
 
 **Outside the bounds** nothing is promised; what can be seen is reported and answered
 (:class:`FleetGuard`): a position older than ``position_age_s`` (the vehicle is sent nothing new: its

@@ -23,11 +23,12 @@ which needs no measurement (:meth:`FleetGuard.silent`), and the column over its 
 link-loss failsafe may take it home. Only a vehicle known to be on the ground leaves
 (:meth:`FleetGuard.leave`). A vehicle joins with the points it may still be flying to
 (:meth:`FleetGuard.join`'s ``earlier_m``) and an unknown radius until measured; an unknown disc
-refuses every offer near it. A pair closer than required keeps a **floor** (the gap it had when it
-came inside, less ``slack_m``; lowered only when measured lower): it may move, so it can part, and
-never comes closer than its floor by a decision. Decisions go to the vehicle held longest first
-(priority rotates to who waits), and no point is committed more than ``max_step_m`` ahead. One lock
-serialises every call (the flight's loop and its sending threads).
+refuses every offer near it. A pair closer than required (homes a few metres apart, a vehicle
+taken back) may only **part** or **yield**: a vehicle at rest at its point (or already flying straight
+away) steps at most ``parting_step_m`` along a segment whose every point is at least as far from the
+other's centre as it is (:func:`~uav_swarm.world.guard.decide.choose_points`). Decisions go to the
+vehicle held longest first (priority rotates to who waits), and no point is committed more than
+``max_step_m`` ahead. One lock serialises every call (the flight's loop and its sending threads).
 
 Examples:
     >>> import numpy as np
@@ -56,6 +57,8 @@ from uav_swarm.world.guard.decide import STEPS_M, choose_points
 from uav_swarm.world.guard.holds import Bounds, Commitment
 
 __all__ = ["Bounds", "Decision", "FleetGuard"]
+
+_AT_POINT_M = 1.0  # a vehicle measured this close to its newest point may part from a pair inside
 
 
 @dataclass(frozen=True)
@@ -88,22 +91,19 @@ class FleetGuard:
         detour_after_s: A vehicle held this long may also step round what blocks it, seconds.
         detour_m: The longest such step, metres (default: the largest required distance).
         area_m: (width, height) the steps round stay in, from the origin (None: anywhere).
-        slack_m: How much a pair closer than required may spend below the gap it came inside with.
         max_step_m: The farthest a new point is committed ahead of a disc's centre, metres.
     """
 
     def __init__(self, required_m: np.ndarray, detour_after_s: float = 2.0, detour_m: float | None = None,
-                 area_m: tuple[float, float] | None = None, slack_m: float = 1.0,
-                 max_step_m: float = STEPS_M[0]) -> None:
+                 area_m: tuple[float, float] | None = None, max_step_m: float = STEPS_M[0]) -> None:
         self.required_m = np.array(required_m, dtype=np.float64)
         k = self.required_m.shape[0]
-        self.slack_m = float(slack_m)
         self.max_step_m = float(max_step_m)
         self._lock = threading.RLock()
-        self._floors: dict[tuple[int, int], float] = {}  # (i, j) i < j, a pair inside: its floor
         self._homes: dict[int, np.ndarray] = {}  # the home columns of silent and landing vehicles
         self._silent: set[int] = set()
         self._velocity = np.zeros((k, 2))  # each vehicle's newest measured velocity
+        self._position = np.full((k, 2), np.nan)  # and position
         self.parting_step_m = 4.0
         """The longest step a pair inside may part by, metres."""
         self.parting_speed_m_s = 1.5
@@ -132,7 +132,7 @@ class FleetGuard:
         Its first decision sends it ``point_m`` (state ``"on"``), so that every point it flies to was sent.
         """
         with self._lock:
-            chain = [np.asarray(p, dtype=np.float64) for p in earlier_m] + [np.asarray(point_m, dtype=np.float64)]
+            chain = [np.asarray(p, dtype=np.float64) for p in (*earlier_m, point_m)]
             hold = Commitment(chain[0], bounds, now_s, radius_m)
             for later in chain[1:]:
                 hold.sent(later, now_s)
@@ -157,7 +157,6 @@ class FleetGuard:
             self._joining.discard(i)
             self._stale.discard(i)
             self._outside.pop(i, None)
-            self._floors = {pair: f for pair, f in self._floors.items() if i not in pair}
 
     def silent(self, i: int, home_m: np.ndarray | None = None) -> None:
         """Vehicle ``i`` is heard no more, or has no position: it keeps its disc and is sent nothing.
@@ -173,7 +172,8 @@ class FleetGuard:
             if home_m is not None:
                 self._homes[i] = np.asarray(home_m, dtype=np.float64)
 
-    def obstacle(self, i: int, centre_m: np.ndarray, radius_m: float, home_m: np.ndarray | None = None) -> None:
+    def obstacle(self, i: int, centre_m: np.ndarray, radius_m: float,
+                 home_m: np.ndarray | None = None) -> None:
         """Vehicle ``i`` is not steered by the guard: a disc the others keep away from, until it joins.
 
         ``home_m``: the column over its home is kept clear as well (it will land there: RTL).
@@ -190,6 +190,10 @@ class FleetGuard:
     def joined(self, i: int) -> bool:
         """Whether vehicle ``i`` is steered by the guard (silent ones included)."""
         return self._hold[i] is not None
+
+    def is_obstacle(self, i: int) -> bool:
+        """Whether vehicle ``i`` is a disc the others keep off, not steered (climbing, returning)."""
+        return i in self._obstacle
 
     def is_silent(self, i: int) -> bool:
         """Whether vehicle ``i`` is kept on its last disc, unheard."""
@@ -229,6 +233,7 @@ class FleetGuard:
         self._silent.discard(i)
         self._homes.pop(i, None)
         self._velocity[i] = np.asarray(velocity_m_s, dtype=np.float64)[:2]
+        self._position[i] = np.asarray(position_m, dtype=np.float64)[:2]
         if now_s - (stamp_s if received_s is None else received_s) > hold.bounds.position_age_s:
             if i not in self._stale:
                 self._stale.add(i)
@@ -278,32 +283,6 @@ class FleetGuard:
         with self._lock:
             return self._decide(goals_m, now_s)
 
-    def _floors_m(self, centres: np.ndarray, radii: np.ndarray, present: np.ndarray, owner: np.ndarray
-                  ) -> np.ndarray:
-        """(N, N) each pair's least gap: required when apart, its floor when inside (module docstring)."""
-        n = centres.shape[0]
-        required = self.required_m[owner[:, None], owner[None]]
-        with np.errstate(invalid="ignore"):
-            gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
-        floors = required.copy()
-        for a in range(n):
-            for b in range(a + 1, n):
-                pair = (a, b)
-                if not (present[a] and present[b]) or owner[a] == owner[b] or not math.isfinite(gaps[a, b]):
-                    self._floors.pop(pair, None)
-                    continue
-                if gaps[a, b] >= required[a, b]:
-                    self._floors.pop(pair, None)  # apart: the whole requirement again
-                    continue
-                floor = self._floors.get(pair)
-                if floor is None:
-                    floor = gaps[a, b] - self.slack_m  # came inside: it may still move, and part
-                elif gaps[a, b] < floor:
-                    floor = gaps[a, b]  # measured lower (an obstacle, a bound broken): kept from there
-                self._floors[pair] = float(floor)
-                floors[a, b] = floors[b, a] = floor
-        return floors
-
     def _decide(self, goals_m: np.ndarray, now_s: float) -> list[Decision]:
         k = len(self._hold)
         homes = sorted(self._homes)
@@ -314,7 +293,8 @@ class FleetGuard:
             if self._hold[i] is not None or i in self._obstacle:
                 centres[i], radii[i] = self.centre_m(i), self.radius_m(i)
         for m, i in enumerate(homes):
-            bounds = self._hold[i].bounds if self._hold[i] is not None else None
+            hold = self._hold[i]
+            bounds = hold.bounds if hold is not None else None
             centres[k + m] = self._homes[i]
             radii[k + m] = 0.0 if bounds is None else float(bounds.radius_m(np.zeros(2), np.array(0.0)))
         present = np.isfinite(radii) | (radii == np.inf)
@@ -334,23 +314,27 @@ class FleetGuard:
                 goals[i] = via
         waited = np.array([now_s - self._held_since.get(i, now_s) for i in range(k)] + [0.0] * len(homes))
         detour = waited >= self.detour_after_s
-        apart = present[:, None] & present[None] & (owner[:, None] != owner[None])  # a vehicle and its home: one
+        apart = present[:, None] & present[None] & (owner[:, None] != owner[None])  # not one's own home
         required = np.where(apart, self.required_m[owner[:, None], owner[None]], -np.inf)
-        floors = np.where(apart, self._floors_m(centres, np.where(present, radii, 0.0), present, owner), -np.inf)
-        with np.errstate(invalid="ignore"):
-            gaps = np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]
+        gaps = _gaps_m(centres, radii)
         parting = apart & np.isfinite(gaps) & (gaps < required)
-        for i in range(k):  # parts only a vehicle near rest and not closing on the other
-            towards = centres - centres[i]
+        for i in range(k):  # parts a vehicle at rest at its point, or already flying straight away
+            towards = centres - self._position[i]
             with np.errstate(invalid="ignore", divide="ignore"):
-                closing = (towards @ self._velocity[i]) / np.hypot(*towards.T)
-            parting[i] &= (np.hypot(*self._velocity[i]) <= self.parting_speed_m_s) & ~(closing > 0.5)
+                closing = (towards @ self._velocity[i]) / np.hypot(*towards.T)  # its speed towards each
+            speed = float(np.hypot(*self._velocity[i]))
+            at_rest = (float(np.hypot(*(self._position[i] - centres[i]))) <= _AT_POINT_M
+                       and speed <= self.parting_speed_m_s)
+            fleeing = -closing >= 0.9 * speed  # its velocity points away from that one
+            parting[i] &= (at_rest & ~(closing > 0.5)) | (fleeing & (speed > self.parting_speed_m_s))
         parting[k:] = False
         order = np.argsort(-waited, kind="stable")  # the longest held first, then by index
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
-                                            detour, self.detour_m, self.area_m, floors_m=floors, order=order,
+                                            detour, self.detour_m, self.area_m, order=order,
                                             max_step_m=self.max_step_m, parting=parting,
-                                            parting_step_m=self.parting_step_m)
+                                            parting_step_m=self.parting_step_m,
+                                            positions_m=np.vstack([self._position, np.full((n - k, 2),
+                                                                                           np.nan)]))
         blockers = np.where(blockers >= k, owner[np.maximum(blockers, 0)], blockers)
         decisions = []
         for i in range(k):
@@ -405,3 +389,9 @@ class FleetGuard:
             return Decision("on" if not arrived else "idle")
         self._held_since.setdefault(i, now_s)
         return Decision("held", None, blocker)
+
+
+def _gaps_m(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """(N, N) the distance between each pair of discs (NaN or -inf with an unknown one)."""
+    with np.errstate(invalid="ignore"):
+        return np.hypot(*(centres[:, None] - centres[None]).transpose(2, 0, 1)) - radii[:, None] - radii[None]

@@ -40,6 +40,8 @@ from uav_swarm.world.guard.reach import energy_radius_m
 
 __all__ = ["Bounds", "Commitment"]
 
+_KEPT = 64  # points (and earlier chains) kept for measurements older than the newest acknowledgement
+
 
 @dataclass(frozen=True)
 class Bounds:
@@ -106,6 +108,10 @@ class Commitment:
         self.measured_s = -math.inf
         """The stamp of the newest measurement used."""
         self._next_seq = 1
+        self._points: dict[int, np.ndarray] = {0: self.chain[0]}
+        """The newest points sent, by sequence number (what an older measurement is judged against)."""
+        self._known: list[tuple[float, int]] = []
+        """``(known_s, first seq)`` of the chains that held before :attr:`known_s`, newest last."""
 
     @property
     def centre_m(self) -> np.ndarray:
@@ -132,6 +138,9 @@ class Commitment:
         seq = self._next_seq
         self._next_seq += 1
         self._seqs.append(seq)
+        self._points[seq] = point
+        if len(self._points) > _KEPT:
+            del self._points[min(self._points)]
         self.sent_s, self.awaiting = float(now_s), True
         return seq
 
@@ -140,6 +149,7 @@ class Commitment:
         if seq not in self._seqs:
             return  # already superseded by a newer acknowledgement
         first = self._seqs.index(seq)
+        self._known = [*self._known[1 - _KEPT:], (self.known_s, self._seqs[0])]
         self.chain, self._seqs = self.chain[first:], self._seqs[first:]
         self.known_s = float(now_s)
         if seq == self._seqs[-1]:
@@ -151,13 +161,15 @@ class Commitment:
             self.awaiting = False
             self.sent_s = -math.inf
 
-    def fresh_radius_m(self, position_m: np.ndarray, velocity_m_s: np.ndarray) -> float:
-        """Certified radius around the newest point from a measurement taken while the chain held.
+    def fresh_radius_m(self, position_m: np.ndarray, velocity_m_s: np.ndarray,
+                       chain: list[np.ndarray] | None = None) -> float:
+        """Certified radius around the newest point from a measurement taken while ``chain`` held.
 
         The vehicle flew to one of the chain's points when measured, then possibly to each later one:
         the worst over the chain of its energy bound to that point plus the chain's length from there.
+        ``chain`` (default: today's) ends with the newest point sent.
         """
-        points = np.asarray(self.chain)
+        points = np.asarray(self.chain if chain is None else chain)
         radii = self.bounds.radius_m(np.asarray(position_m) - points, np.hypot(*velocity_m_s))
         steps = np.hypot(*np.diff(points, axis=0).T) if len(points) > 1 else np.zeros(0)
         onward = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]])  # chain length from each point on
@@ -166,19 +178,30 @@ class Commitment:
     def measure(self, position_m: np.ndarray, velocity_m_s: np.ndarray, stamp_s: float) -> bool:
         """Use a measurement true at ``stamp_s``; True when it lies outside the certified disc.
 
-        A measurement from before the chain's first point was known in effect, or older than one
-        already used, changes nothing (the vehicle may have been flying to a point no longer known).
+        A measurement older than one already used changes nothing. One from before the chain's first
+        point was known in effect is judged against the chain that held then and every point sent since
+        (it flew to one of those when measured, then possibly to each later one); one older than every
+        chain kept changes nothing.
         """
-        if stamp_s < self.known_s or stamp_s <= self.measured_s:
+        if stamp_s <= self.measured_s:
             return False
+        chain = self.chain
+        if stamp_s < self.known_s:
+            firsts = [first for known_s, first in self._known if known_s <= stamp_s]
+            seqs = range(firsts[-1], self._seqs[-1] + 1) if firsts else range(0)
+            if not firsts or any(s not in self._points for s in seqs):
+                return False
+            chain = [self._points[s] for s in seqs]
         self.measured_s = float(stamp_s)
         p = np.asarray(position_m, dtype=np.float64)
         outside = bool(np.hypot(*(p - self.centre_m)) > self.radius_m + self.bounds.position_error_m + 1e-9)
-        self.radius_m = min(self.radius_m, self.fresh_radius_m(p, np.asarray(velocity_m_s, dtype=np.float64)))
+        fresh = self.fresh_radius_m(p, np.asarray(velocity_m_s, dtype=np.float64), chain)
+        self.radius_m = min(self.radius_m, fresh)
         return outside
 
     def reset(self, point_m: np.ndarray, radius_m: float, now_s: float) -> None:
         """Start again from a point and radius the caller vouches for (a vehicle found outside its disc)."""
         self.chain, self._seqs = [np.asarray(point_m, dtype=np.float64).copy()], [self._next_seq]
+        self._points, self._known = {self._next_seq: self.chain[0]}, []
         self._next_seq += 1
         self.radius_m, self.known_s, self.awaiting = float(radius_m), float(now_s), False
