@@ -300,7 +300,7 @@ class FlightStatus:
         if status == "live" and self.phase == "return":
             return self._return_wait(vehicle, state)
         if status == "ending":
-            return "the answer to its RTL (over its home)"
+            return "the answer to its RTL"
         return ""
 
     def _launch_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
