@@ -20,8 +20,9 @@ from bridge.flight.guided import FlightError
 from bridge.link.vehicle_state import VehicleState
 from bridge.simulated.fleet import fleet_bridge_config
 from typed_config import load_toml
+from uav_swarm.runs.flight_holds import HoldRecord, holds_text
 from uav_swarm.runs.flight_loop import Flight
-from uav_swarm.runs.flight_status import FlightStatus, HoldRecord, end_report, holds_text
+from uav_swarm.runs.flight_status import FlightStatus, end_report
 from uav_swarm.runs.fly_config import load_fly_config
 
 

@@ -10,13 +10,13 @@
 - :meth:`FlightSafety.takeoff_gate`: its turn to arm and climb;
 - :meth:`FlightSafety.decide` (``[guard] rate_hz`` times a second): the guard's decision for every
   airborne vehicle on its measured position and the time it was true (:mod:`uav_swarm.runs.flight_guard`),
-  each new hold an event and recorded by reason (:class:`uav_swarm.runs.flight_status.HoldRecord`,
+  each new hold an event and recorded by reason (:class:`uav_swarm.runs.flight_holds.HoldRecord`,
   summed in the status lines and the end table, not logged one by one), each bound found broken (a
   stale position, a point not acknowledged, a vehicle outside its certified disc) an event
   ``guard_<kind>`` and counted, and the separation record
   (:class:`uav_swarm.world.separation.SeparationMonitor`, 3-D distances of the measured positions of the
   armed vehicles, and apart the closest pair in flight: both at least
-  :data:`~uav_swarm.runs.flight_status.AIRBORNE_M` above their homes, with the phase it was seen in);
+  :data:`~uav_swarm.runs.flight_holds.AIRBORNE_M` above their homes, with the phase it was seen in);
 - before arming, each vehicle's horizontal limits are read
   (:func:`bridge.flight.limits.read_horizontal_limits`) and the guard plans it with the smaller of
   those and ``[guard]``'s; one whose limits cannot be read is refused unless ``[guard] stated_limits``.
@@ -37,7 +37,7 @@ from bridge.flight.preflight import PreflightError, PreflightReport, preflight, 
 from bridge.flight.vehicles import FleetError
 from bridge.geo import geodetic_to_enu
 from uav_swarm.runs.flight_guard import FlightGuard, GuardDecision
-from uav_swarm.runs.flight_status import AIRBORNE_M, HoldRecord, Reason
+from uav_swarm.runs.flight_holds import AIRBORNE_M, HoldRecord, Reason
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.launch_plan import TakeoffGate, check_launch_positions, grid_slots_m, return_altitudes_m
 from uav_swarm.world.separation import SeparationMonitor

@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -31,14 +32,13 @@ if TYPE_CHECKING:
     from bridge.link.vehicle_state import VehicleState
     from uav_swarm.planning.planner import Planner
     from uav_swarm.runs.flight_safety import FlightSafety
-    from uav_swarm.runs.flight_status import FlightStatus
     from uav_swarm.runs.fly_config import FlyConfig
     from uav_swarm.runs.outputs import RunOutputs
     from uav_swarm.runs.steering import OperatorTargets
     from uav_swarm.world.crowd import CrowdSim
     from uav_swarm.world.scenario import Scenario
 
-__all__ = ["SILENT", "TICK_S", "FlightVehicle", "FlightVehicles"]
+__all__ = ["SILENT", "TICK_S", "FlightVehicle", "FlightVehicles", "outcome"]
 
 logger = logging.getLogger(__name__)
 
@@ -78,7 +78,7 @@ class FlightVehicles:
     steering: OperatorTargets | None
     vehicles: list[FlightVehicle]
     safety: FlightSafety
-    flight_status: FlightStatus
+    flight_status: Any  # the flight's FlightStatus (uav_swarm.runs.flight_status, which imports this module)
     scenario: Scenario
     crowd: CrowdSim
     events: list[dict[str, Any]]
@@ -146,10 +146,8 @@ class FlightVehicles:
 
         Each vehicle: its status, whether it was launched (seen armed; else its outcome is "not
         launched", whatever it was sent at the end), its outcome in words, launches, command failures
-        and the guard's holds by reason (:class:`uav_swarm.runs.flight_status.HoldRecord`).
+        and the guard's holds by reason (:class:`uav_swarm.runs.flight_holds.HoldRecord`).
         """
-        from uav_swarm.runs.flight_status import outcome
-
         status = self.flight_status
         holds = self.safety.holds.to_dict(time.time())
         waits = status.waits_at_end or {}
@@ -163,3 +161,35 @@ class FlightVehicles:
                 "launches": v.launches, "command_failures": v.command_failures,
                 "holds": holds.get(v.system_id, [])})
         return self.safety.summary() | {"vehicles": vehicles, "events": events}
+
+
+def outcome(vehicle: FlightVehicle, launched: bool, events: Sequence[Mapping[str, Any]], end_action: str,
+            waited: str = "") -> str:
+    """A vehicle's outcome in words: ``"not launched (...)"`` when it was never armed, else its status.
+
+    >>> outcome(FlightVehicle(4, 3, status="not found"), False, [], "rtl")
+    'not launched (never heard)'
+    >>> outcome(FlightVehicle(1, 0, status="ended"), True, [], "rtl")
+    'ended (RTL sent)'
+    """
+    sid = vehicle.system_id
+    failed = [e["detail"] for e in events if e.get("system_id") == sid and e["event"] == "launch_failed"]
+    if not launched:
+        if vehicle.status == "not found":
+            why = "never heard"
+        elif failed:
+            why = failed[-1]
+        elif waited:
+            why = f"the flight ended before its take-off: {waited}"
+        else:
+            why = "never armed"
+        return f"not launched ({why})"
+    if vehicle.status == "ended":
+        return f"ended ({end_action.upper()} sent)"
+    if vehicle.status == "landed":
+        return "landed (disarmed in flight)"
+    if vehicle.status == "failed" and failed:
+        return f"failed ({failed[-1]})"
+    if vehicle.status in ("lost", "not found"):
+        return "lost (no heartbeat at the end)"
+    return vehicle.status
