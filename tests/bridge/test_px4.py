@@ -186,10 +186,12 @@ def test_a_mixed_fleet_of_two_px4_and_two_ardupilot_flies_one_fly(tmp_path):
 
 def test_mission_mode_on_px4_flies_auto_mission_from_its_item_0_and_lands(tmp_path):
     vehicles, urls = _fleet("pa")
+    config = tmp_path / "fly.toml"  # the paper's radio needs both vehicles (802.11: one serves the crowd)
+    config.write_text('[task.radio]\npropagation = "paper"\n', encoding="utf-8")
     try:
         argv = ["fly", "--bridge-config", str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "--out",
                 str(tmp_path / "out"), "--mode", "mission", "--end", "land", "--duration-s", "8",
-                "--speedup", "2", "--no-telemetry"]
+                "--speedup", "2", "--no-telemetry", "--config", str(config)]
         assert main(argv) == 0
     finally:
         close_all(vehicles)

@@ -96,8 +96,9 @@ def test_the_motion_planner_takes_the_decisions_of_the_per_instant_horizon(monke
     """A flown sequence with the batched horizon and with the per-instant one: the same plans."""
     from uav_swarm.planning import motion as motion_module
 
-    config = SimulateConfig(duration_s=12.0, n_uavs=6, replan_every=10, seed=4, publish_telemetry=False,
-                            gif=False, static_reference=False)
+    config = SimulateConfig.from_dict({  # the paper's radio: the per-instant reference is the paper's
+        "duration_s": 12.0, "n_uavs": 6, "replan_every": 10, "seed": 4, "publish_telemetry": False,
+        "gif": False, "static_reference": False, "task": {"radio": {"propagation": "paper"}}})
 
     def flown():
         planner = make_planner("expert", config.n_uavs, config.task, config=PlannerConfig(),
