@@ -286,7 +286,7 @@ def milliseconds(clocks: Clocks, name: str, digits: int) -> str:
 def report(label: str, slow: str, fast: str, clocks: Clocks, unit: str = "") -> None:
     """One ratio line: by CPU time first, then by wall time."""
     wall, cpu = clocks
-    print(f"  {label:<24}cpu {ratio(cpu[slow], cpu[fast])}   wall {ratio(wall[slow], wall[fast])}{unit}")
+    print(f"  {label:<29}cpu {ratio(cpu[slow], cpu[fast])}   wall {ratio(wall[slow], wall[fast])}{unit}")
 
 
 def run(args: argparse.Namespace, commit: str, now: Worker, before: Worker) -> None:
