@@ -27,10 +27,6 @@ __all__ = ["FlightLaunch"]
 
 logger = logging.getLogger(__name__)
 
-_RESTARTED_ABOVE_M = 3.0
-"""A live vehicle seen disarmed when its last report had it this high has restarted: it could not land
-between two reports."""
-
 SILENCE_REPORT_S = 3.0
 """After this long without a vehicle's heartbeat, the silent vehicles are named (with why, if known)."""
 
@@ -161,25 +157,13 @@ class FlightLaunch(FlightStep):
         timeout_s = self.config.flight.link_timeout_s
         for vehicle in self.vehicles:
             state = self._state(vehicle)
-            if vehicle.status == "live" and state is not None and state.armed is False and \
-                    vehicle.airborne_m > _RESTARTED_ABOVE_M:  # on the ground a moment after in the air
-                vehicle.status, vehicle.lost_at_s = "lost", time.time()
-                vehicle.target_m = None
-                self.outputs.retire(vehicle.uav_id)
-                logger.warning("vehicle %d restarted in flight (disarmed on the ground %.0f m below where it "
-                               "flew): taking it back", vehicle.system_id, vehicle.airborne_m)
-                self._event("restarted", vehicle)
-                vehicle.airborne_m = 0.0
-                self._start_launch(vehicle)
-            elif vehicle.status == "live" and state is not None and state.armed is False:
+            if vehicle.status == "live" and state is not None and state.armed is False:
                 vehicle.status, vehicle.target_m = "landed", None
                 self.outputs.retire(vehicle.uav_id)
                 logger.warning("vehicle %d disarmed in flight (landed or taken over): left out of the plan",
                                vehicle.system_id)
                 self._event("disarmed", vehicle)
-            elif vehicle.status == "live" and state is not None and state.armed:
-                vehicle.airborne_m = float(state.relative_alt_m or 0.0)  # its height, to tell a restart
-            if vehicle.status in ("live", "launching") and not self._heard_within(vehicle, timeout_s):
+            elif vehicle.status in ("live", "launching") and not self._heard_within(vehicle, timeout_s):
                 vehicle.status, vehicle.lost_at_s = "lost", time.time()
                 vehicle.target_m = None
                 self.outputs.retire(vehicle.uav_id)

@@ -108,8 +108,8 @@ class FlightStep(FlightVehicles):
         flying, busy, returning, grounded = [], [], [], []
         for vehicle in self.vehicles:
             state = self._state(vehicle)
-            if state is not None and state.armed is False and vehicle.status != "live":
-                grounded.append(vehicle.system_id)  # on the ground (landed, restarted, not up yet): out
+            if state is not None and state.armed is False and vehicle.status not in ("live", "launching"):
+                grounded.append(vehicle.system_id)  # on the ground: out of the guard
             if state is None or state.x_m is None:
                 continue  # unheard or without a fix: the guard keeps its disc
             if vehicle.status in ("ending", "ended") and state.armed:  # flying home, landing: an obstacle

@@ -61,8 +61,6 @@ class FlightVehicle:
     guard_job: Future[None] | None = None
     command_failures: int = 0
     launches: int = 0
-    airborne_m: float = 0.0
-    """Its height above home at its last armed report while live (a restart is told from it)."""
 
 
 class FlightVehicles:
