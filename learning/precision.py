@@ -2,7 +2,7 @@
 
 On CPUs with AVX-512 BF16 or AMX (``lscpu`` flags ``avx512_bf16``, ``amx_bf16``) and on CUDA
 devices that support it, bfloat16 autocast trains and runs the network several times faster
-than float32 (``benchmarks/train_speed.py``); elsewhere bfloat16 is emulated and slower, so
+than float32 (``benchmarks/learning/train_speed.py``); elsewhere bfloat16 is emulated and slower, so
 ``"auto"`` picks it only where it is native. Training under autocast keeps float32 master
 weights, optimiser state and loss: only the convolutions run in bfloat16.
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uav_swarm.runs.ros2.config import Ros2Config, ros2_environment
+from uav_swarm.runs.outputs.ros2.config import Ros2Config, ros2_environment
 
 ros2_environment(Ros2Config())
 

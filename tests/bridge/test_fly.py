@@ -207,7 +207,7 @@ def test_fly_says_what_it_waits_for_and_ends_with_outcomes_closest_pair_in_fligh
         assert main(argv) == 0
     finally:
         close_all(vehicles)
-    lines = [r.getMessage() for r in caplog.records if r.name == "uav_swarm.runs.flight_status"]
+    lines = [r.getMessage() for r in caplog.records if r.name == "uav_swarm.runs.flight.status"]
 
     def first(text: str) -> int:
         return next(i for i, line in enumerate(lines) if text in line)
@@ -347,7 +347,7 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
         argv = ["fly", "--bridge-config", str(bridge_toml(tmp_path / "bridge.toml", urls, FAST)), "--out",
                 str(tmp_path / "out"), "--duration-s", "4", "--speedup", "2", "--no-telemetry",
                 "--record", str(path), "--live", "127.0.0.1:0"]
-        caplog.set_level(logging.INFO, logger="uav_swarm.runs.recording")
+        caplog.set_level(logging.INFO, logger="uav_swarm.runs.outputs.recording")
         assert main(argv) == 0
     finally:
         close_all(vehicles)

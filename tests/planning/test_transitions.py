@@ -199,7 +199,8 @@ def test_targets_exactly_at_the_minimum_keep_it_when_flown_or_are_reported():
 
 @pytest.mark.parametrize("seed", range(3))
 def test_every_pair_reported_resolved_keeps_the_minimum_when_flown_without_the_guard(seed):
-    """A seeded quick fuzz (benchmarks/transitions_fuzz.py runs 1,000 cases): replans in flight, crowded."""
+    """A seeded quick fuzz (benchmarks/flight/transitions_fuzz.py runs 1,000 cases): replans in flight,
+    crowded."""
     rng = np.random.default_rng(100 + seed)
     resolved_pairs = 0
     for _ in range(12):

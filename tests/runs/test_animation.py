@@ -8,9 +8,9 @@ from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 from PIL import Image
 
 from typed_config import ConfigError
-from uav_swarm.runs.animation import SceneAnimation, write_scene_gif
-from uav_swarm.runs.radio_report import SERVICE_COLOURS
-from uav_swarm.runs.records import Frame
+from uav_swarm.runs.outputs.animation import SceneAnimation, write_scene_gif
+from uav_swarm.runs.outputs.radio_report import SERVICE_COLOURS
+from uav_swarm.runs.outputs.records import Frame
 from uav_swarm.runs.simulate_config import SimulateConfig
 
 OBSTACLES = np.array([[20.0, 30.0, 60.0, 30.0], [150.0, 120.0, 150.0, 180.0]])

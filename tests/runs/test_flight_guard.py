@@ -9,7 +9,7 @@ import pytest
 
 from bridge.flight.limits import HorizontalLimits
 from typed_config import ConfigError
-from uav_swarm.runs.flight_guard import FlightGuard, GuardConfig
+from uav_swarm.runs.flight.guard import FlightGuard, GuardConfig
 from uav_swarm.runs.fly_config import FlyConfig
 
 

@@ -1,6 +1,6 @@
 """``fly``'s status lines, paced by the flight's own loop; the guard's holds summed per vehicle and reason.
 
-A real :class:`~uav_swarm.runs.flight_loop.Flight` over a fleet of loopback endpoints nobody answers (its
+A real :class:`~uav_swarm.runs.flight.loop.Flight` over a fleet of loopback endpoints nobody answers (its
 vehicles are never heard), its real take-off gate and separation record; only the clock the lines are paced
 by is the test's, so the lines are judged by their content and order, not by how fast this machine is.
 """
@@ -20,9 +20,9 @@ from bridge.flight.guided import FlightError
 from bridge.link.vehicle_state import VehicleState
 from bridge.simulated.fleet import fleet_bridge_config
 from typed_config import load_toml
-from uav_swarm.runs.flight_holds import HoldRecord, holds_text
-from uav_swarm.runs.flight_loop import Flight
-from uav_swarm.runs.flight_status import FlightStatus, end_report
+from uav_swarm.runs.flight.holds import HoldRecord, holds_text
+from uav_swarm.runs.flight.loop import Flight
+from uav_swarm.runs.flight.status import FlightStatus, end_report
 from uav_swarm.runs.fly_config import load_fly_config
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from uav_swarm.runs.foxglove_layout import layout_json
-from uav_swarm.runs.recording import RUN_TOPICS
+from uav_swarm.runs.outputs.foxglove_layout import layout_json
+from uav_swarm.runs.outputs.recording import RUN_TOPICS
 
 COMMITTED = Path(__file__).resolve().parents[2] / "docs" / "foxglove" / "uav-swarm-layout.json"
 

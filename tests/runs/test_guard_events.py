@@ -1,6 +1,7 @@
 """The guard flown by jerk-limited autopilots through the events of a real flight, judged on true positions.
 
-Each event case (:data:`uav_swarm.runs.guard_trial.EVENT_TRIALS`) with each simulated autopilot: no pair
+Each event case (:data:`uav_swarm.runs.flight.guard_trial.EVENT_TRIALS`) with each simulated autopilot: no
+pair
 under the minimum and no vehicle outside the set the guard certifies for it (the judge compares true
 positions with the guard's ``centre_m`` / ``radius_m`` every 0.05 s). Where the guard does not yet cover
 an event, the case is marked with what the judge sees.
@@ -14,7 +15,7 @@ import numpy as np
 import pytest
 from _pytest.mark import ParameterSet
 
-from uav_swarm.runs.guard_trial import (
+from uav_swarm.runs.flight.guard_trial import (
     AUTOPILOTS,
     EVENT_TRIALS,
     EVENTS,

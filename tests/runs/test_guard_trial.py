@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from uav_swarm.runs.guard_trial import NAMED_TRIALS as CASES
-from uav_swarm.runs.guard_trial import WORST_BOUNDS as WORST
-from uav_swarm.runs.guard_trial import Trial, fly_trial, random_trial
+from uav_swarm.runs.flight.guard_trial import NAMED_TRIALS as CASES
+from uav_swarm.runs.flight.guard_trial import WORST_BOUNDS as WORST
+from uav_swarm.runs.flight.guard_trial import Trial, fly_trial, random_trial
 
 MIN_M = 5.0
 

@@ -14,8 +14,8 @@ from ports import free_tcp_port
 from bridge.telemetry.schema import Qos, UavState
 from typed_config import ConfigError
 from uav_swarm.cli import main
-from uav_swarm.runs.live_view import LiveView, live_view_option, parse_live_view
-from uav_swarm.runs.recording import LIVE_BACKLOG_MESSAGES, SceneInfo, open_recorder
+from uav_swarm.runs.outputs.live_view import LiveView, live_view_option, parse_live_view
+from uav_swarm.runs.outputs.recording import LIVE_BACKLOG_MESSAGES, SceneInfo, open_recorder
 
 SMALL_TOML = """
 n_uavs = 3

@@ -20,12 +20,12 @@ from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from typed_config import ConfigError
 from uav_swarm.cli.simulate import format_summary
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.runs.radio_report import MCS_BANDS, mcs_band_shares
+from uav_swarm.runs.outputs.radio_report import MCS_BANDS, mcs_band_shares
 from uav_swarm.runs.simulate import sequence_crowds, simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.world.comms import Association
-from uav_swarm.world.wifi_channels import plan_channels
-from uav_swarm.world.wifi_phy import ap_pair_power_dbm
+from uav_swarm.world.wifi.channels import plan_channels
+from uav_swarm.world.wifi.phy import ap_pair_power_dbm
 
 N_UAVS, REPLAN_EVERY = 4, 5
 WIFI_TASK = {**SMALL_WIFI_TASK, "strategy": 2, "radio": {"propagation": "802.11"}}

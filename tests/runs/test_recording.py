@@ -20,7 +20,7 @@ from bridge.telemetry.schema import Qos, UavState
 from conftest import SMALL_PAPER_TASK
 from typed_config import ConfigError
 from uav_swarm.cli import main
-from uav_swarm.runs.recording import RUN_METADATA, SceneInfo, open_recorder
+from uav_swarm.runs.outputs.recording import RUN_METADATA, SceneInfo, open_recorder
 from uav_swarm.runs.simulate import simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from uav_swarm.planning.planner import make_planner
 from uav_swarm.runs.fly_config import FlyConfig
-from uav_swarm.runs.records import QosTrace
+from uav_swarm.runs.outputs.records import QosTrace
 from uav_swarm.runs.simulate import run_sequence, sequence_crowds
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.runs.summary import qos_figures, summarise_flight, summarise_run

@@ -14,7 +14,7 @@ from uav_swarm.world.separation import (
 
 
 def test_every_fleet_the_check_accepts_starts_and_every_fleet_it_refuses_does_not():
-    """A seeded quick version of benchmarks/feasibility_fuzz.py: fleets at the edge of the rule."""
+    """A seeded quick version of benchmarks/flight/feasibility_fuzz.py: fleets at the edge of the rule."""
     rng = np.random.default_rng(4)
     accepted = refused = 0
     for _ in range(60):

@@ -8,10 +8,10 @@ import pytest
 from typed_config import ConfigError
 from uav_swarm.world.comms import Association, RadioConfig, evaluate_coverage
 from uav_swarm.world.comms_batch import coverage_batch
-from uav_swarm.world.wifi_airtime import collision_success
-from uav_swarm.world.wifi_config import Ieee80211Config
-from uav_swarm.world.wifi_coverage import wifi_links
-from uav_swarm.world.wifi_tables import load_wifi_tables
+from uav_swarm.world.wifi.airtime import collision_success
+from uav_swarm.world.wifi.config import Ieee80211Config
+from uav_swarm.world.wifi.coverage import wifi_links
+from uav_swarm.world.wifi.tables import load_wifi_tables
 
 WIFI = RadioConfig(propagation="802.11")
 # Carrier sense at the energy-detection level (-62 dBm): APs tens of metres apart no longer hear each other.

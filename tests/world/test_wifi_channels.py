@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
-from uav_swarm.world.wifi_channels import plan_channels, plan_is_valid
-from uav_swarm.world.wifi_config import Ieee80211Config
-from uav_swarm.world.wifi_coverage import channel_conflicts
+from uav_swarm.world.wifi.channels import plan_channels, plan_is_valid
+from uav_swarm.world.wifi.config import Ieee80211Config
+from uav_swarm.world.wifi.coverage import channel_conflicts
 
 THREE = RadioConfig(propagation="802.11", ieee80211=Ieee80211Config(channels=(36, 40, 44)))
 TRIANGLE = np.array([[0.0, 0.0], [10.0, 0.0], [5.0, 8.0]])

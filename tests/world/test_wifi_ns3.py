@@ -3,7 +3,7 @@
 Deselected by default (``-m "not sitl and not ns3"`` in pyproject's addopts). ns-3 is the PyPI ``ns3``
 package (the ``radio-calibration`` extra), never a test dependency: give a Python that has it in
 ``NS3_PYTHON`` (it may live in its own virtual environment), or run pytest in one; without either the test is
-skipped. ns-3 runs in a subprocess (``benchmarks/radio_ns3/ns3_scene.py``: an abort inside ns-3 must not end
+skipped. ns-3 runs in a subprocess (``benchmarks/radio/ns3/ns3_scene.py``: an abort inside ns-3 must not end
 pytest) on two UAVs 10 m apart, two users each, first on one channel and then on two, with the model's own
 path loss, so that only ns-3's MAC and PHY are compared with the model's shipped tables; and five APs on one
 channel (they collide) at ns-3's default 3.2 us guard interval, given to the model as ``guard_interval_us``::

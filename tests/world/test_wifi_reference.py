@@ -15,8 +15,8 @@ import pytest
 from scipy.optimize import brentq
 
 from uav_swarm.world.comms import Association, RadioConfig, evaluate_coverage
-from uav_swarm.world.wifi_config import Ieee80211Config
-from uav_swarm.world.wifi_tables import load_wifi_tables
+from uav_swarm.world.wifi.config import Ieee80211Config
+from uav_swarm.world.wifi.tables import load_wifi_tables
 
 LIGHT_M_S = 299_792_458.0
 AL_HOURANI = {  # docs/radio.md, section 1: a, b, eta_LoS, eta_NLoS

@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     """Validate (and start the simulated fleet), then fly."""
     from typed_config import ConfigError
     from uav_swarm.runs.fly_config import load_fly_config
-    from uav_swarm.runs.live_view import live_view_option
+    from uav_swarm.runs.outputs.live_view import live_view_option
 
     with ExitStack() as stack:
         try:
@@ -178,7 +178,7 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
-    from uav_swarm.runs.flight_status import end_report
+    from uav_swarm.runs.flight.status import end_report
     from uav_swarm.runs.fly import fly
 
     stop = threading.Event()

@@ -241,7 +241,7 @@ def run(args: argparse.Namespace) -> int:
     from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
-    from uav_swarm.runs.live_view import live_view_option
+    from uav_swarm.runs.outputs.live_view import live_view_option
     from uav_swarm.runs.simulate import simulate
     from uav_swarm.runs.simulate_config import load_simulate_config
 

@@ -11,7 +11,7 @@ its normal end (exit code 0; ``record`` writes what it received).
 flown elsewhere: each UAV's pose, fix and target, the plans and the QoS, on the topics of ``--ros2``
 (``docs/ros2.md``), stamped with the time each payload was produced; DDS stays on this machine unless
 ``--ros2-subnet``. ``ros2-topics`` lists a run's ROS 2 topics and their rates
-(:mod:`uav_swarm.runs.ros2.rates`).
+(:mod:`uav_swarm.runs.outputs.ros2.rates`).
 """
 
 from __future__ import annotations
@@ -142,12 +142,12 @@ def _ros2_topics(args: argparse.Namespace) -> int:
     """Print the run's topics and their rates; 1 when no topic of the namespace is found."""
     import os
 
-    from uav_swarm.runs.ros2 import check_ros2
-    from uav_swarm.runs.ros2.config import Ros2Config
+    from uav_swarm.runs.outputs.ros2 import check_ros2
+    from uav_swarm.runs.outputs.ros2.config import Ros2Config
 
     config = Ros2Config(enabled=True, namespace=args.namespace, localhost_only=not args.ros2_subnet)
     check_ros2()
-    from uav_swarm.runs.ros2.rates import format_rates, topic_rates
+    from uav_swarm.runs.outputs.ros2.rates import format_rates, topic_rates
 
     namespace = config.namespace_for(args.swarm)
     rates = topic_rates(namespace, args.duration_s, config, wait_s=args.wait_s)
@@ -162,12 +162,12 @@ def _ros2_topics(args: argparse.Namespace) -> int:
 
 def _ros_node(args: argparse.Namespace, swarm: str, stack: ExitStack) -> Any:
     """The republishing ROS 2 node, open until ``stack`` closes (ConfigError: no ros2 extra)."""
-    from uav_swarm.runs.ros2 import check_ros2
-    from uav_swarm.runs.ros2.config import Ros2Config
+    from uav_swarm.runs.outputs.ros2 import check_ros2
+    from uav_swarm.runs.outputs.ros2.config import Ros2Config
 
     config = Ros2Config(enabled=True, namespace=args.namespace, localhost_only=not args.ros2_subnet)
     check_ros2()
-    from uav_swarm.runs.ros2.node import RunNode
+    from uav_swarm.runs.outputs.ros2.node import RunNode
 
     node = RunNode(config, swarm=swarm, n_uavs=args.n_uavs, node_name="uav_swarm_telemetry", sim_time=False)
     node.open()

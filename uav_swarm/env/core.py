@@ -45,8 +45,8 @@ from uav_swarm.world.separation import (
 )
 from uav_swarm.world.step_guard import guard_commands
 from uav_swarm.world.uav import fly_step, waypoint_velocity
-from uav_swarm.world.wifi_channels import plan_channels
-from uav_swarm.world.wifi_coverage import uav_channels
+from uav_swarm.world.wifi.channels import plan_channels
+from uav_swarm.world.wifi.coverage import uav_channels
 
 __all__ = ["SwarmCore"]
 
@@ -192,7 +192,7 @@ class SwarmCore:
         """Each UAV's channel from the next step on (802.11 radio).
 
         ``channels``: (K,) or (B, K) channel numbers; None: the environment plans them itself after every
-        reset and step (:func:`~uav_swarm.world.wifi_channels.plan_channels` on the UAVs' positions and
+        reset and step (:func:`~uav_swarm.world.wifi.channels.plan_channels` on the UAVs' positions and
         altitudes, the plan in force kept while it stays valid), the default.
 
         Raises:

@@ -298,7 +298,7 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
     def set_channel_plan(self, channels: np.ndarray | None) -> None:
         """Each UAV's channel from the next step on (``propagation = "802.11"``).
 
-        ``channels``: (K,) channel numbers (``uav_swarm.world.wifi_channels.plan_channels`` computes them);
+        ``channels``: (K,) channel numbers (``uav_swarm.world.wifi.channels.plan_channels`` computes them);
         None: the environment plans them itself at every step (the default: ``plan_channels`` on the UAVs'
         positions, the plan in force kept while valid).
 

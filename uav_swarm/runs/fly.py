@@ -21,11 +21,11 @@ Telemetry (Zenoh, loopback by default): each vehicle's state on ``uav_swarm/<swa
 (``source = "vehicle"``) as each GLOBAL_POSITION_INT arrives, with its accepted target; the plans on
 ``/plan``; the QoS of the measured positions over the simulated crowd on ``/qos``.
 
-The loop itself is :class:`uav_swarm.runs.flight_loop.Flight`. Outputs in ``out_dir``: ``qos.png``,
+The loop itself is :class:`uav_swarm.runs.flight.loop.Flight`. Outputs in ``out_dir``: ``qos.png``,
 ``timeseries.csv`` (QoS over time), ``track.csv`` (each vehicle's measured track and target, and its
 channel under the 802.11 radio) and ``summary.json`` (events, failures, QoS, the config);
 with ``record``, an MCAP file of the flight at crowd time, and with ``live``, the same messages streamed
-to Foxglove as they happen (:mod:`uav_swarm.runs.recording`).
+to Foxglove as they happen (:mod:`uav_swarm.runs.outputs.recording`).
 """
 
 from __future__ import annotations
@@ -40,16 +40,16 @@ from typing import TYPE_CHECKING, Any
 from bridge.errors import BridgeError
 from bridge.flight.preflight import PreflightError
 from uav_swarm.planning.planner import make_planner
-from uav_swarm.runs.flight_loop import Flight
+from uav_swarm.runs.flight.loop import Flight
 from uav_swarm.runs.fly_config import FlyConfig
-from uav_swarm.runs.outputs import RunOutputs
-from uav_swarm.runs.records import QosTrace
+from uav_swarm.runs.outputs.fanout import RunOutputs
+from uav_swarm.runs.outputs.records import QosTrace
 from uav_swarm.runs.summary import planner_names, summarise_flight
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
     from uav_swarm.planning.base import Planner
-    from uav_swarm.runs.live_view import LiveView
+    from uav_swarm.runs.outputs.live_view import LiveView
 
 __all__ = ["FlightResult", "fly", "load_flight_bridge"]
 
@@ -73,7 +73,7 @@ def load_flight_bridge(config: FlyConfig) -> BridgeConfig:
     from bridge.config import BridgeConfig
     from bridge.geofence import check_geofence
     from typed_config import ConfigError, load_toml
-    from uav_swarm.runs.launch_plan import return_altitudes_m
+    from uav_swarm.runs.flight.launch_plan import return_altitudes_m
     from uav_swarm.world.separation import check_fleet_fits
 
     bridge = load_toml(BridgeConfig, config.bridge_config)
@@ -152,9 +152,9 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     from bridge.flight.fleet import Fleet
     from bridge.telemetry import SwarmPublisher
     from typed_config.files import write_bytes_atomic
-    from uav_swarm.runs.plots import write_qos_figure
-    from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
-    from uav_swarm.runs.ros2 import check_ros2, open_run_node
+    from uav_swarm.runs.outputs.plots import write_qos_figure
+    from uav_swarm.runs.outputs.recording import SceneInfo, check_recording_path, open_recorder
+    from uav_swarm.runs.outputs.ros2 import check_ros2, open_run_node
 
     out_dir = Path(out_dir)
     if config.ros2.enabled:
@@ -200,7 +200,7 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     out_dir.mkdir(parents=True, exist_ok=True)
     files: list[Path] = []
     if trace is not None and trace.times_s.size:
-        from uav_swarm.runs.plots import write_timeseries
+        from uav_swarm.runs.outputs.plots import write_timeseries
 
         files += [write_qos_figure({"flown": trace}, out_dir / "qos.png"),
                   write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]

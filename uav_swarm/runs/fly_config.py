@@ -5,8 +5,8 @@ A TOML file (``uav-swarm fly --config file.toml``) holds the top-level keys belo
 altitude above each vehicle's home; ``min_separation_m`` the distance the guard keeps between any two
 vehicles), ``[planning]``, ``[telemetry]``, ``[ros2]``, ``[flight]``
 (:class:`bridge.flight.guided.FlightConfig`: launch timeouts, link timeout, end action), ``[launch]``
-(:class:`uav_swarm.runs.launch_plan.LaunchConfig`: where the vehicles take off) and ``[guard]``
-(:class:`uav_swarm.runs.flight_guard.GuardConfig`: the separation guard). Every key is optional except
+(:class:`uav_swarm.runs.flight.launch_plan.LaunchConfig`: where the vehicles take off) and ``[guard]``
+(:class:`uav_swarm.runs.flight.guard.GuardConfig`: the separation guard). Every key is optional except
 the bridge config, which names the vehicles.
 
 Examples:
@@ -29,10 +29,10 @@ from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
-from uav_swarm.runs.flight_guard import GuardConfig
-from uav_swarm.runs.launch_plan import LaunchConfig, check_launch_grid
+from uav_swarm.runs.flight.guard import GuardConfig
+from uav_swarm.runs.flight.launch_plan import LaunchConfig, check_launch_grid
+from uav_swarm.runs.outputs.ros2.config import Ros2Config
 from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, run_task, with_run_radio
-from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["FlyConfig", "load_fly_config"]

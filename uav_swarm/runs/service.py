@@ -20,7 +20,7 @@ import numpy as np
 
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask
 from uav_swarm.world.comms import evaluate_coverage
-from uav_swarm.world.wifi_channels import plan_channels
+from uav_swarm.world.wifi.channels import plan_channels
 
 __all__ = ["JUMP_M", "StaticReference", "static_reference", "reference_qos", "target_jumps",
            "metres_per_uav_minute", "flight_figures"]
@@ -75,7 +75,7 @@ def reference_qos(users_m: np.ndarray, velocities_m_s: np.ndarray, task_config: 
     """The strategy's QoS of the best expert placement of one crowd, judged as if reached.
 
     The 802.11 radio judges each placement with the UAVs at ``altitudes_m`` ((n_uavs,), the first ones
-    used) on the channels :func:`~uav_swarm.world.wifi_channels.plan_channels` gives them.
+    used) on the channels :func:`~uav_swarm.world.wifi.channels.plan_channels` gives them.
     """
     best = 0.0
     wifi = task_config.radio.propagation == "802.11"

@@ -13,7 +13,7 @@ While the flown planner runs, UAV states, plans and QoS are published over Zenoh
 East-North-Up metres from the home, which is the area's South-West corner ``(0, 0)``, at the
 simulated flight altitude ``uav.alt_m``.
 
-Outputs in ``out_dir`` (:mod:`uav_swarm.runs.plots` draws the pictures):
+Outputs in ``out_dir`` (:mod:`uav_swarm.runs.outputs.plots` draws the pictures):
 
 - ``qos.png``: QoS S1 and S2 and mean user throughput over time, both planners on one figure (802.11: the
   users' median SINR and MCS shares, and each UAV's channel, of the flown planner);
@@ -22,7 +22,7 @@ Outputs in ``out_dir`` (:mod:`uav_swarm.runs.plots` draws the pictures):
   planning latency; learned/expert ratios; the resolved config; the learned planner's checkpoint
   (``checkpoint``), its peak settings and their source (``peaks``); the expert that ran (``expert``);
   which radio ran (``radio``) and, under the 802.11 radio, each planner's channels, SINR/MCS shares,
-  airtime and co-channel sharing (``wifi_80211``, :mod:`uav_swarm.runs.radio_report`);
+  airtime and co-channel sharing (``wifi_80211``, :mod:`uav_swarm.runs.outputs.radio_report`);
 - ``timeseries.csv``: the per-step values of every run (802.11: median SINR, MCS shares, channels, airtime);
 - ``missions/vehicle_<id>.plan``: each UAV's mission to its final target (QGroundControl files);
   with a bridge config that lists vehicles, the missions are also uploaded
@@ -45,9 +45,9 @@ from tqdm.auto import tqdm
 from uav_swarm.env.parallel import parallel_env
 from uav_swarm.planning.planner import LearnedPlanner, Planner, make_planner
 from uav_swarm.planning.spacing import separate_targets
-from uav_swarm.runs.outputs import RunOutputs
-from uav_swarm.runs.radio_report import RadioLog, radio_line, telemetry_fields
-from uav_swarm.runs.records import Frame, SequenceRun
+from uav_swarm.runs.outputs.fanout import RunOutputs
+from uav_swarm.runs.outputs.radio_report import RadioLog, radio_line, telemetry_fields
+from uav_swarm.runs.outputs.records import Frame, SequenceRun
 from uav_swarm.runs.separation_watch import SeparationWatch
 from uav_swarm.runs.service import static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
@@ -58,12 +58,12 @@ from uav_swarm.runs.summary import (
     summarise_run,
 )
 from uav_swarm.world.comms import evaluate_coverage
-from uav_swarm.world.wifi_channels import plan_channels
+from uav_swarm.world.wifi.channels import plan_channels
 
 if TYPE_CHECKING:
     from bridge.config import BridgeConfig
     from bridge.telemetry.schema import Plan, Qos, UavState
-    from uav_swarm.runs.live_view import LiveView
+    from uav_swarm.runs.outputs.live_view import LiveView
     from uav_swarm.runs.steering import OperatorTargets
     from uav_swarm.world.uav import UAVConfig
 
@@ -129,7 +129,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         planner: The planner, for ``config.n_uavs`` UAVs.
         kind: Its label in the results (``"learned"`` or ``"expert"``).
         outputs: The run's sinks (Zenoh, Foxglove, ROS 2): states and QoS every ``config.telemetry_every``
-            steps, every plan, the scene, at simulated time (:mod:`uav_swarm.runs.outputs`).
+            steps, every plan, the scene, at simulated time (:mod:`uav_swarm.runs.outputs.fanout`).
         steering: Operator targets that replace the planner's for the UAVs they name, from the next step.
         frame_every: Keep a :class:`Frame` every this many steps (and the last); 0 keeps none.
         sample_every_s: Keep the crowd every this many simulated seconds from 0 (the static reference's
@@ -325,7 +325,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
         out_dir: Output folder.
         progress: Show a progress bar (on a terminal only: none in a log or a pipe).
         record: Also record the flown planner's run into this MCAP file
-            (:mod:`uav_swarm.runs.recording`, every ``telemetry_every`` steps and every plan).
+            (:mod:`uav_swarm.runs.outputs.recording`, every ``telemetry_every`` steps and every plan).
         live: Also stream the flown planner's run to Foxglove from a WebSocket server listening here.
 
     Raises:
@@ -340,9 +340,9 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     from bridge.errors import BridgeError
     from bridge.telemetry import SwarmPublisher
     from typed_config.files import write_bytes_atomic
-    from uav_swarm.runs.plots import write_qos_figure, write_scene_gif, write_timeseries
-    from uav_swarm.runs.recording import SceneInfo, check_recording_path, open_recorder
-    from uav_swarm.runs.ros2 import check_ros2, open_run_node
+    from uav_swarm.runs.outputs.plots import write_qos_figure, write_scene_gif, write_timeseries
+    from uav_swarm.runs.outputs.recording import SceneInfo, check_recording_path, open_recorder
+    from uav_swarm.runs.outputs.ros2 import check_ros2, open_run_node
 
     out_dir = Path(out_dir)
     if config.ros2.enabled:

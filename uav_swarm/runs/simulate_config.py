@@ -5,7 +5,7 @@ tables ``[task]`` (:class:`uav_swarm.missions.wifi.task.WifiConfig`: raster, sce
 expert; the same table as a task settings file), ``[uav]`` (flight limits), ``[planning]``
 (:class:`uav_swarm.planning.planner.PlannerConfig`), ``[telemetry]``
 (:class:`bridge.telemetry.config.TelemetryConfig`) and ``[ros2]``
-(:class:`uav_swarm.runs.ros2.config.Ros2Config`).
+(:class:`uav_swarm.runs.outputs.ros2.config.Ros2Config`).
 Every key is optional.
 
 Examples:
@@ -31,8 +31,8 @@ from uav_swarm.env.config import MAX_UAVS, EnvConfig
 from uav_swarm.missions.wifi.task import WifiConfig
 from uav_swarm.planning.base import task_with_uav_separation
 from uav_swarm.planning.planner import PlannerConfig
+from uav_swarm.runs.outputs.ros2.config import Ros2Config
 from uav_swarm.runs.radio_altitude import check_radio_altitude, radio_for_run, run_task, with_run_radio
-from uav_swarm.runs.ros2.config import Ros2Config
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["SimulateConfig", "load_simulate_config"]

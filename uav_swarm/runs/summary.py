@@ -5,7 +5,7 @@ association that judged them), the same service figures (:mod:`uav_swarm.runs.se
 reference, target jumps, metres per UAV-minute) and the same static reference record, sampled during the
 run every ``static_every_s`` (the crowd walks the same whatever the UAVs do). ``simulate`` adds the
 planning latency and churn of each planner and the learned / expert ratios; ``fly`` adds its vehicles'
-outcomes (:meth:`uav_swarm.runs.flight_loop.Flight.summary`).
+outcomes (:meth:`uav_swarm.runs.flight.loop.Flight.summary`).
 
 Examples:
     >>> import numpy as np
@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uav_swarm.runs.radio_report import radio_summary
-from uav_swarm.runs.records import QosTrace, SequenceRun
+from uav_swarm.runs.outputs.radio_report import radio_summary
+from uav_swarm.runs.outputs.records import QosTrace, SequenceRun
 from uav_swarm.runs.service import StaticReference, flight_figures, metres_per_uav_minute
 
 if TYPE_CHECKING:
@@ -64,7 +64,7 @@ def summarise_run(run: SequenceRun, config: SimulateConfig | None = None,
     With the run's ``config`` and the sequence's static ``reference``: the strategy's flown QoS over the
     static reference, target jumps per replan and metres flown per UAV-minute
     (:mod:`uav_swarm.runs.service`). Under the 802.11 radio, ``wifi_80211``: channels, SINR/MCS, airtime
-    and co-channel sharing (:func:`uav_swarm.runs.radio_report.radio_summary`).
+    and co-channel sharing (:func:`uav_swarm.runs.outputs.radio_report.radio_summary`).
     """
     changes = float(run.target_changes.mean()) if run.target_changes.size else 0.0
     figures: dict[str, float | None] = {}

@@ -25,7 +25,7 @@ at least ``signal_at_range``. A UAV's capacity is shared equally among its assoc
   the free places strongest first. The admission itself is :mod:`uav_swarm.world.admission`.
 
 **Propagation** (``RadioConfig.propagation``): ``"paper"`` is the model above; ``"802.11"`` is the 802.11
-model of :mod:`uav_swarm.world.wifi_coverage` (path loss, SINR, MCS rates, airtime shared by co-channel APs
+model of :mod:`uav_swarm.world.wifi.coverage` (path loss, SINR, MCS rates, airtime shared by co-channel APs
 that hear each other, admission on rate; docs/radio.md), which the same functions and :class:`Association`
 run, with each UAV's own altitude and a channel plan.
 
@@ -53,7 +53,7 @@ import numpy as np
 from uav_swarm.world.admission import admit_stations
 from uav_swarm.world.coverage import Coverage, coverage_of_links
 from uav_swarm.world.radio_config import RadioConfig
-from uav_swarm.world.wifi_coverage import wifi_links
+from uav_swarm.world.wifi.coverage import wifi_links
 
 __all__ = ["RadioConfig", "Coverage", "Association", "rescaled_signal", "evaluate_coverage",
            "coverage_of", "coverage_of_links"]
@@ -195,7 +195,7 @@ class Association:
     """The association of a sequence of snapshots (the environment, ``simulate``, ``fly``).
 
     With propagation ``"802.11"`` incumbents are always kept while in range (MCS 0 or better at their AP) and
-    newcomers are admitted as :mod:`uav_swarm.world.wifi_coverage` says.
+    newcomers are admitted as :mod:`uav_swarm.world.wifi.coverage` says.
     In the paper's model (no station limit) every snapshot is associated afresh, exactly as
     :func:`evaluate_coverage`. Under admission control a user keeps its UAV while it stays in range
     (no eviction by newcomers, no roaming while its signal holds); users that left their UAV's range,

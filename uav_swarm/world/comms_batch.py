@@ -7,7 +7,7 @@ associates it alone (the paper's model: every user in range joins its nearest UA
 index, the squared distances computed operation for operation as there), or, under admission control,
 by one :class:`~uav_swarm.world.comms.Association` per world, whose incumbents are kept step to step.
 With ``RadioConfig.propagation = "802.11"`` all worlds go through the 802.11 model at once
-(:func:`~uav_swarm.world.wifi_coverage.wifi_links`), the associations holding each world's incumbents.
+(:func:`~uav_swarm.world.wifi.coverage.wifi_links`), the associations holding each world's incumbents.
 
 Examples:
     >>> import numpy as np
@@ -28,7 +28,7 @@ import numba
 import numpy as np
 
 from uav_swarm.world.comms import Association, Coverage, RadioConfig, coverage_of, coverage_of_links
-from uav_swarm.world.wifi_coverage import WifiLinks, wifi_links
+from uav_swarm.world.wifi.coverage import WifiLinks, wifi_links
 
 __all__ = ["CoverageBatch", "coverage_batch", "nearest_uav"]
 

@@ -3,7 +3,7 @@
 Examples:
     >>> import numpy as np
     >>> from uav_swarm.world.radio_config import RadioConfig
-    >>> from uav_swarm.world.wifi_coverage import wifi_links
+    >>> from uav_swarm.world.wifi.coverage import wifi_links
     >>> radio = RadioConfig(propagation="802.11")
     >>> links = wifi_links(np.array([[5.0, 0.0]]), np.zeros(1, np.int64), np.zeros((1, 1, 2)), radio,
     ...                    altitudes_m=np.array([20.0]))
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uav_swarm.world.radio_config import RadioConfig
-from uav_swarm.world.wifi_coverage import WifiLinks
+from uav_swarm.world.wifi.coverage import WifiLinks
 
 __all__ = ["Coverage", "coverage_of_links"]
 
@@ -67,7 +67,7 @@ def coverage_of_links(links: WifiLinks, world: int, config: RadioConfig) -> Cove
     """World ``world``'s :class:`Coverage` from the 802.11 model's output.
 
     Args:
-        links: What :func:`~uav_swarm.world.wifi_coverage.wifi_links` computed.
+        links: What :func:`~uav_swarm.world.wifi.coverage.wifi_links` computed.
         world: The world's index.
         config: The radio model (it names the association).
 

@@ -1,8 +1,8 @@
 """The settings of the UAV Wi-Fi models: :class:`RadioConfig` (``[task.radio]``).
 
 ``propagation`` chooses the model: ``"paper"`` (:mod:`uav_swarm.world.comms`, this class's default, which the
-learning tasks keep) or ``"802.11"`` (:mod:`uav_swarm.world.wifi_coverage`, its settings in ``ieee80211``,
-:mod:`uav_swarm.world.wifi_config`; the default of ``simulate``, ``fly`` and ``uav_swarm_v0``,
+learning tasks keep) or ``"802.11"`` (:mod:`uav_swarm.world.wifi.coverage`, its settings in ``ieee80211``,
+:mod:`uav_swarm.world.wifi.config`; the default of ``simulate``, ``fly`` and ``uav_swarm_v0``,
 :data:`RUN_PROPAGATION`).
 
 Examples:
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from typed_config import Config, ConfigError, param
-from uav_swarm.world.wifi_config import Ieee80211Config
+from uav_swarm.world.wifi.config import Ieee80211Config
 
 __all__ = ["RadioConfig", "RUN_PROPAGATION"]
 

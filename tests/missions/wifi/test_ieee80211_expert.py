@@ -15,7 +15,7 @@ from uav_swarm.missions.wifi.ieee80211_expert import (
 )
 from uav_swarm.world.comms import evaluate_coverage
 from uav_swarm.world.radio_config import RadioConfig
-from uav_swarm.world.wifi_channels import plan_channels
+from uav_swarm.world.wifi.channels import plan_channels
 
 RADIO = RadioConfig(propagation="802.11", altitude_m=10.0)
 CONFIG = Ieee80211ExpertConfig(grid_step_m=20.0, polish_radius_m=5.0, polish_step_m=5.0, max_moves=5)

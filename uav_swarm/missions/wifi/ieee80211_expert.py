@@ -1,6 +1,6 @@
 """The Wi-Fi expert under the 802.11 radio: positions and channels judged by the model itself.
 
-Under the 802.11 model (:mod:`uav_swarm.world.wifi_coverage`) no coverage radius or per-UAV load bound
+Under the 802.11 model (:mod:`uav_swarm.world.wifi.coverage`) no coverage radius or per-UAV load bound
 describes a good placement: what a UAV delivers depends on its distance to each user (path loss, MCS), on
 the airtime its access point shares with co-channel neighbours that hear it, and on the interference of
 those that do not. So this expert optimises the mission's QoS itself, computed by the model for every
@@ -10,7 +10,7 @@ candidate at once (one batch of worlds per move):
   served when it has a usable rate (strategy 1: MCS 0 or better) or at least ``min_user_rate_mbps``
   (strategy 2);
 - every placement is judged with its **channel plan**, the greedy colouring of the carrier-sense graph
-  (:func:`uav_swarm.world.wifi_channels.plan_channels`), so the expert places positions *and* channels;
+  (:func:`uav_swarm.world.wifi.channels.plan_channels`), so the expert places positions *and* channels;
 - **greedy**: UAVs are added one at a time at the grid candidate that raises the score most (ties: the
   lowest candidate index), while the new UAV serves at least ``min_gain_users`` more users;
 - **polish**: each UAV may move to a point of a finer grid around it (``polish_radius_m``, ``polish_step_m``);
@@ -45,8 +45,8 @@ import numpy as np
 
 from typed_config import Config, param
 from uav_swarm.world.radio_config import RadioConfig
-from uav_swarm.world.wifi_channels import plan_channels
-from uav_swarm.world.wifi_coverage import wifi_links
+from uav_swarm.world.wifi.channels import plan_channels
+from uav_swarm.world.wifi.coverage import wifi_links
 
 __all__ = ["Ieee80211ExpertConfig", "placement_scores", "place_uavs_80211", "refine_80211"]
 

@@ -60,7 +60,7 @@ from uav_swarm.world.crowd import CrowdConfig, CrowdSim
 from uav_swarm.world.raster import density_map, metres_to_pixels, pixels_to_metres
 from uav_swarm.world.scenario import ScenarioConfig, random_scenario
 from uav_swarm.world.separation import check_fleet_fits
-from uav_swarm.world.wifi_channels import plan_channels
+from uav_swarm.world.wifi.channels import plan_channels
 
 __all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster"]
 

@@ -1,0 +1,81 @@
+"""Median batch-1 inference time of utility networks on the default engine, as the planner runs them.
+
+    python benchmarks/learning/inference_time.py --rounds 300 uav_swarm/checkpoints/agp.pt
+        runs/agp-w32/best.pt
+
+For each checkpoint (default: the shipped AGP, FP, Wi-Fi S1 and S2 networks): the network's
+parameters and forward FLOPs at batch 1, the engine :func:`learning.inference.select_engine` chooses
+for float32 on one thread (the planner's default: the fastest of ONNX Runtime, traced TorchScript and
+eager whose maps equal eager float32's), then ``--rounds`` batch-1 calls of that engine on a seeded
+raster, the checkpoints' calls interleaved round by round so that the machine's load hits all alike.
+Prints the machine, the load average before and after, and one table row per checkpoint.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch.utils.flop_counter import FlopCounterMode
+
+from learning.checkpoint import load_checkpoint
+from learning.inference import select_engine
+
+SHIPPED = ("agp", "fp", "wifi-s1", "wifi-s2")
+
+
+def _flops(model: torch.nn.Module, shape: tuple[int, int, int]) -> int:
+    with FlopCounterMode(display=False) as counter, torch.no_grad():
+        model(torch.zeros(1, *shape))
+    return int(counter.get_total_flops())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("checkpoints", nargs="*", help="checkpoint files (default: the shipped four)")
+    parser.add_argument("--rounds", type=int, default=300, help="timed batch-1 calls per checkpoint")
+    args = parser.parse_args()
+    if args.rounds < 1:
+        parser.error("--rounds must be >= 1")
+    root = Path(__file__).resolve().parents[2] / "uav_swarm" / "checkpoints"
+    paths = [Path(p) for p in args.checkpoints] or [root / f"{name}.pt" for name in SHIPPED]
+    torch.set_num_threads(1)
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, torch "
+          f"{torch.__version__}, 1 thread; load average before {os.getloadavg()}", flush=True)
+    rows = []
+    for path in paths:
+        ckpt = load_checkpoint(path)
+        channels, height, width = (int(v) for v in ckpt.payload["input_shape"])
+        shape = (channels, height, width)
+        model = ckpt.model.eval()
+        choice = select_engine(model, shape, "float32", threads=1)
+        raster = np.random.default_rng(0).random((1, *shape), dtype=np.float32)
+        cfg = ckpt.model_config
+        rows.append({"name": f"{path.parent.name}/{path.name}", "task": ckpt.payload["task_name"],
+                     "net": f"width {cfg.width}, depth {cfg.depth}",
+                     "params": sum(p.numel() for p in model.parameters()), "flops": _flops(model, shape),
+                     "engine": choice.engine, "raster": raster, "spent": []})
+        for _ in range(3):
+            choice.engine.maps(raster)
+    for _ in range(args.rounds):
+        for row in rows:
+            start = time.perf_counter()
+            row["engine"].maps(row["raster"])
+            row["spent"].append((time.perf_counter() - start) * 1e3)
+    print(f"load average after {os.getloadavg()}; {args.rounds} calls each, interleaved\n")
+    print("| checkpoint | task | network | parameters | MFLOPs (batch 1) | engine | median ms | p95 ms |")
+    print("|---|---|---|---|---|---|---|---|")
+    for row in rows:
+        spent = np.array(row["spent"])
+        print(f"| {row['name']} | {row['task']} | {row['net']} | {row['params']:,} | "
+              f"{row['flops'] / 1e6:,.0f} | {row['engine'].name} | {np.median(spent):.2f} | "
+              f"{np.percentile(spent, 95):.2f} |")
+
+
+if __name__ == "__main__":
+    main()
