@@ -4,6 +4,7 @@ from scipy import ndimage
 
 import learning.peaks as peaks_module
 from learning.peaks import PeakConfig, find_peaks
+from typed_config import ConfigError
 
 NO_CONTRAST = PeakConfig(min_contrast=0.0, threshold_abs=0.1)
 
@@ -108,3 +109,47 @@ def test_a_noisy_64px_map_gives_the_full_budget_of_separated_peaks():
     assert len(peaks) == 10
     gaps = np.hypot(*(peaks[:, None, :] - peaks[None, :, :]).transpose(2, 0, 1))
     assert gaps[~np.eye(10, dtype=bool)].min() >= PeakConfig().min_distance_px
+
+
+def _building(shape, cols):
+    """A raster whose first channel is 1 on the columns ``cols`` (the building), 0 elsewhere."""
+    raster = np.zeros((2, *shape))
+    raster[0][:, cols] = 1.0
+    return raster
+
+
+@pytest.mark.parametrize("region,expected_col", [("filled", 4.0), ("empty", 5.0)])
+def test_a_peak_across_the_wall_moves_to_the_best_allowed_pixel(region, expected_col):
+    u = gaussian((9, 12), 4.4, 4.0)  # the maximum at column 4, inside; column 5 is the best outside
+    raster = _building((9, 12), slice(0, 5))
+    (peak,) = find_peaks(u, PeakConfig(region=region, threshold_abs=0.1, min_contrast=0.0), raster=raster)
+    assert np.rint(peak).tolist() == [expected_col, 4.0]
+    allowed = peaks_module.allowed_pixels(raster, region)
+    assert allowed[int(np.rint(peak[1])), int(np.rint(peak[0]))]
+
+
+def test_a_disallowed_maximum_does_not_suppress_an_allowed_peak_beside_it():
+    u = gaussian((9, 12), 5.0, 4.0, height=1.0) + gaussian((9, 12), 3.0, 4.0, height=0.6)
+    raster = _building((9, 12), slice(0, 4))
+    config = PeakConfig(threshold_abs=0.3, min_contrast=0.0, min_distance_px=2)
+    assert len(find_peaks(u, config)) == 1  # without the region, the wall's peak takes the window
+    (peak,) = find_peaks(u, config.replace(region="filled"), raster=raster)
+    assert np.rint(peak).tolist() == [3.0, 4.0]
+
+
+def test_a_plateau_centroid_off_the_region_moves_onto_it():
+    u = np.zeros((9, 9))
+    u[2:7, 2] = u[2, 2:7] = 1.0  # an L-shaped plateau whose centroid is off the L
+    raster = np.zeros((2, 9, 9))
+    raster[0] = u
+    (peak,) = find_peaks(u, NO_CONTRAST.replace(region="filled"), raster=raster)
+    assert raster[0][int(np.rint(peak[1])), int(np.rint(peak[0]))] == 1.0
+
+
+def test_a_region_without_its_raster_or_of_an_unknown_name_is_refused():
+    with pytest.raises(ValueError, match="raster"):
+        find_peaks(gaussian((8, 8), 3, 3), PeakConfig(region="empty"))
+    with pytest.raises(ValueError, match="raster"):
+        find_peaks(gaussian((8, 8), 3, 3), PeakConfig(region="empty"), raster=np.zeros((2, 4, 4)))
+    with pytest.raises(ConfigError, match="region"):
+        PeakConfig(region="inside")
