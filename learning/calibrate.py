@@ -53,6 +53,7 @@ def calibrate_peaks(
     eps_px: float,
     base: PeakConfig,
     grid: CalibrationConfig | None = None,
+    rasters: Sequence[np.ndarray] | None = None,
 ) -> tuple[PeakConfig, dict[str, float]]:
     """The peak settings that maximise correspondence + precision on ``utilities``.
 
@@ -62,6 +63,7 @@ def calibrate_peaks(
         eps_px: Match radius.
         base: The configured settings; only ``threshold_abs`` and ``min_contrast`` change.
         grid: The values tried; default ``CalibrationConfig()``.
+        rasters: The samples' ``(C, h, w)`` inputs (needed when ``base.region`` is not ``"any"``).
 
     Returns:
         The chosen config and its aggregate scores (``corr``, ``precision``, ...).
@@ -73,12 +75,13 @@ def calibrate_peaks(
         raise ValueError(f"need as many utility maps as expert placements, >= 1 "
                          f"(got {len(utilities)} and {len(experts)})")
     grid = grid or CalibrationConfig()
+    inputs = list(rasters) if rasters is not None else [None] * len(utilities)
     best: tuple[float, PeakConfig, dict[str, float]] | None = None
     for threshold in sorted(grid.thresholds):
         for contrast in sorted(grid.contrasts):
             config = base.replace(threshold_abs=threshold, min_contrast=contrast)
-            summary = aggregate(score_sample(expert, find_peaks(u, config), eps_px)
-                                for u, expert in zip(utilities, experts, strict=True))
+            summary = aggregate(score_sample(expert, find_peaks(u, config, raster=x), eps_px)
+                                for u, expert, x in zip(utilities, experts, inputs, strict=True))
             score = summary["corr"] + summary["precision"]
             if best is None or score > best[0]:
                 best = (score, config, summary)

@@ -82,7 +82,7 @@ def calibrate_check(
     eps_px = MATCH_FRACTION * task.mission_dimension_px
 
     def score(peaks: PeakConfig, check: PlacementCheck | None) -> dict[str, float]:
-        predicted = [find_peaks(u, peaks) for u in utilities]
+        predicted = [find_peaks(u, peaks, raster=x) for u, x in zip(utilities, observations, strict=True)]
         if check is not None:
             predicted = [check(x, p) for x, p in zip(observations, predicted, strict=True)]
         summary = aggregate(score_sample(e, p, eps_px) for e, p in zip(experts, predicted, strict=True))

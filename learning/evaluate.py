@@ -173,7 +173,7 @@ def promises_line(promises: dict[str, Any]) -> str:
 def _learned(utility: np.ndarray, observation: np.ndarray, peaks: PeakConfig,
              check: PlacementCheck | None) -> np.ndarray:
     """The learned placement of one scene: the peaks of its utility map, checked if asked."""
-    predicted = find_peaks(utility, peaks)
+    predicted = find_peaks(utility, peaks, raster=observation)
     return predicted if check is None else check(observation, predicted)
 
 

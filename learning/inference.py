@@ -272,4 +272,4 @@ def predict_positions(model: UtilityNet, raster: np.ndarray, k: int = 10, peaks:
     Returns:
         ``(m, 2)`` float64 pixel positions ``(x=column, y=row)``, ``m <= k``, by decreasing utility.
     """
-    return find_peaks(utility_map(model, raster, precision, tta), peaks, max_peaks=k)
+    return find_peaks(utility_map(model, raster, precision, tta), peaks, max_peaks=k, raster=raster)

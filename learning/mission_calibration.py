@@ -110,7 +110,7 @@ def score_grid(task: Task, utilities: np.ndarray, arrays: Mapping[str, np.ndarra
     Args:
         task: Regenerates each scene from its stored seed and judges QoS on it.
         utilities: ``(n, h, w)`` utility maps of the scenes.
-        arrays: ``positions``, ``mask`` and ``seeds`` of the scenes (a dataset's arrays).
+        arrays: ``inputs``, ``positions``, ``mask`` and ``seeds`` of the scenes (a dataset's arrays).
         configs: The settings scored.
         progress: Show a progress bar (on a terminal only: none in a log or a pipe).
 
@@ -135,7 +135,8 @@ def score_grid(task: Task, utilities: np.ndarray, arrays: Mapping[str, np.ndarra
 
     rows = []
     for config in tqdm(configs, disable=None if progress else True, desc="grid", unit="point"):
-        predicted = [find_peaks(u, config) for u in utilities]
+        predicted = [find_peaks(u, config, raster=x)
+                     for u, x in zip(utilities, arrays["inputs"], strict=True)]
         scores = [score_sample(e, p, eps_px) for e, p in zip(experts, predicted, strict=True)]
         summary = aggregate(scores)
         each = np.array([qos(i, p) for i, p in enumerate(predicted)])

@@ -101,7 +101,7 @@ def _has_plateau(candidates: np.ndarray) -> bool:
 
 
 def _nearest_members(centres: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Each region's centroid ``(row, col)``, moved to the region's pixel nearest it where it rounds off the region."""
+    """Region centroids ``(row, col)``; one that rounds off its region moves to its nearest pixel."""
     out = centres.copy()
     for i, (y, x) in enumerate(centres):
         r, c = int(round(y)), int(round(x))
@@ -150,7 +150,8 @@ def find_peaks(utility: np.ndarray, config: PeakConfig | None = None, max_peaks:
     allowed = None
     if config.region != "any":
         if raster is None or np.asarray(raster).shape[1:] != u.shape:
-            raise ValueError(f"region = {config.region!r} needs the input raster (C, {u.shape[0]}, {u.shape[1]})")
+            raise ValueError(f"region = {config.region!r} needs the input raster (C, {u.shape[0]}, "
+                             f"{u.shape[1]})")
         allowed = allowed_pixels(raster, config.region)
         u = np.where(allowed, u, min(float(u.min()), 0.0))
     size = 2 * config.min_distance_px + 1

@@ -143,7 +143,7 @@ def validate(model: UtilityNet, dataset: ShardDataset, eps_px: float, peaks: Pea
         ``calibrate`` the thresholds that :func:`learning.calibrate.calibrate_peaks` chose.
     """
     model.eval()
-    losses, utilities = [], []
+    losses, utilities, rasters = [], [], []
     for start in range(0, len(dataset), batch_size):
         items = [dataset[i] for i in range(start, min(start + batch_size, len(dataset)))]
         x = torch.stack([item[0] for item in items]).to(device)  # (B, C, h, w)
@@ -152,12 +152,13 @@ def validate(model: UtilityNet, dataset: ShardDataset, eps_px: float, peaks: Pea
             u = model(x).float()  # (B, 1, h, w)
         losses.append(F.mse_loss(u, y, reduction="sum").item() / y[0].numel())
         utilities.extend(u[:, 0].cpu().numpy())
+        rasters.extend(item[0].numpy() for item in items)
     experts = [dataset.expert(i) for i in range(len(dataset))]
     if calibrate:
         k = calibrate_samples or len(utilities)
-        peaks, _ = calibrate_peaks(utilities[:k], experts[:k], eps_px, peaks)
-    summary = aggregate(score_sample(e, find_peaks(u, peaks), eps_px)
-                        for u, e in zip(utilities, experts, strict=True))
+        peaks, _ = calibrate_peaks(utilities[:k], experts[:k], eps_px, peaks, rasters=rasters[:k])
+    summary = aggregate(score_sample(e, find_peaks(u, peaks, raster=x), eps_px)
+                        for u, e, x in zip(utilities, experts, rasters, strict=True))
     metrics = {"val_loss": sum(losses) / len(dataset), "val_corr": summary["corr"],
                "val_precision": summary["precision"]}
     return metrics, peaks

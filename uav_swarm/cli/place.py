@@ -154,8 +154,9 @@ def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float, min_sep
     observed = np.stack([task.observe(MonitoringScene(r.polygon, np.zeros((0, 2)))) for r in rasters])
     utility = utility_maps(model, observed, precision)
     proposals = np.concatenate([
-        r.to_metres(find_peaks(u, peaks.config, min_separation_px=min_separation_m / r.metres_per_px))
-        for r, u in zip(rasters, utility, strict=True)])
+        r.to_metres(find_peaks(u, peaks.config, raster=x,
+                               min_separation_px=min_separation_m / r.metres_per_px))
+        for r, u, x in zip(rasters, utility, observed, strict=True)])
     return _separated(proposals, np.zeros((0, 2)), min_separation_m), tuple(rasters)
 
 
