@@ -58,7 +58,7 @@ from learning.checkpoint import Checkpoint, checkpoint_label
 from learning.data import generate_samples
 from learning.inference import utility_maps
 from learning.metrics import MATCH_FRACTION, aggregate, score_sample
-from learning.peaks import PeakConfig, find_peaks
+from learning.peaks import PEAK_REGIONS, PeakConfig, find_peaks
 from learning.precision import resolve_precision
 from learning.task import Task
 from learning.train import TrainConfig, split_indices
@@ -88,6 +88,7 @@ class MissionGrid(Config):
                                           doc="threshold_abs values tried")
     contrasts: tuple[float, ...] = param((0.0, 0.02, 0.05), doc="min_contrast values tried")
     distances_px: tuple[int, ...] = param((1, 2, 3, 4), doc="min_distance_px values tried")
+    regions: tuple[str, ...] = param(("any",), doc="region values tried (learning.peaks.PEAK_REGIONS)")
 
     def check(self) -> None:
         """Every grid is non-empty and in PeakConfig's ranges."""
@@ -96,11 +97,14 @@ class MissionGrid(Config):
         if min(self.contrasts) < 0.0 or min(self.distances_px) < 1:
             raise ConfigError(f"MissionGrid: contrasts {self.contrasts} must be >= 0 and distances_px "
                               f"{self.distances_px} >= 1")
+        if not self.regions or not set(self.regions) <= set(PEAK_REGIONS):
+            raise ConfigError(f"MissionGrid.regions = {self.regions}: choose among {list(PEAK_REGIONS)}")
 
     def configs(self, base: PeakConfig) -> list[PeakConfig]:
         """``base`` with each grid point's values, in grid order."""
-        return [base.replace(threshold_abs=t, min_contrast=c, min_distance_px=d)
-                for t in self.thresholds for c in self.contrasts for d in self.distances_px]
+        return [base.replace(threshold_abs=t, min_contrast=c, min_distance_px=d, region=r)
+                for r in self.regions for t in self.thresholds for c in self.contrasts
+                for d in self.distances_px]
 
 
 def score_grid(task: Task, utilities: np.ndarray, arrays: Mapping[str, np.ndarray],

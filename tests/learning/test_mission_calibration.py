@@ -15,6 +15,7 @@ from learning.mission_calibration import (
     pareto_front,
     promised_columns,
 )
+from learning.peaks import PeakConfig
 from learning.train import TrainConfig, split_indices
 from typed_config import ConfigError
 from uav_swarm.cli import main
@@ -66,6 +67,15 @@ def test_a_point_promising_more_of_the_papers_columns_wins_over_a_higher_qos():
 def test_a_grid_outside_the_peak_ranges_is_refused():
     with pytest.raises(ConfigError, match="distances_px"):
         MissionGrid(distances_px=(0,))
+    with pytest.raises(ConfigError, match="regions"):
+        MissionGrid(regions=("inside",))
+
+
+def test_the_grid_tries_each_region_at_each_point():
+    grid = MissionGrid(thresholds=(0.1, 0.2), contrasts=(0.0,), distances_px=(2,), regions=("any", "filled"))
+    configs = grid.configs(PeakConfig(min_contrast=0.05))
+    assert [(c.region, c.threshold_abs) for c in configs] == [
+        ("any", 0.1), ("any", 0.2), ("filled", 0.1), ("filled", 0.2)]
 
 
 def test_calibration_scores_the_validation_split_and_resumes_from_its_cache(tiny_checkpoint, tmp_path,

@@ -62,6 +62,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help=f"min_contrast values tried {_GRID_HELP}")
     add("--distances-px", type=int, nargs="+", default=list(grid.distances_px),
         help=f"min_distance_px values tried {_GRID_HELP}")
+    add("--regions", nargs="+", default=list(grid.regions),
+        help="where peaks may stand: any, filled (inside the building), empty (outside) " + _GRID_HELP)
     parser.set_defaults(func=run)
 
 
@@ -77,15 +79,16 @@ def front_table(report: dict[str, Any]) -> str:
              f"{_pct(report['floors'], 'corr')} %, precision {_pct(report['floors'], 'precision')} % "
              f"(paper {_pct(report['paper'], 'corr')} / {_pct(report['paper'], 'precision')}); margin "
              f"{report['margin_z']} standard errors", "",
-             "| point | threshold_abs | min_contrast | min_distance_px | corr % | precision % | QoS % "
-             "| QoS rel. % | margins corr / precision / QoS rel., points | promises |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "| point | threshold_abs | min_contrast | min_distance_px | region | corr % | precision % "
+             "| QoS % | QoS rel. % | margins corr / precision / QoS rel., points | promises |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     named = [("balanced", report["balanced"]), ("mission", report["mission"])]
     for name, row in named + [("front", row) for row in report["front"]]:
         margin = margins(row, report["margin_z"])
         promises = ", ".join(promised_columns(row, report["paper"], report["margin_z"])) or "none"
         lines.append(f"| {name} | {row['threshold_abs']} | {row['min_contrast']} | {row['min_distance_px']} "
-                     f"| {_pct(row, 'corr')} | {_pct(row, 'precision')} | {_pct(row, 'qos')} "
+                     f"| {row.get('region', 'any')} | {_pct(row, 'corr')} | {_pct(row, 'precision')} "
+                     f"| {_pct(row, 'qos')} "
                      f"| {_pct(row, 'qos_relative')} | {' / '.join(_pct(margin, k) for k in margin)} "
                      f"| {promises} |")
     return "\n".join(lines) + "\n"
@@ -128,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"--task {args.task}: the paper has no row for it; allowed "
                               f"{sorted(PAPER_ROWS)}")
         grid = MissionGrid(thresholds=tuple(args.thresholds), contrasts=tuple(args.contrasts),
-                           distances_px=tuple(args.distances_px))
+                           distances_px=tuple(args.distances_px), regions=tuple(args.regions))
         path = args.checkpoint or str(default_checkpoint(args.task))
         ckpt = load_checkpoint(path, task_name=args.task)
         task = build_task(args.task, ckpt.task_config)
