@@ -147,12 +147,13 @@ def find_peaks(utility: np.ndarray, config: PeakConfig | None = None, max_peaks:
         raise ValueError(f"utility must be a finite 2-D array, got shape {u.shape}")
     if limit == 0 or u.size == 0:
         return np.zeros((0, 2))
-    allowed = None
+    allowed: np.ndarray | None = None
     if config.region != "any":
         if raster is None or np.asarray(raster).shape[1:] != u.shape:
             raise ValueError(f"region = {config.region!r} needs the input raster (C, {u.shape[0]}, "
                              f"{u.shape[1]})")
         allowed = allowed_pixels(raster, config.region)
+    if allowed is not None:
         u = np.where(allowed, u, min(float(u.min()), 0.0))
     size = 2 * config.min_distance_px + 1
     local_max = ndimage.maximum_filter(u, size=size, mode="nearest")

@@ -143,7 +143,8 @@ def validate(model: UtilityNet, dataset: ShardDataset, eps_px: float, peaks: Pea
         ``calibrate`` the thresholds that :func:`learning.calibrate.calibrate_peaks` chose.
     """
     model.eval()
-    losses, utilities, rasters = [], [], []
+    losses, utilities = [], []
+    rasters: list[np.ndarray] = []
     for start in range(0, len(dataset), batch_size):
         items = [dataset[i] for i in range(start, min(start + batch_size, len(dataset)))]
         x = torch.stack([item[0] for item in items]).to(device)  # (B, C, h, w)

@@ -44,8 +44,8 @@ from learning.peaks import PeakConfig, find_peaks
 from learning.targets import render_targets
 from uav_swarm.missions.registry import build_task
 
-REGIONS = {"interior": "filled", "exterior": "empty"}
-"""The peak region of each mission's guard region."""
+REGIONS = {"agp": "filled", "fp": "empty"}
+"""Where each mission's guards stand, as a peak region: inside the building (AGP), outside it (FP)."""
 
 
 def dark_offsets(utility: np.ndarray, peaks_px: np.ndarray, sigma_px: float = 1.0) -> np.ndarray:
@@ -132,7 +132,7 @@ def main() -> None:
         scenes_path.write_bytes(pickle.dumps(scenes))
     scenes = pickle.loads(scenes_path.read_bytes())
     mission = ckpt.mission_peak_config or ckpt.peak_config
-    region = mission.replace(region=REGIONS[task.region])
+    region = mission.replace(region=REGIONS[args.task])
     eps_px = MATCH_FRACTION * task.mission_dimension_px
 
     def qos(i: int, placement: np.ndarray) -> float:
