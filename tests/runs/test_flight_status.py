@@ -12,6 +12,7 @@ import time
 from collections.abc import Iterator
 from concurrent.futures import Future
 
+import numpy as np
 import pytest
 
 from bridge.config import BridgeConfig
@@ -24,6 +25,7 @@ from uav_swarm.runs.flight.holds import HoldRecord, holds_text
 from uav_swarm.runs.flight.loop import Flight
 from uav_swarm.runs.flight.status import FlightStatus, end_report
 from uav_swarm.runs.fly_config import load_fly_config
+from uav_swarm.world.guard import Bounds
 
 
 class Clock:
@@ -175,3 +177,31 @@ def test_the_end_report_names_a_vehicle_never_launched_and_the_closest_pair_in_f
         "0.0 s below the minimum, 4 holds by the guard",
         "30 s flown with expert: mean QoS S1 0.500 against 0.800 for the static reference (62 % of it); "
         "S2 0.250, mean throughput 2.00 Mbps (paper)"]
+
+
+def test_a_cycle_of_holds_found_by_the_flight_guard_is_named_in_the_next_line(flight):
+    """Two vehicles of the flight's own guard swap head on: they hold each other, and the line says so."""
+    fleet = flight.safety.guard.fleet
+    rows = {sid: flight.safety.uav_of(sid) for sid in (2, 3)}
+    position = {rows[2]: np.array([0.0, 0.0]), rows[3]: np.array([30.0, 1.0])}
+    goals = np.full((3, 2), np.nan)
+    goals[rows[2]], goals[rows[3]] = (30.0, 0.0), (0.0, 0.0)
+    for row, p in position.items():
+        fleet.join(row, p, Bounds(accel_m_s2=2.5, command_delay_s=0.5), now_s=0.0, radius_m=0.0)
+    status = FlightStatus(flight, 5.0, clock=Clock())
+    now_s = 0.0
+    while not fleet.deadlocks and now_s < 30.0:
+        for row, decision in enumerate(fleet.decide(goals, now_s)):
+            if decision.point_m is not None:
+                fleet.acknowledged(row, decision.seq, now_s)
+                position[row] = np.array(decision.point_m)
+        now_s += 0.5
+        for row, p in position.items():
+            fleet.measure(row, p, np.zeros(2), now_s, now_s)
+    _, cycle, first = fleet.deadlocks[0]
+    sid_of = {row: sid for sid, row in rows.items()}
+    ids = [sid_of[row] for row in cycle]
+    line = status.line(time.monotonic())
+    assert (f"cycle of holds broken: {ids[0]} -> {ids[1]} -> {ids[0]} (vehicle {sid_of[first]} went on first)"
+            in line)
+    assert "cycle of holds" not in status.line(time.monotonic())  # said once

@@ -10,6 +10,8 @@
   found outside its disc; :class:`~uav_swarm.runs.flight.holds.HoldRecord`): how many and how long
   (wall-clock seconds). Each status line sums those of its period; ``summary.json`` and the end table
   hold the totals; each hold stays an event ``guard_hold`` of ``summary.json``.
+- the cycles of holds the guard found (vehicles each held by the next; :mod:`uav_swarm.world.guard.deadlock`)
+  and which vehicle went on first: ``cycle of holds broken: 2 -> 3 -> 2 (vehicle 3 went on first)``.
 - :func:`end_report`: the lines ``fly`` prints at the end, from its ``summary.json``: each vehicle's
   outcome (a vehicle never armed is "not launched", never "ended") with its holds, the closest pair in
   flight (both vehicles airborne), and the flown QoS against the static reference.
@@ -58,6 +60,7 @@ class FlightStatus:
         self._next_s = self._phase_start_s + self.every_s
         self._stage: dict[int, str] = {}
         self._last_holds: dict[tuple[int, Reason], tuple[int, float]] = {}
+        self._seen_cycles = 0
         self._detail = ""
         self._pending: set[int] = set()
         self._pending_what = ""
@@ -149,7 +152,21 @@ class FlightStatus:
         held = self._holds_since_last(time.time())
         if held:
             parts.append(f"held in the last {self.every_s:g} s: {held}")
+        cycles = self._cycles_since_last()
+        if cycles:
+            parts.append(cycles)
         return "; ".join(parts)
+
+    def _cycles_since_last(self) -> str:
+        """The cycles of holds the guard found since the last line, and who went on first."""
+        found = self._flight.safety.guard.fleet.deadlocks
+        new, self._seen_cycles = found[self._seen_cycles:], len(found)
+        if not new:
+            return ""
+        sid_of = {self._flight.safety.uav_of(v.system_id): v.system_id for v in self._flight.vehicles}
+        texts = sorted({f"{' -> '.join(str(sid_of.get(r, r)) for r in (*cycle, cycle[0]))} "
+                        f"(vehicle {sid_of.get(first, first)} went on first)" for _, cycle, first in new})
+        return f"cycle of holds broken: {', '.join(texts)}"
 
     def _counts(self) -> str:
         by: dict[str, list[int]] = {}

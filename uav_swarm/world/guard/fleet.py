@@ -53,6 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from uav_swarm.world.guard.deadlock import hold_cycles, yielding
 from uav_swarm.world.guard.decide import STEPS_M, choose_points
 from uav_swarm.world.guard.holds import Bounds, Commitment
 
@@ -118,6 +119,11 @@ class FleetGuard:
         self._joining: set[int] = set()  # joined, its join point not sent yet
         self._stale: set[int] = set()
         self._outside: dict[int, np.ndarray] = {}
+        self._first: set[int] = set()  # members that go on first after a cycle of holds was broken
+        self._cycles: set[tuple[int, ...]] = set()  # the cycles of holds at the last decision
+        self.deadlocks: list[tuple[float, tuple[int, ...], int]] = []
+        """``(now_s, cycle, goes_on)`` of every cycle of holds found (:mod:`~uav_swarm.world.guard.deadlock`):
+        the vehicles each held by the next, and the one that went on first while the others gave way."""
         self.events: list[tuple[float, int, str]] = []
         """``(now_s, vehicle, kind)`` of every bound found broken (position_stale, command_unacknowledged,
         outside_bounds)."""
@@ -157,6 +163,7 @@ class FleetGuard:
             self._joining.discard(i)
             self._stale.discard(i)
             self._outside.pop(i, None)
+            self._first.discard(i)
 
     def silent(self, i: int, home_m: np.ndarray | None = None) -> None:
         """Vehicle ``i`` is heard no more, or has no position: it keeps its disc and is sent nothing.
@@ -328,7 +335,8 @@ class FleetGuard:
             fleeing = -closing >= 0.9 * speed  # its velocity points away from that one
             parting[i] &= (at_rest & ~(closing > 0.5)) | (fleeing & (speed > self.parting_speed_m_s))
         parting[k:] = False
-        order = np.argsort(-waited, kind="stable")  # the longest held first, then by index
+        first = np.isin(np.arange(n), list(self._first))
+        order = np.lexsort((np.arange(n), -waited, ~first))  # a cycle's first, the longest held, by index
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
                                             detour, self.detour_m, self.area_m, order=order,
                                             max_step_m=self.max_step_m, parting=parting,
@@ -336,13 +344,29 @@ class FleetGuard:
                                             positions_m=np.vstack([self._position, np.full((n - k, 2),
                                                                                            np.nan)]))
         blockers = np.where(blockers >= k, owner[np.maximum(blockers, 0)], blockers)
-        decisions = []
-        for i in range(k):
-            decisions.append(self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s))
-            if (decisions[-1].state == "held" and blockers[i] >= 0 and i not in self._via
-                    and now_s - self._held_since.get(i, now_s) >= self.detour_after_s):
+        decisions = [self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s)
+                     for i in range(k)]
+        self._break_cycles(decisions, finals[:k], now_s)
+        for i, decision in enumerate(decisions):
+            if decision.state != "held":
+                self._first.discard(i)
+            elif (blockers[i] >= 0 and i not in self._via
+                  and now_s - self._held_since.get(i, now_s) >= self.detour_after_s):
                 self._go_round(i, int(blockers[i]), finals[i], now_s)
         return decisions
+
+    def _break_cycles(self, decisions: list[Decision], goals: np.ndarray, now_s: float) -> None:
+        """Find the cycles of holds (each recorded once while it lasts); their first goes on first."""
+        blockers = np.array([d.blocker if d.state == "held" else -1 for d in decisions])
+        way_left = np.array([float(np.hypot(*(goals[i] - self.centre_m(i)))) if self._hold[i] is not None
+                             and np.all(np.isfinite(goals[i])) else np.inf for i in range(len(decisions))])
+        cycles = hold_cycles(blockers)
+        for cycle in cycles:
+            goes_on, _ = yielding(cycle, way_left)
+            if cycle not in self._cycles:
+                self.deadlocks.append((now_s, cycle, goes_on))
+            self._first.add(goes_on)
+        self._cycles = set(cycles)
 
     def _go_round(self, i: int, blocker: int, goal: np.ndarray, now_s: float) -> None:
         """Send a vehicle held long by ``blocker`` by a point beside it, with room to pass at each step."""
