@@ -325,16 +325,18 @@ class FleetGuard:
         required = np.where(apart, self.required_m[owner[:, None], owner[None]], -np.inf)
         gaps = _gaps_m(centres, radii)
         parting = apart & np.isfinite(gaps) & (gaps < required)
-        for i in range(k):  # parts a vehicle at rest at its point, or already flying straight away
-            towards = centres - self._position[i]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                closing = (towards @ self._velocity[i]) / np.hypot(*towards.T)  # its speed towards each
-            speed = float(np.hypot(*self._velocity[i]))
-            at_rest = (float(np.hypot(*(self._position[i] - centres[i]))) <= _AT_POINT_M
-                       and speed <= self.parting_speed_m_s)
-            fleeing = -closing >= 0.9 * speed  # its velocity points away from that one
-            parting[i] &= (at_rest & ~(closing > 0.5)) | (fleeing & (speed > self.parting_speed_m_s))
         parting[k:] = False
+        if parting.any():  # parts a vehicle at rest at its point, or already flying straight away
+            towards = centres[None] - self._position[:, None]  # (k, n, 2)
+            with np.errstate(invalid="ignore", divide="ignore"):  # each one's speed towards each disc
+                closing = (np.einsum("knc,kc->kn", towards, self._velocity)
+                           / np.hypot(towards[..., 0], towards[..., 1]))
+            speed = np.hypot(*self._velocity.T)
+            at_rest = ((np.hypot(*(self._position - centres[:k]).T) <= _AT_POINT_M)
+                       & (speed <= self.parting_speed_m_s))
+            fleeing = -closing >= 0.9 * speed[:, None]  # its velocity points away from that one
+            parting[:k] &= ((at_rest[:, None] & ~(closing > 0.5))
+                            | (fleeing & (speed > self.parting_speed_m_s)[:, None]))
         first = np.isin(np.arange(n), list(self._first))
         order = np.lexsort((np.arange(n), -waited, ~first))  # a cycle's first, the longest held, by index
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
