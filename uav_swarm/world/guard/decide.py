@@ -34,13 +34,18 @@ import math
 
 import numpy as np
 
-__all__ = ["choose_points", "STEPS_M"]
+__all__ = ["choose_points", "finite_point", "STEPS_M"]
 
 STEPS_M = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
 """The steps offered on the way to a goal, metres (each half the one before); the whole way first when
 shorter than the first: a vehicle is never committed further ahead, so a new goal can turn it soon."""
 _DETOURS_RAD = (math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2, 3 * math.pi / 4, -3 * math.pi / 4)
 _ARRIVED_M = 1e-3
+
+
+def finite_point(point_m: np.ndarray) -> bool:
+    """Whether both coordinates of a (2,) point are finite (NaN: none; cheaper than numpy on two numbers)."""
+    return math.isfinite(point_m[0]) and math.isfinite(point_m[1])
 
 
 def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
@@ -108,11 +113,11 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
         if not may_send[i] or not math.isfinite(radii[i]):
             continue
         offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m, max_step_m) \
-            if np.all(np.isfinite(goal)) else np.zeros((0, 2))
-        if positions_m is not None and np.all(np.isfinite(positions_m[i])):
+            if finite_point(goal) else np.zeros((0, 2))
+        if positions_m is not None and finite_point(positions_m[i]):
             offers = offers[np.hypot(*(offers - positions_m[i]).T) <= max_step_m + 1e-9]
         if parting is not None and parting[i].any():  # then yield: straight away from each one inside
-            base = positions_m[i] if positions_m is not None and np.all(np.isfinite(positions_m[i])) \
+            base = positions_m[i] if positions_m is not None and finite_point(positions_m[i]) \
                 else centres[i]
             away = base - centres[parting[i]]
             away = away / np.maximum(np.hypot(*away.T), 1e-9)[:, None] * min(parting_step_m, max_step_m)
@@ -125,7 +130,7 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
         apart = np.hypot(*(offers[:, None] - centres[None]).transpose(2, 0, 1)) - grown[:, None] - radii[None]
         ok = (apart >= threshold[i][None]) | ~others[i][None]  # (M, K)
         if parting is not None and parting[i].any():
-            base = positions_m[i] if positions_m is not None and np.all(np.isfinite(positions_m[i])) \
+            base = positions_m[i] if positions_m is not None and finite_point(positions_m[i]) \
                 else centres[i]  # it flies from where it is to the offer
             step = offers - base  # (M, 2): parting when every point of it is farther from the other
             away = step @ (base - centres).T >= 0.0  # (M, K): the distance grows along the whole step

@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uav_swarm.world.guard.deadlock import hold_cycles, yielding
-from uav_swarm.world.guard.decide import STEPS_M, choose_points
+from uav_swarm.world.guard.decide import STEPS_M, choose_points, finite_point
 from uav_swarm.world.guard.holds import Bounds, Commitment
 
 __all__ = ["Bounds", "Decision", "FleetGuard"]
@@ -314,7 +314,8 @@ class FleetGuard:
         goals[~steered] = np.nan
         finals = goals.copy()
         for i, (via, final) in list(self._via.items()):
-            if (not steered[i] or not np.all(np.isfinite(goals[i])) or not np.allclose(final, goals[i])
+            if (not steered[i] or not finite_point(goals[i])
+                    or not np.all(np.abs(final - goals[i]) <= 1e-8 + 1e-5 * np.abs(goals[i]))  # allclose
                     or float(np.hypot(*(self.centre_m(i) - via))) <= 0.5):
                 del self._via[i]  # reached, or its goal changed
             else:
@@ -361,7 +362,7 @@ class FleetGuard:
         """Find the cycles of holds (each recorded once while it lasts); their first goes on first."""
         blockers = np.array([d.blocker if d.state == "held" else -1 for d in decisions])
         way_left = np.array([float(np.hypot(*(goals[i] - self.centre_m(i)))) if self._hold[i] is not None
-                             and np.all(np.isfinite(goals[i])) else np.inf for i in range(len(decisions))])
+                             and finite_point(goals[i]) else np.inf for i in range(len(decisions))])
         cycles = hold_cycles(blockers)
         for cycle in cycles:
             goes_on, _ = yielding(cycle, way_left)
@@ -403,11 +404,11 @@ class FleetGuard:
             self._joining.discard(i)
             here = hold.centre_m  # its first command: the point it joined at, so its chain starts sent
             return Decision("on", (float(here[0]), float(here[1])), seq=self.sent(i, here, now_s))
-        if np.all(np.isfinite(point)):
+        if finite_point(point):
             self._held_since.pop(i, None)
             seq = self.sent(i, point, now_s)
             return Decision("free", (float(point[0]), float(point[1])), blocker, seq)
-        arrived = not np.all(np.isfinite(goal)) or float(np.hypot(*(goal - hold.centre_m))) <= 1e-3
+        arrived = not finite_point(goal) or float(np.hypot(*(goal - hold.centre_m))) <= 1e-3
         if arrived and may and len(hold.chain) > 1:  # its newest point was never acknowledged: again
             here = hold.centre_m
             return Decision("on", (float(here[0]), float(here[1])), seq=self.sent(i, here, now_s))
