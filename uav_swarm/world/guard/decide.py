@@ -40,6 +40,7 @@ STEPS_M = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
 """The steps offered on the way to a goal, metres (each half the one before); the whole way first when
 shorter than the first: a vehicle is never committed further ahead, so a new goal can turn it soon."""
 _DETOURS_RAD = (math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2, 3 * math.pi / 4, -3 * math.pi / 4)
+_COS, _SIN = np.cos(_DETOURS_RAD), np.sin(_DETOURS_RAD)
 _ARRIVED_M = 1e-3
 
 
@@ -58,14 +59,15 @@ def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
     unit = way / length
     steps = [length] if length <= max_step_m else []
     steps += [s for s in STEPS_M if s < length and s <= max_step_m]
-    offers = [centre + unit * s for s in steps]
-    if detour:
-        for turn in _DETOURS_RAD:
-            c, s = math.cos(turn), math.sin(turn)
-            turned = np.array([c * unit[0] - s * unit[1], s * unit[0] + c * unit[1]])
-            turns = [centre + turned * step for step in (detour_m, detour_m / 2, detour_m / 4)]
-            offers += [q for q in turns if area_m is None or bool(np.all((q >= 0.0) & (q <= area_m)))]
-    return np.asarray(offers)
+    offers = centre + unit * np.array(steps)[:, None]  # (S, 2)
+    if not detour:
+        return offers
+    turned = np.stack([_COS * unit[0] - _SIN * unit[1], _SIN * unit[0] + _COS * unit[1]], axis=1)  # (T, 2)
+    turns = (centre + turned[:, None] * np.array([detour_m, detour_m / 2, detour_m / 4])[None, :, None])
+    turns = turns.reshape(-1, 2)  # each turn's three lengths, turn after turn
+    if area_m is not None:
+        turns = turns[np.all((turns >= 0.0) & (turns <= area_m), axis=1)]
+    return np.vstack([offers, turns])
 
 
 def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarray, may_send: np.ndarray,
