@@ -27,8 +27,10 @@ refuses every offer near it. A pair closer than required (homes a few metres apa
 taken back) may only **part** or **yield**: a vehicle at rest at its point (or already flying straight
 away) steps at most ``parting_step_m`` along a segment whose every point is at least as far from the
 other's centre as it is (:func:`~uav_swarm.world.guard.decide.choose_points`). Decisions go to the
-vehicle held longest first (priority rotates to who waits), and no point is committed more than
-``max_step_m`` ahead. One lock serialises every call (the flight's loop and its sending threads).
+vehicle held longest first (priority rotates to who waits); vehicles each held by the next (a cycle of
+holds, :mod:`~uav_swarm.world.guard.deadlock`) are recorded in :attr:`FleetGuard.deadlocks` and their
+member with the least way left is decided first until it is no longer held. No point is committed more
+than ``max_step_m`` ahead. One lock serialises every call (the flight's loop and its sending threads).
 
 Examples:
     >>> import numpy as np
