@@ -176,7 +176,9 @@ def test_the_end_report_names_a_vehicle_never_launched_and_the_closest_pair_in_f
         "separation (minimum 5 m): closest pair in flight 8.3 m (vehicles 1 and 2 at 12.0 s), 0 conflicts, "
         "0.0 s below the minimum, 4 holds by the guard",
         "30 s flown with expert: mean QoS S1 0.500 against 0.800 for the static reference (62 % of it); "
-        "S2 0.250, mean throughput 2.00 Mbps (paper)"]
+        "S2 0.250, mean throughput 2.00 Mbps (paper)",
+        "the static reference is the expert's placement of each instant's crowd judged as if the vehicles "
+        "were already there: no flight, no guard"]
 
 
 def test_a_cycle_of_holds_found_by_the_flight_guard_is_named_in_the_next_line(flight):

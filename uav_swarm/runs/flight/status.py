@@ -298,4 +298,7 @@ def end_report(summary: Mapping[str, Any]) -> list[str]:
         lines.append(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: {qos}; S{other} "
                      f"{summary[f'mean_qos_s{other}']:.3f}, mean throughput "
                      f"{summary['mean_throughput_mbps']:.2f} Mbps ({summary['association']})")
+        if static is not None:
+            lines.append("the static reference is the expert's placement of each instant's crowd judged as "
+                         "if the vehicles were already there: no flight, no guard")
     return lines
