@@ -14,6 +14,6 @@ May import ``uav_swarm.runs.outputs``, ``planning``, ``missions``, ``world`` and
   :mod:`~uav_swarm.runs.flight.end`: the returns and the end.
 - :mod:`~uav_swarm.runs.flight.status`, :mod:`~uav_swarm.runs.flight.holds`: the status lines and the holds
   record.
-- :mod:`~uav_swarm.runs.flight.guard_trial` (a package): the guard flown by simulated autopilots in simulated time (the
-  fuzz's and the tests' harness).
+- :mod:`~uav_swarm.runs.flight.guard_trial` (a package): the guard flown by simulated autopilots in simulated
+  time (the fuzz's and the tests' harness).
 """

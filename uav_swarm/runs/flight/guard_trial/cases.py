@@ -114,20 +114,20 @@ def _line(n: int, spacing_m: float, y_m: float, x0_m: float = 20.0) -> tuple[tup
     return tuple((x0_m + i * spacing_m, y_m) for i in range(n))
 
 
-_FLEET = dict(speed_m_s=10.0, accel_m_s2=2.5, autopilot="arducopter", latency_s=0.4, age_s=0.2,
-              area_m=(120.0, 120.0), duration_s=60.0)
+_FLEET = Trial(n_uavs=2, speed_m_s=10.0, accel_m_s2=2.5, autopilot="arducopter", latency_s=0.4, age_s=0.2,
+               area_m=(120.0, 120.0), duration_s=60.0)
 _SPREAD = ((20.0, 60.0), (32.0, 85.0), (45.0, 60.0), (58.0, 85.0), (70.0, 60.0))  # no crossings
 LIVENESS_TRIALS: dict[str, Trial] = {
-    "launch-line": Trial(n_uavs=5, starts_m=_line(5, 9.0, 20.0, 27.0),  # type: ignore[arg-type]
-                         script=tuple((0.5, i, p) for i, p in enumerate(_SPREAD)), **_FLEET),
-    "crossing": Trial(n_uavs=2, starts_m=((10.0, 60.0), (75.0, 10.0)),  # type: ignore[arg-type]
-                      script=((0.5, 0, (110.0, 60.0)), (0.5, 1, (75.0, 110.0))), **_FLEET),
-    "swap": Trial(n_uavs=2, starts_m=((20.0, 55.0), (100.0, 65.0)),  # type: ignore[arg-type]
-                  script=((0.5, 0, (100.0, 55.0)), (0.5, 1, (20.0, 65.0))), **_FLEET),
-    "held-by-a-parked-one": Trial(n_uavs=2, starts_m=((10.0, 60.0), (60.0, 70.0)),  # type: ignore[arg-type]
-                                  script=((0.5, 0, (110.0, 60.0)),), **_FLEET),
-    "the-return": Trial(n_uavs=5, starts_m=_SPREAD,  # type: ignore[arg-type]
-                        script=tuple((0.5, i, p) for i, p in enumerate(_line(5, 9.0, 20.0, 27.0))), **_FLEET),
+    "launch-line": replace(_FLEET, n_uavs=5, starts_m=_line(5, 9.0, 20.0, 27.0),
+                           script=tuple((0.5, i, p) for i, p in enumerate(_SPREAD))),
+    "crossing": replace(_FLEET, starts_m=((10.0, 60.0), (75.0, 10.0)),
+                        script=((0.5, 0, (110.0, 60.0)), (0.5, 1, (75.0, 110.0)))),
+    "swap": replace(_FLEET, starts_m=((20.0, 55.0), (100.0, 65.0)),
+                    script=((0.5, 0, (100.0, 55.0)), (0.5, 1, (20.0, 65.0)))),
+    "held-by-a-parked-one": replace(_FLEET, starts_m=((10.0, 60.0), (60.0, 70.0)),
+                                    script=((0.5, 0, (110.0, 60.0)),)),
+    "the-return": replace(_FLEET, n_uavs=5, starts_m=_SPREAD,
+                          script=tuple((0.5, i, p) for i, p in enumerate(_line(5, 9.0, 20.0, 27.0)))),
 }
 """The packaged fleet's moves (five ArduCopter-like vehicles at 10 m/s, 2.5 m/s^2, 0.4 s latency) that a
 guard must not slow beyond 1.5 times their unguarded time: a launch line 9 m apart spread to first
