@@ -1,4 +1,4 @@
-"""Cycles of holds: found exactly, recorded once while they last, their member nearest its goal first."""
+"""Cycles of holds: found exactly, recorded once while they last, broken by going round."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from uav_swarm.world.guard import Bounds, FleetGuard
-from uav_swarm.world.guard.deadlock import hold_cycles, yielding
+from uav_swarm.world.guard.deadlock import hold_cycles
 
 
 def _brute_cycles(blockers: np.ndarray) -> set[tuple[int, ...]]:
@@ -35,10 +35,6 @@ def test_hold_cycles_are_exactly_the_cycles_of_the_hold_graph(seed: int) -> None
         assert set(cycles) == _brute_cycles(blockers)
 
 
-def test_the_member_with_the_least_way_left_goes_on_first() -> None:
-    assert yielding((2, 5, 7), np.array([0, 0, 9.0, 0, 0, 3.0, 0, 3.0])) == (5, (2, 7))  # a tie: the lower
-
-
 def test_a_head_on_swap_is_found_as_a_cycle_and_both_arrive_apart() -> None:
     guard = FleetGuard(np.full((2, 2), 5.0))
     bounds = Bounds(accel_m_s2=2.5, command_delay_s=0.5)
@@ -59,6 +55,5 @@ def test_a_head_on_swap_is_found_as_a_cycle_and_both_arrive_apart() -> None:
             guard.measure(i, p, np.zeros(2), now_s, now_s)
     assert [p.tolist() for p in position.values()] == goals.tolist()
     assert guard.deadlocks, "the two held each other at some decision"
-    when_s, cycle, first = guard.deadlocks[0]
-    assert cycle == (0, 1) and first == 0  # 0 had come further (it was decided first from the start)
-    assert len({c for _, c, _ in guard.deadlocks}) == 1 and len(guard.deadlocks) < 20  # once per spell
+    assert {cycle for _, cycle in guard.deadlocks} == {(0, 1)}
+    assert len(guard.deadlocks) < 20  # once per spell, not at every decision of it

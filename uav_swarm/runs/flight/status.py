@@ -10,8 +10,8 @@
   found outside its disc; :class:`~uav_swarm.runs.flight.holds.HoldRecord`): how many and how long
   (wall-clock seconds). Each status line sums those of its period; ``summary.json`` and the end table
   hold the totals; each hold stays an event ``guard_hold`` of ``summary.json``.
-- the cycles of holds the guard found (vehicles each held by the next; :mod:`uav_swarm.world.guard.deadlock`)
-  and which vehicle went on first: ``cycle of holds broken: 2 -> 3 -> 2 (vehicle 3 went on first)``.
+- the cycles of holds the guard found (vehicles each held by the next; :mod:`uav_swarm.world.guard.deadlock`):
+  ``cycles of holds (each goes round after 2 s held): 2 -> 3 -> 2``.
 - :func:`end_report`: the lines ``fly`` prints at the end, from its ``summary.json``: each vehicle's
   outcome (a vehicle never armed is "not launched", never "ended") with its holds, the closest pair in
   flight (both vehicles airborne), and the flown QoS against the static reference.
@@ -158,15 +158,15 @@ class FlightStatus:
         return "; ".join(parts)
 
     def _cycles_since_last(self) -> str:
-        """The cycles of holds the guard found since the last line, and who went on first."""
+        """The cycles of holds the guard found since the last line."""
         found = self._flight.safety.guard.fleet.deadlocks
         new, self._seen_cycles = found[self._seen_cycles:], len(found)
         if not new:
             return ""
         sid_of = {self._flight.safety.uav_of(v.system_id): v.system_id for v in self._flight.vehicles}
-        texts = sorted({f"{' -> '.join(str(sid_of.get(r, r)) for r in (*cycle, cycle[0]))} "
-                        f"(vehicle {sid_of.get(first, first)} went on first)" for _, cycle, first in new})
-        return f"cycle of holds broken: {', '.join(texts)}"
+        texts = sorted({" -> ".join(str(sid_of.get(r, r)) for r in (*cycle, cycle[0])) for _, cycle in new})
+        after_s = self._flight.config.guard.sidestep_after_s
+        return f"cycles of holds (each goes round after {after_s:g} s held): {', '.join(texts)}"
 
     def _counts(self) -> str:
         by: dict[str, list[int]] = {}

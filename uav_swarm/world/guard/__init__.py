@@ -80,9 +80,9 @@ flies the segment to it); the swing off the segment caused by the velocity it st
 simulation, not by this proof. Every pair apart keeps the proved rule.
 
 **Liveness** is not part of this proof: the rule says which points may be sent, not that a vehicle ever
-gets one. The order of the decisions (the vehicle held longest first; after a cycle of holds, found by
-:mod:`uav_swarm.world.guard.deadlock`, its member with the least way left), the steps round a blocker and
-the parting steps only choose among the points the rule accepts, so they change nothing above. The
+gets one. The order of the decisions (the vehicle held longest first), the steps round a blocker (cycles
+of holds are found by :mod:`uav_swarm.world.guard.deadlock`) and the parting steps only choose among the
+points the rule accepts, so they change nothing above. The
 certified set of a moving vehicle is a disc (its braking distance in every direction), which makes
 neighbours moving together, crossings and passes beside a hovering vehicle wait
 (``benchmarks/flight/guard_liveness.py``); a set shaped along the committed path (a tube) would need a

@@ -28,9 +28,9 @@ taken back) may only **part** or **yield**: a vehicle at rest at its point (or a
 away) steps at most ``parting_step_m`` along a segment whose every point is at least as far from the
 other's centre as it is (:func:`~uav_swarm.world.guard.decide.choose_points`). Decisions go to the
 vehicle held longest first (priority rotates to who waits); vehicles each held by the next (a cycle of
-holds, :mod:`~uav_swarm.world.guard.deadlock`) are recorded in :attr:`FleetGuard.deadlocks` and their
-member with the least way left is decided first until it is no longer held. No point is committed more
-than ``max_step_m`` ahead. One lock serialises every call (the flight's loop and its sending threads).
+holds, :mod:`~uav_swarm.world.guard.deadlock`) are recorded in :attr:`FleetGuard.deadlocks`; held,
+each goes round the one it waits for after ``detour_after_s``. No point is committed more than
+``max_step_m`` ahead. One lock serialises every call (the flight's loop and its sending threads).
 
 Examples:
     >>> import numpy as np
@@ -55,7 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uav_swarm.world.guard.deadlock import hold_cycles, yielding
+from uav_swarm.world.guard.deadlock import hold_cycles
 from uav_swarm.world.guard.decide import STEPS_M, choose_points, finite_point
 from uav_swarm.world.guard.holds import Bounds, Commitment
 
@@ -121,11 +121,10 @@ class FleetGuard:
         self._joining: set[int] = set()  # joined, its join point not sent yet
         self._stale: set[int] = set()
         self._outside: dict[int, np.ndarray] = {}
-        self._first: set[int] = set()  # members that go on first after a cycle of holds was broken
         self._cycles: set[tuple[int, ...]] = set()  # the cycles of holds at the last decision
-        self.deadlocks: list[tuple[float, tuple[int, ...], int]] = []
-        """``(now_s, cycle, goes_on)`` of every cycle of holds found (:mod:`~uav_swarm.world.guard.deadlock`):
-        the vehicles each held by the next, and the one that went on first while the others gave way."""
+        self.deadlocks: list[tuple[float, tuple[int, ...]]] = []
+        """``(now_s, cycle)`` of every cycle of holds found (:mod:`~uav_swarm.world.guard.deadlock`): the
+        vehicles each held by the next, recorded once while it lasts."""
         self.events: list[tuple[float, int, str]] = []
         """``(now_s, vehicle, kind)`` of every bound found broken (position_stale, command_unacknowledged,
         outside_bounds)."""
@@ -165,7 +164,6 @@ class FleetGuard:
             self._joining.discard(i)
             self._stale.discard(i)
             self._outside.pop(i, None)
-            self._first.discard(i)
 
     def silent(self, i: int, home_m: np.ndarray | None = None) -> None:
         """Vehicle ``i`` is heard no more, or has no position: it keeps its disc and is sent nothing.
@@ -340,8 +338,7 @@ class FleetGuard:
             fleeing = -closing >= 0.9 * speed[:, None]  # its velocity points away from that one
             parting[:k] &= ((at_rest[:, None] & ~(closing > 0.5))
                             | (fleeing & (speed > self.parting_speed_m_s)[:, None]))
-        first = np.isin(np.arange(n), list(self._first))
-        order = np.lexsort((np.arange(n), -waited, ~first))  # a cycle's first, the longest held, by index
+        order = np.argsort(-waited, kind="stable")  # the longest held first, then by index
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
                                             detour, self.detour_m, self.area_m, order=order,
                                             max_step_m=self.max_step_m, parting=parting,
@@ -351,26 +348,17 @@ class FleetGuard:
         blockers = np.where(blockers >= k, owner[np.maximum(blockers, 0)], blockers)
         decisions = [self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s)
                      for i in range(k)]
-        self._break_cycles(decisions, finals[:k], now_s)
+        self._note_cycles(decisions, now_s)
         for i, decision in enumerate(decisions):
-            if decision.state != "held":
-                self._first.discard(i)
-            elif (blockers[i] >= 0 and i not in self._via
-                  and now_s - self._held_since.get(i, now_s) >= self.detour_after_s):
+            if (decision.state == "held" and blockers[i] >= 0 and i not in self._via
+                    and now_s - self._held_since.get(i, now_s) >= self.detour_after_s):
                 self._go_round(i, int(blockers[i]), finals[i], now_s)
         return decisions
 
-    def _break_cycles(self, decisions: list[Decision], goals: np.ndarray, now_s: float) -> None:
-        """Find the cycles of holds (each recorded once while it lasts); their first goes on first."""
-        blockers = np.array([d.blocker if d.state == "held" else -1 for d in decisions])
-        way_left = np.array([float(np.hypot(*(goals[i] - self.centre_m(i)))) if self._hold[i] is not None
-                             and finite_point(goals[i]) else np.inf for i in range(len(decisions))])
-        cycles = hold_cycles(blockers)
-        for cycle in cycles:
-            goes_on, _ = yielding(cycle, way_left)
-            if cycle not in self._cycles:
-                self.deadlocks.append((now_s, cycle, goes_on))
-            self._first.add(goes_on)
+    def _note_cycles(self, decisions: list[Decision], now_s: float) -> None:
+        """Record each cycle of holds once while it lasts (its members go round as any held vehicle)."""
+        cycles = hold_cycles(np.array([d.blocker if d.state == "held" else -1 for d in decisions]))
+        self.deadlocks += [(now_s, cycle) for cycle in cycles if cycle not in self._cycles]
         self._cycles = set(cycles)
 
     def _go_round(self, i: int, blocker: int, goal: np.ndarray, now_s: float) -> None:
