@@ -43,7 +43,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.planning.planner import LearnedPlanner, Planner, make_planner
+from uav_swarm.planning.planner import LearnedPlanner, Planner, make_planners
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.runs.outputs.fanout import RunOutputs
 from uav_swarm.runs.outputs.radio_report import RadioLog, radio_line, telemetry_fields
@@ -350,8 +350,8 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     bridge = _load_bridge(config)
     record = None if record is None else check_recording_path(record)
     kinds = [config.planner] + (["expert"] if config.compare_expert and config.planner != "expert" else [])
-    planners = {kind: make_planner(kind, config.n_uavs, config.task, checkpoint=config.checkpoint or None,
-                                   config=config.planning, uav_config=config.uav) for kind in kinds}
+    planners = make_planners(kinds, config.n_uavs, config.task, checkpoint=config.checkpoint or None,
+                             config=config.planning, uav_config=config.uav)
     frame_every = -(-config.n_steps // (config.gif_max_frames - 1)) if config.gif else 0
     runs: dict[str, SequenceRun] = {}
     scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,

@@ -62,7 +62,8 @@ from uav_swarm.world.scenario import ScenarioConfig, random_scenario
 from uav_swarm.world.separation import check_fleet_fits
 from uav_swarm.world.wifi.channels import plan_channels
 
-__all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster"]
+__all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster",
+           "planner_task"]
 
 
 @dataclass(frozen=True)
@@ -172,6 +173,30 @@ def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageR
                          max_uavs=config.expert.max_uavs if max_uavs is None else max_uavs,
                          exclusive=config.strategy == 1, admission_control=admission,
                          min_separation_m=config.min_separation_m)
+
+
+def planner_task(config: WifiConfig | None, n_uavs: int, *, min_separation_m: float = 0.0,
+                 velocity_channels: bool | None = None) -> WifiTask:
+    """The one task a planner of ``n_uavs`` UAVs plans, judges and rasterises with, built in one step.
+
+    The config (default ``WifiConfig()``) with the expert's ``max_uavs`` capped to ``n_uavs``, the minimum
+    separation the larger of the task's and ``min_separation_m`` (the UAVs'), and the raster's
+    ``velocity_channels`` where given (a network's own).
+
+    Examples:
+        >>> task = planner_task(WifiConfig(min_separation_m=2.0), 3, min_separation_m=8.0)
+        >>> task.config.min_separation_m, task.config.expert.max_uavs, task.rules.max_uavs
+        (8.0, 3, 3)
+    """
+    config = WifiConfig() if config is None else config
+    changes: dict[str, Any] = {}
+    if min_separation_m > config.min_separation_m:
+        changes["min_separation_m"] = min_separation_m
+    if velocity_channels is not None and velocity_channels != config.velocity_channels:
+        changes["velocity_channels"] = velocity_channels
+    if config.expert.max_uavs > n_uavs:
+        changes["expert"] = config.expert.replace(max_uavs=n_uavs)
+    return WifiTask(config.replace(**changes) if changes else config)
 
 
 def crowd_raster(users_m: np.ndarray, config: WifiConfig, velocities_m_s: np.ndarray | None = None
