@@ -4,6 +4,8 @@ Each subcommand lives in its own module of this package with a
 ``register(subparsers)`` function that adds its parser and sets ``func``.
 Modules import their heavy dependencies inside the command function so that
 ``uav-swarm --help`` stays fast.
+
+May import: ``typed_config``, ``learning``, ``bridge``, ``uav_swarm``.
 """
 
 from __future__ import annotations

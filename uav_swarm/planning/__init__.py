@@ -11,4 +11,6 @@
 - :mod:`~uav_swarm.planning.transitions`: between two plans, when and by where each UAV leaves so that no
   pair comes closer than the minimum; :mod:`~uav_swarm.planning.departures` its search and
   :mod:`~uav_swarm.planning.trajectory` the flights it checks, flown step by step with the env's kinematics.
+
+May import: ``typed_config``, ``learning``, ``uav_swarm.world``, ``uav_swarm.missions``, ``uav_swarm.env``.
 """

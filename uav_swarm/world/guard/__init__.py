@@ -88,6 +88,8 @@ its disc widened at half the acceleration, the others kept off it).
 Anchors: buffered Voronoi cells (Zhou et al. 2017: each robot stays in a cell shrunk by its safety
 radius), ORCA (reciprocal velocity obstacles with stated bounds), Skybrush's show validation (minimum
 distance, speed and acceleration checked on every plan); ideas only.
+
+May import: ``typed_config``, ``uav_swarm.world``.
 """
 
 from uav_swarm.world.guard.fleet import Bounds, Decision, FleetGuard
