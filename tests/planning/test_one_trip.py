@@ -68,7 +68,8 @@ def test_a_learned_planner_and_its_expert_cost_one_task_and_one_entry_each(name)
 
     def build():
         return make_planners(["learned", "expert"], config.n_uavs, config.task,
-                             checkpoint=config.checkpoint or None, config=config.planning, uav_config=config.uav)
+                             checkpoint=config.checkpoint or None, config=config.planning,
+                             uav_config=config.uav)
 
     build()  # the compiled searches warmed up (compiling them under the counter is slow), then counted:
     with Trips((PLANNER, TASK)) as trips:
