@@ -13,8 +13,8 @@ TORCH ?= torch==2.13.0
 TORCH_INDEX ?=
 AUTOPILOT ?= ardupilot
 ARGS ?=
-# PYTEST_ARGS adds flags to the tests' command; CI runs the slow tests too and prints the slowest 20:
-#   make test PYTEST_ARGS="-m 'not sitl and not ns3' --durations=20"
+# PYTEST_ARGS adds flags to the tests' command: "-n auto" spreads them over every core (pytest-xdist);
+# CI runs the slow tests too and prints the slowest 20: make test PYTEST_ARGS="-m 'not sitl and not ns3' --durations=20"
 PYTEST_ARGS ?=
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --quiet
