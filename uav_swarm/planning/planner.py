@@ -214,6 +214,7 @@ class LearnedPlanner(AssigningPlanner):
         from learning.inference import select_engine
         from learning.precision import resolve_precision
 
+        n_uavs = check_n_uavs(n_uavs)  # before anything is loaded
         task_config = WifiConfig() if task_config is None else task_config
         shipped = shipped_checkpoint_name(task_config)
         task_name = f"wifi-s{task_config.strategy}"  # the task's name, checked against the checkpoint's
@@ -229,7 +230,7 @@ class LearnedPlanner(AssigningPlanner):
         if velocity != task_config.velocity_channels:  # the raster is the network's: take its channels
             logger.info("%s was trained with velocity_channels = %s: the planner's raster follows", path,
                         velocity)
-        super().__init__(n_uavs, config, planner_task(task_config, check_n_uavs(n_uavs),
+        super().__init__(n_uavs, config, planner_task(task_config, n_uavs,
                                                       min_separation_m=_uav_separation_m(uav_config),
                                                       velocity_channels=velocity), uav_config)
         task_config = self.task.config
