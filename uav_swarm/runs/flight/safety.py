@@ -106,6 +106,8 @@ class FlightSafety:
         self._airborne: dict[int, tuple[float, float]] = {}
         self._lock = threading.Lock()
         self.holds = HoldRecord()
+        self.rtl_waits: dict[int, str] = {}
+        """Why each live vehicle's RTL waits at the end (by system id), for the status line."""
         self.phase = "heartbeat"
         """The flight's phase (set by :class:`uav_swarm.runs.flight.status.FlightStatus`)."""
         self._closest_in_flight_phase: str | None = None
@@ -225,7 +227,9 @@ class FlightSafety:
         with self._lock:
             others = [(sid, p) for sid, p in self._airborne.items() if sid != system_id]
         gaps = [(sid, float(np.hypot(p[0] - home[0], p[1] - home[1]))) for sid, p in others]
-        return [(sid, gap_m) for sid, gap_m in gaps if gap_m < need_m]
+        climbing = [(sid, float(np.hypot(self.homes_m[sid][0] - home[0], self.homes_m[sid][1] - home[1])))
+                    for sid in self._near(system_id) if sid in self._gate.climbing]
+        return [(sid, gap_m) for sid, gap_m in gaps if gap_m < need_m] + climbing
 
     # -- in flight ------------------------------------------------------------------------------
     def decide(self, flying: Sequence[tuple[int, VehicleState, tuple[float, float] | None, bool]],
