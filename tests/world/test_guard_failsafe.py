@@ -41,7 +41,8 @@ def _fly(start: tuple[float, float], home: tuple[float, float], layer_m: float, 
 
 
 def _closest_m(a: FailsafeFlight, b: FailsafeFlight, offsets_s: np.ndarray,
-               a_start: tuple[float, float] | None = None, b_start: tuple[float, float] | None = None) -> float:
+               a_start: tuple[float, float] | None = None,
+               b_start: tuple[float, float] | None = None) -> float:
     """Least 3-D distance of the two flights flown, over every start offset of ``b`` after ``a``."""
     t_s = np.arange(0.0, 120.0, DT_S)
     pa = _fly(a_start or a.start_m, a.home_m, a.layer_m, t_s, 0.0)
@@ -58,7 +59,8 @@ def test_an_rtl_cleared_by_the_old_rule_meets_a_silent_vehicle_s_failsafe_climb(
     few seconds later, climbs through the RTL's layer where the RTL flies: they meet."""
     rtl = FailsafeFlight((0.0, 0.0), 0.0, (0.0, -60.0), 0.0, layer_m=16.0)
     silent = FailsafeFlight((0.0, -30.0), 2.0, (40.0, -30.0), 1.0, layer_m=22.0)
-    old_rule_gap_m = float(np.hypot(*(np.array(rtl.home_m) - np.array(silent.start_m)))) - silent.start_radius_m
+    home_to_disc_m = float(np.hypot(*(np.array(rtl.home_m) - np.array(silent.start_m))))
+    old_rule_gap_m = home_to_disc_m - silent.start_radius_m
     assert old_rule_gap_m >= NEED_M  # the rule before sent this RTL
     closest_m = _closest_m(rtl, silent, np.arange(0.0, 12.0, 0.25))
     assert closest_m < 1.0, closest_m  # 0.00 m in the issue's words

@@ -12,9 +12,10 @@ homes closer than it are refused before any vehicle is armed (:func:`check_launc
 the tracking and position errors, 8 m with the defaults), decides how vehicles climb. Vehicles whose homes
 are at least that far apart arm, take off and climb together, each in its own column; a vehicle whose
 home is closer to another's climbs only while no such neighbour is climbing (staggered, one column at a
-time; :class:`TakeoffGate`), and only when no airborne vehicle is within the minimum of its home. The
-guard (:mod:`uav_swarm.runs.flight.guard`) keeps flying vehicles off a climbing one and off one waiting
-to climb. The pre-flight check names the number when it refuses homes closer than the minimum.
+time; :class:`TakeoffGate`), and only when no airborne vehicle is within the launch spacing of its home.
+The guard (:mod:`uav_swarm.runs.flight.guard`) keeps flying vehicles off a climbing one and off one
+waiting to climb (two discs the minimum and its margin apart: farther than the launch spacing), so a
+column clears. The pre-flight check names the number when it refuses homes closer than the minimum.
 
 **Return**: every vehicle's return altitude is its own layer (:func:`return_altitudes_m`), above
 every cruise altitude and ``max(min_separation_m + [guard] margin_m, layer_step_m)`` apart, so that vehicles

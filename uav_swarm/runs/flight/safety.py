@@ -211,10 +211,11 @@ class FlightSafety:
         return list(self._gate.climbs)
 
     def _column_clear(self, system_id: int) -> bool:
-        """No airborne vehicle closer to its home than ``uav.min_separation_m``, the pre-flight check's rule.
+        """No airborne vehicle closer to its home than the launch spacing, and no climbing one.
 
         Homes that far apart always clear (a vehicle airborne over its own home leaves the next one's
-        column clear); a vehicle waiting to climb is a disc the guard keeps the airborne ones off.
+        column clear); a vehicle waiting to climb is a disc the guard keeps the airborne ones off, by the
+        minimum and the guard's margin between the two discs, farther than the launch spacing.
         """
         return not self.column_blockers(system_id)
 
@@ -223,7 +224,7 @@ class FlightSafety:
         home = self.homes_m.get(system_id)
         if home is None:
             return []
-        need_m = self.config.uav.min_separation_m
+        need_m = self.launch_spacing_m
         with self._lock:
             others = [(sid, p) for sid, p in self._airborne.items() if sid != system_id]
         gaps = [(sid, float(np.hypot(p[0] - home[0], p[1] - home[1]))) for sid, p in others]

@@ -219,9 +219,8 @@ class FlightStatus:
         if not blockers:
             return "its column clear, about to take off"
         near = ", ".join(f"vehicle {s} {d:.1f} m" for s, d in blockers)
-        min_m = safety.config.uav.min_separation_m
-        return (f"waits for its column to clear: {near} from its home ({min_m:g} m from one airborne, "
-                f"{safety.launch_spacing_m:g} m from one climbing)")
+        return (f"waits for its column to clear: {near} from its home ({safety.launch_spacing_m:g} m needed, "
+                "the launch spacing)")
 
     def _return_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
         home = self._flight.safety.homes_m.get(vehicle.system_id)
