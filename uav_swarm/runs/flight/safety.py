@@ -206,6 +206,11 @@ class FlightSafety:
                 if sid != system_id and np.hypot(other[0] - home[0], other[1] - home[1]) < spacing_m]
 
     @property
+    def climbing(self) -> set[int]:
+        """System ids arming, taking off or climbing now."""
+        return set(self._gate.climbing)
+
+    @property
     def climbs(self) -> list[tuple[int, float, float]]:
         """``(system_id, start, end)`` of each climb so far (monotonic seconds)."""
         return list(self._gate.climbs)
