@@ -170,8 +170,15 @@ class TakeoffGate:
         """``(system_id, start, end)`` of each climb (monotonic seconds), for the record."""
 
     def may_climb(self, system_id: int) -> bool:
-        """No neighbour closer than the launch spacing is climbing, and its column is clear."""
-        return not (set(self._near(system_id)) & self.climbing) and self._column_clear(system_id)
+        """Whether it may climb now: no neighbour climbing, none ranked before it waiting, its column clear.
+
+        Neighbours are the vehicles closer than the launch spacing; one with fewer neighbours (then a lower
+        id) goes first: the ends of a line climb first, so a vehicle up first has few columns to clear.
+        """
+        near = set(self._near(system_id))
+        rank = (len(near), system_id)
+        first = [n for n in near & self.waiting if (len(set(self._near(n))), n) < rank]
+        return not (near & self.climbing) and not first and self._column_clear(system_id)
 
     def for_vehicle(self, system_id: int) -> Callable[[], contextlib.AbstractContextManager[None]]:
         """The gate of one vehicle, as :func:`bridge.flight.guided.launch` takes it."""
