@@ -116,8 +116,8 @@ def test_the_take_off_gate_names_what_blocks_a_column(flight):
     line = status.line(time.monotonic())
     assert "vehicle 3 arming (its column clear)" in line
     spacing_m = flight.safety.launch_spacing_m  # 8 m: the launch spacing
-    assert (f"vehicle 2 waits for its column to clear: vehicle 1 2.0 m from its home ({spacing_m:g} m needed, "
-            "the launch spacing)" in line)
+    assert (f"vehicle 2 waits for its column to clear: vehicle 1 2.0 m from its home ({spacing_m:g} m "
+            "needed, the launch spacing)" in line)
     release.set()
     flight.stop()
     for thread in threads:

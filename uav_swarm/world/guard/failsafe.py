@@ -62,7 +62,8 @@ import numpy as np
 
 from uav_swarm.world.guard.reach import segment_distances_m
 
-__all__ = ["FailsafeFlight", "crossing_order", "flights_apart", "launch_spacing_m", "must_fly_above"]
+__all__ = ["FailsafeFlight", "columns_apart", "crossing_order", "flights_apart", "launch_spacing_m",
+           "must_fly_above"]
 
 
 def launch_spacing_m(min_separation_m: float, *, margin_m: float, tracking_error_m: float,
