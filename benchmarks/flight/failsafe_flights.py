@@ -123,8 +123,11 @@ def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, 
         while not _in_cruise(vehicles) and process.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
         if not _in_cruise(vehicles):
-            result["error"] = "never in cruise: " + (process.communicate(timeout=10)[1][-500:]
-                                                     if process.poll() is not None else "timeout")
+            exited = process.poll() is not None
+            if not exited:
+                process.kill()
+            said = process.communicate(timeout=10)[1][-600:]
+            result["error"] = f"never in cruise ({'fly exited' if exited else 'timeout'}): {said}"
             return result
         wait_s = float(rng.uniform(1.0, 15.0))
         time.sleep(wait_s)

@@ -235,7 +235,10 @@ class FlightSafety:
         gaps = [(sid, float(np.hypot(p[0] - home[0], p[1] - home[1]))) for sid, p in others]
         climbing = [(sid, float(np.hypot(self.homes_m[sid][0] - home[0], self.homes_m[sid][1] - home[1])))
                     for sid in self._near(system_id) if sid in self._gate.climbing]
-        return [(sid, gap_m) for sid, gap_m in gaps if gap_m < need_m] + climbing
+        close = {sid: gap_m for sid, gap_m in gaps if gap_m < need_m}
+        for sid, gap_m in climbing:  # a climbing neighbour named once, by the nearer of the two
+            close[sid] = min(gap_m, close.get(sid, gap_m))
+        return sorted(close.items())
 
     # -- in flight ------------------------------------------------------------------------------
     def decide(self, flying: Sequence[tuple[int, VehicleState, tuple[float, float] | None, bool]],
