@@ -96,8 +96,8 @@ def test_the_take_off_gate_names_what_blocks_a_column(flight):
     for vehicle in flight.vehicles:
         vehicle.status = "launching"
     status.enter("launch")
-    # vehicle 1 hovers 3 m from vehicle 2's home: vehicle 2's column is not clear, vehicle 3's is
-    hovering = VehicleState(system_id=1, armed=True, x_m=13.0, y_m=0.0, z_m=10.0, relative_alt_m=10.0,
+    # vehicle 1 hovers 2 m from vehicle 2's home: vehicle 2's column is not clear, vehicle 3's (8 m) is
+    hovering = VehicleState(system_id=1, armed=True, x_m=12.0, y_m=0.0, z_m=10.0, relative_alt_m=10.0,
                             lat_deg=0.0, lon_deg=0.0, position_time_s=time.time())
     safety.decide([(1, hovering, None, False)], 0.0, time.time())
     release = threading.Event()
@@ -115,9 +115,9 @@ def test_the_take_off_gate_names_what_blocks_a_column(flight):
     assert _eventually(lambda: "vehicle 3 arming" in status.line(time.monotonic()))
     line = status.line(time.monotonic())
     assert "vehicle 3 arming (its column clear)" in line
-    min_m = flight.config.uav.min_separation_m
-    assert (f"vehicle 2 waits for its column to clear: vehicle 1 3.0 m from its home ({min_m:g} m needed)"
-            in line)
+    spacing_m = flight.safety.launch_spacing_m  # 8 m: the launch spacing
+    assert (f"vehicle 2 waits for its column to clear: vehicle 1 2.0 m from its home ({spacing_m:g} m "
+            "needed, the launch spacing)" in line)
     release.set()
     flight.stop()
     for thread in threads:

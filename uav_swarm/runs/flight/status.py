@@ -219,8 +219,8 @@ class FlightStatus:
         if not blockers:
             return "its column clear, about to take off"
         near = ", ".join(f"vehicle {s} {d:.1f} m" for s, d in blockers)
-        return (f"waits for its column to clear: {near} from its home "
-                f"({safety.config.uav.min_separation_m:g} m needed)")
+        return (f"waits for its column to clear: {near} from its home ({safety.launch_spacing_m:g} m needed, "
+                "the launch spacing)")
 
     def _return_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
         home = self._flight.safety.homes_m.get(vehicle.system_id)
@@ -228,8 +228,9 @@ class FlightStatus:
             return "returning home (no position)"
         away = f"{math.hypot(state.x_m - home[0], state.y_m - home[1]):.1f} m from home"
         hold = self._flight.safety.holds.holding(vehicle.system_id)
+        waits = self._flight.safety.rtl_waits.get(vehicle.system_id)
         if hold is None:
-            return away
+            return away if waits is None else f"{away}, {waits}"
         (state_held, blocker), since_s = hold
         text = reason_text((state_held, blocker))
         other = self._flight._by_sid.get(blocker) if blocker is not None else None

@@ -79,6 +79,13 @@ and not closing on the other. Such a vehicle flies along its step (an autopilot 
 flies the segment to it); the swing off the segment caused by the velocity it still has is bounded in
 simulation, not by this proof. Every pair apart keeps the proved rule.
 
+**Failsafe flights and the launch** (:mod:`uav_swarm.world.guard.failsafe`, its own proof). What a vehicle
+does on its own is kept apart by construction: a failsafe flight (climb where it is, straight home at its
+return layer, descend) keeps the minimum from another whatever their start times when the lower one's way
+keeps it from the higher one's columns and the columns from each other; return layers are ordered by
+crossing; vehicles climbing together (unsteered) need homes the launch spacing apart,
+``min + margin + 2 (e_t + e_p)``, closer homes climb one at a time.
+
 **Outside the bounds** nothing is promised; what can be seen is reported and answered
 (:class:`FleetGuard`): a position older than ``position_age_s`` (the vehicle is sent nothing new: its
 disc needs no measurement), a point not acknowledged within ``command_delay_s`` (kept as possible), a
