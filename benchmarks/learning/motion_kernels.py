@@ -93,9 +93,9 @@ def main() -> None:
     medians = {name: float(np.median(values)) for name, values in times.items()}
     print(f"{args.cases} cases, every answer equal to the reference's")
     for kernel in ("parking", "association"):
-        slow, fast = medians[kernel + " reference"], medians[kernel]
-        print(f"{kernel:<12}: reference {slow:8.4f} ms, compiled {fast:8.4f} ms per call (median), "
-              f"{slow / fast:6.1f}x")
+        reference_ms, compiled_ms = medians[kernel + " reference"], medians[kernel]
+        print(f"{kernel:<12}: reference {reference_ms:8.4f} ms, compiled {compiled_ms:8.4f} ms per call "
+              f"(median), {reference_ms / compiled_ms:6.1f}x")
     load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
     print(f"load average after: {load}")
 

@@ -85,7 +85,7 @@ def stats(values_ms: list[float]) -> str:
     return f"p50 {np.median(a):8.3f} ms   p95 {np.percentile(a, 95):8.3f} ms   max {a.max():8.3f} ms"
 
 
-def verdict(ok: bool) -> str:
+def verdict(ok: bool | np.bool_) -> str:
     return "meets" if ok else "MISSES"
 
 
@@ -115,7 +115,9 @@ def single_s1(args: argparse.Namespace, config: PlannerConfig) -> tuple[LearnedP
     s1 = scenes(1, args.n, args.seed)
     for scene in s1[:2]:  # warm-up
         sequence(learned, scene, 2)
-    learned_ms, expert_ms, parts = [], [], {}
+    learned_ms: list[float] = []
+    expert_ms: list[float] = []
+    parts: dict[str, list[float]] = {}
     for scene in s1:
         learned_ms += [r.latency_ms for r in sequence(learned, scene, args.repeats)]
         for name, seconds in stages(learned, scene).items():
@@ -173,7 +175,9 @@ def s2_80211(args: argparse.Namespace, config: PlannerConfig) -> None:
     print(f"S2 802.11 engine chosen at load: {planner.engine} (batch-1 medians: {timings})")
     for world in worlds[:2]:  # warm-up
         sequence(planner, world, 2)
-    replan_ms, cpu_ms, parts = [], [], {}
+    replan_ms: list[float] = []
+    cpu_ms: list[float] = []
+    parts: dict[str, list[float]] = {}
     for peds, vels, uavs in worlds:
         planner.reset()
         channels = None

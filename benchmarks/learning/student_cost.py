@@ -26,7 +26,7 @@ from torch.utils.flop_counter import FlopCounterMode
 
 from learning.checkpoint import load_checkpoint
 from learning.engines import build_engine
-from learning.model import build_model
+from learning.model import UtilityNet, build_model
 from learning.precision import resolve_precision
 from uav_swarm.planning.planner import default_checkpoint
 
@@ -47,7 +47,7 @@ def _infer_ms(model: torch.nn.Module, x: torch.Tensor, rounds: int) -> float:
     return 1e3 * float(np.median(times))
 
 
-def _onnx_ms(models: list[torch.nn.Module], shape: tuple[int, ...], rounds: int) -> list[float]:
+def _onnx_ms(models: list[UtilityNet], shape: tuple[int, int, int], rounds: int) -> list[float]:
     """Median batch-1 time of each model on ONNX Runtime (one thread), calls interleaved over the models."""
     engines = [build_engine("onnxruntime", model, shape, threads=1) for model in models]
     x = np.random.default_rng(0).random((1, *shape), dtype=np.float32)
@@ -107,7 +107,8 @@ def main() -> None:
         for width in (args.width or [8])]
     models = [build_model(config).eval() for _, config in configs]
     torch.set_num_threads(1)
-    onnx = _onnx_ms(models, shape, args.rounds)
+    channels, height, width = shape
+    onnx = _onnx_ms(models, (channels, height, width), args.rounds)
     for (name, config), model, ort in zip(configs, models, onnx, strict=True):
         torch.set_num_threads(1)
         flops, infer = _flops(model, x), _infer_ms(model, x, args.rounds)
