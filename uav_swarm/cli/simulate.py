@@ -130,6 +130,8 @@ def telemetry_endpoint(config: RunConfig, config_path: Path | None) -> RunConfig
 
 def format_summary(summary: dict[str, Any]) -> str:
     """The summary as a small text table (one row per planner, then the ratios)."""
+    from uav_swarm.runs.outputs.radio_report import admission_line
+
     header = (f"{'planner':<8} {'QoS S1 mean':>11} {'min':>6} {'QoS S2 mean':>11} {'min':>6} "
               f"{'Mbps mean':>9} {'plan ms p50':>11} {'p95':>8}")
     lines = [header, "-" * len(header)]
@@ -149,6 +151,8 @@ def format_summary(summary: dict[str, Any]) -> str:
     for kind, s in summary["planners"].items():
         if "wifi_80211" in s:
             lines.append(_wifi_line(kind, s["wifi_80211"]))
+            if s["wifi_80211"].get("rate_bar", {}).get("admission_on_rate"):  # why QoS S2 is what it is
+                lines.append("  " + admission_line(kind, s["wifi_80211"]))
     paper = {kind: s["mean_qos_s2_paper_radio"] for kind, s in summary["planners"].items()
              if "mean_qos_s2_paper_radio" in s}
     if paper:

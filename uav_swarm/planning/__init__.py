@@ -6,6 +6,7 @@
 - :mod:`~uav_swarm.planning.batch`: many worlds planned with one forward pass of the network.
 - :mod:`~uav_swarm.planning.motion`: planning in motion (follow, keep, re-solve when it pays).
 - :mod:`~uav_swarm.planning.horizon`: the motion horizon's options and instants in one radio-model pass.
+- :mod:`~uav_swarm.planning.parking`: where a spare UAV parks under a user cap (a compiled ring search).
 - :mod:`~uav_swarm.planning.assignment`: UAVs to targets (Hungarian matching with hysteresis).
 - :mod:`~uav_swarm.planning.spacing`: the targets kept the minimum separation apart (the last projection).
 - :mod:`~uav_swarm.planning.transitions`: between two plans, when and by where each UAV leaves so that no

@@ -29,6 +29,7 @@ from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, planner_task
 from uav_swarm.planning.assignment import assign_targets
 from uav_swarm.planning.horizon import warm_up
 from uav_swarm.planning.motion import MotionConfig, MotionPlanning
+from uav_swarm.planning.parking import warm_up as parking_warm_up
 from uav_swarm.world.separation import check_fleet_fits
 from uav_swarm.world.uav import UAVConfig
 
@@ -197,6 +198,7 @@ class AssigningPlanner(ABC):
             self.config.motion, self.min_gap_m)
         if self.config.mode == "motion":
             warm_up()  # the horizon's compiled loop, loaded now rather than at the first replan
+            parking_warm_up()  # and the spares' parking search
 
     @abstractmethod
     def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
