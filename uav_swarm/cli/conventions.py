@@ -29,13 +29,14 @@ import importlib
 import os
 import re
 import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import UnionType
 from typing import Any, Literal, Union, get_args, get_origin, get_type_hints
 
 __all__ = ["CliParser", "CliHelpFormatter", "config_flag", "number", "plain_text", "iter_parsers",
-           "add_verbosity", "SWITCH_ACTIONS", "output_flag", "output_problem"]
+           "add_verbosity", "SWITCH_ACTIONS", "output_flag", "output_problem", "config_default",
+           "LazyChoices"]
 
 SWITCH_ACTIONS = (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._StoreConstAction,
                   argparse._HelpAction, argparse._VersionAction, argparse._CountAction)
@@ -130,6 +131,54 @@ def _field(spec: str) -> tuple[type, dataclasses.Field]:
     return cls, fields[field_name]
 
 
+def config_default(spec: str) -> tuple[Any, Mapping[str, Any]]:
+    """The default and metadata of the field ``spec``: read from its source, imported if not literal.
+
+    ``"module:NAME"`` (no field) is a module constant: its value and no metadata.
+    """
+    from uav_swarm.cli.field_source import read_constant, read_field
+
+    module_name, _, qualified = spec.partition(":")
+    if "." not in qualified:
+        try:
+            return read_constant(module_name, qualified), {}
+        except LookupError:
+            return getattr(importlib.import_module(module_name), qualified), {}
+    found = read_field(spec)
+    if found is not None:
+        return found
+    _, field = _field(spec)
+    return field.default, field.metadata
+
+
+class LazyChoices(Sequence[str]):
+    """A flag's ``choices`` computed when first needed (parsing the flag, or its command's help).
+
+    Examples:
+        >>> choices = LazyChoices(lambda: ("a", "b"))
+        >>> "a" in choices, list(choices), len(choices)
+        (True, ['a', 'b'], 2)
+    """
+
+    def __init__(self, compute: Callable[[], Sequence[str]]) -> None:
+        self._compute = compute
+        self._values: tuple[str, ...] | None = None
+
+    def _all(self) -> tuple[str, ...]:
+        if self._values is None:
+            self._values = tuple(self._compute())
+        return self._values
+
+    def __getitem__(self, index: Any) -> Any:
+        return self._all()[index]
+
+    def __len__(self) -> int:
+        return len(self._all())
+
+    def __contains__(self, value: object) -> bool:
+        return value in self._all()
+
+
 def _shown(value: Any) -> str:
     if isinstance(value, bool):
         return "on" if value else "off"
@@ -191,15 +240,14 @@ class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
         text = action.help or ""
         spec = getattr(action, "config_field", None)
         if spec is not None:
-            _, field = _field(spec)
+            default, meta = config_default(spec)
             if text == _FIELD_DOC:
-                text = field.metadata.get("doc", "").replace("%", "%%")
-            meta = field.metadata
+                text = meta.get("doc", "").replace("%", "%%")
             bounds = [f"{op} {meta[k]}" for k, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<"))
                       if meta.get(k) is not None]
             allowed = f"; allowed {' and '.join(bounds)}" if bounds else ""
             if "(default" not in text:
-                shown = _shown(field.default).replace("%", "%%")
+                shown = _shown(default).replace("%", "%%")
                 key = getattr(action, "config_key", None)
                 source = f", or {key} of --config" if key else ""
                 text += f" (default: {shown}{source}{allowed})"

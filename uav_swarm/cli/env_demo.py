@@ -8,10 +8,12 @@ to the UAVs with the least total travel (Hungarian) and replans every ``--replan
 from __future__ import annotations
 
 import argparse
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from uav_swarm.cli.conventions import number, output_flag
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["register", "run", "greedy_targets_m"]
 
@@ -46,6 +48,7 @@ def greedy_targets_m(density: np.ndarray, width_m: float, height_m: float, n_uav
     Returns:
         (n_uavs, 2) target positions in metres (pixel centres).
     """
+    import numpy as np
     from scipy.signal import fftconvolve
 
     from uav_swarm.world.raster import pixels_to_metres
@@ -70,6 +73,7 @@ def greedy_targets_m(density: np.ndarray, width_m: float, height_m: float, n_uav
 
 def _assign(positions_m: np.ndarray, targets_m: np.ndarray) -> np.ndarray:
     """Targets reordered so that the total travel distance is minimal (Hungarian)."""
+    import numpy as np
     from scipy.optimize import linear_sum_assignment
 
     cost = np.linalg.norm(positions_m[:, None, :] - targets_m[None, :, :], axis=2)
@@ -80,6 +84,7 @@ def _assign(positions_m: np.ndarray, targets_m: np.ndarray) -> np.ndarray:
 def run(args: argparse.Namespace) -> int:
     """Run the episode, print a summary and write ``env_demo.png`` into ``--out``."""
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

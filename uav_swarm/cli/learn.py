@@ -18,26 +18,28 @@ import json
 import sys
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import LazyChoices, config_flag, number, output_flag
 
 __all__ = ["register", "run", "task_names"]
 
 
 def task_names() -> tuple[str, ...]:
-    """The registered tasks (the choices of ``--task``)."""
-    from uav_swarm.missions.registry import TASKS
+    """The registered tasks (the choices of ``--task``), read from the registry's source (no import)."""
+    from uav_swarm.cli.field_source import read_keys
 
-    return tuple(TASKS)
+    return read_keys("uav_swarm.missions.registry", "TASKS")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``dataset``, ``train`` and ``evaluate`` subcommands."""
-    from learning.data import SPLITS
+    from uav_swarm.cli.field_source import read_keys
+
+    splits = LazyChoices(lambda: sorted(read_keys("learning.data", "SPLITS")))  # no numpy for --help
 
     train_cfg, model_cfg = "learning.train:TrainConfig.", "learning.model:ModelConfig."
 
     def common(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--task", required=True, choices=task_names(), help="the task")
+        parser.add_argument("--task", required=True, choices=LazyChoices(task_names), help="the task")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
                             "refine, rule_check; default: none, the task's defaults)")
         output_flag(parser, "--out", "folder", required=True, help="output folder")
@@ -58,7 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "Run the same command again after a kill to finish it.\n\n" + __doc__)
     common(dataset)
     generation(dataset)
-    dataset.add_argument("--split", choices=sorted(SPLITS), default="train", help="seed namespace")
+    dataset.add_argument("--split", choices=splits, default="train", help="seed namespace")
     dataset.add_argument("--shard-size", type=number(int, ge=1), default=256, help="scenes per shard file")
 
     train = subparsers.add_parser(

@@ -1,0 +1,61 @@
+"""How long ``uav-swarm --help`` and each command's ``--help`` take, the whole process timed.
+
+Each help is run ``--runs`` times as a fresh process (``python -m uav_swarm COMMAND --help``), after one
+warm-up run that writes the bytecode cache (into a temporary ``PYTHONPYCACHEPREFIX``, as an installed
+package has its ``.pyc`` files); the median wall time is printed with the machine, its load average before
+the runs, and the start of a bare interpreter (``python -c pass``), the floor of any command. Goal: each
+help within 0.5 s on the reference machine at load < 1.
+
+Usage: python benchmarks/cli/help_time.py [--runs 5] [--commands simulate fly ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+from uav_swarm.cli import build_parser
+from uav_swarm.cli.conventions import iter_parsers
+
+
+def wall_s(argv: list[str], env: dict[str, str]) -> float:
+    """One run of ``argv`` as a process: its wall time (s); its output is discarded."""
+    start = time.perf_counter()
+    subprocess.run(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    """Time each help and print a markdown table."""
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--runs", type=int, default=5, help="timed runs of each help (default: 5)")
+    parser.add_argument("--commands", nargs="*", help="commands to time (default: the top level and all)")
+    args = parser.parse_args()
+    commands = [(c,) for c in args.commands] if args.commands is not None else \
+        [path for path, _ in iter_parsers(build_parser())]
+    with tempfile.TemporaryDirectory() as cache:
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        env["PYTHONPYCACHEPREFIX"] = cache
+        load = os.getloadavg()
+        print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, Python "
+              f"{platform.python_version()}; load average before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
+        bare = [sys.executable, "-c", "pass"]
+        wall_s(bare, env)
+        print(f"bare interpreter (python -c pass): median {statistics.median(wall_s(bare, env) for _ in range(args.runs)):.3f} s\n")
+        print("| command | median s | max s |\n|---|---|---|")
+        for path in commands:
+            argv = [sys.executable, "-m", "uav_swarm", *path, "--help"]
+            wall_s(argv, env)  # warm-up: the bytecode cache
+            times = [wall_s(argv, env) for _ in range(args.runs)]
+            print(f"| uav-swarm {' '.join(path)} --help | {statistics.median(times):.3f} | {max(times):.3f} |")
+        print(f"\nload average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()
