@@ -33,7 +33,8 @@ def wall_s(argv: list[str], env: dict[str, str]) -> float:
 
 def main() -> None:
     """Time each help and print a markdown table."""
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=5, help="timed runs of each help (default: 5)")
     parser.add_argument("--commands", nargs="*", help="commands to time (default: the top level and all)")
     args = parser.parse_args()
@@ -47,13 +48,15 @@ def main() -> None:
               f"{platform.python_version()}; load average before: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
         bare = [sys.executable, "-c", "pass"]
         wall_s(bare, env)
-        print(f"bare interpreter (python -c pass): median {statistics.median(wall_s(bare, env) for _ in range(args.runs)):.3f} s\n")
+        bare_s = statistics.median(wall_s(bare, env) for _ in range(args.runs))
+        print(f"bare interpreter (python -c pass): median {bare_s:.3f} s\n")
         print("| command | median s | max s |\n|---|---|---|")
         for path in commands:
             argv = [sys.executable, "-m", "uav_swarm", *path, "--help"]
             wall_s(argv, env)  # warm-up: the bytecode cache
             times = [wall_s(argv, env) for _ in range(args.runs)]
-            print(f"| uav-swarm {' '.join(path)} --help | {statistics.median(times):.3f} | {max(times):.3f} |")
+            name = " ".join(("uav-swarm", *path, "--help"))
+            print(f"| {name} | {statistics.median(times):.3f} | {max(times):.3f} |")
         print(f"\nload average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 

@@ -99,7 +99,7 @@ def read_keys(module_name: str, name: str) -> tuple[str, ...]:
     for node in tree.body if tree is not None else ():
         value = _assigned(node, name)
         if isinstance(value, ast.Dict) and all(isinstance(k, ast.Constant) for k in value.keys):
-            return tuple(k.value for k in value.keys if isinstance(k, ast.Constant))
+            return tuple(str(k.value) for k in value.keys if isinstance(k, ast.Constant))
     raise LookupError(f"{module_name}.{name}")
 
 
