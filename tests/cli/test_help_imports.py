@@ -44,8 +44,9 @@ def test_help_imports_no_heavy_library(command: tuple[str, ...]) -> None:
 
 
 def _config_actions() -> list[tuple[str, str]]:
-    return [(" ".join(path), action.config_field) for path, parser in iter_parsers(build_parser())
-            for action in parser._actions if getattr(action, "config_field", None)]
+    specs = [(" ".join(path), getattr(action, name, None)) for path, parser in iter_parsers(build_parser())
+             for action in parser._actions for name in ("config_field", "default_from")]
+    return [(command, spec) for command, spec in specs if spec]
 
 
 @pytest.mark.parametrize(("command", "spec"), _config_actions(), ids=lambda v: str(v))

@@ -10,6 +10,8 @@
 - :func:`output_flag`: a folder or file the command writes, checked when parsed (before any work): an
   existing file given for a folder, a folder given for a file, a path under a file or a place this
   user cannot write is refused naming the flag.
+- :func:`run_folder_flag`: a run's output folder; one that already holds files is refused naming
+  ``--overwrite`` (:func:`run_folder_problem`, before any work): a run never replaces another silently.
 
 Examples:
     >>> parser = CliParser(prog="demo")
@@ -36,7 +38,7 @@ from typing import Any, Literal, Union, get_args, get_origin, get_type_hints
 
 __all__ = ["CliParser", "CliHelpFormatter", "config_flag", "number", "plain_text", "iter_parsers",
            "add_verbosity", "SWITCH_ACTIONS", "output_flag", "output_problem", "config_default",
-           "LazyChoices"]
+           "LazyChoices", "run_folder_flag", "run_folder_problem"]
 
 SWITCH_ACTIONS = (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._StoreConstAction,
                   argparse._HelpAction, argparse._VersionAction, argparse._CountAction)
@@ -120,6 +122,50 @@ def output_flag(parser: argparse.ArgumentParser, flag: str, kind: Literal["folde
     action = parser.add_argument(flag, type=convert, default=default, **kwargs)
     action.output_kind = kind  # type: ignore[attr-defined]
     return action
+
+
+def run_folder_flag(parser: argparse.ArgumentParser, flag: str = "--out", *,
+                    resumed_by: str | None = None, **kwargs: Any) -> argparse.Action:
+    """Add ``flag``, a run's output folder, and ``--overwrite``: a run never replaces another silently.
+
+    A folder that already holds files is refused naming ``--overwrite`` (see :func:`run_folder_problem`),
+    unless ``--overwrite`` is given or the flag ``resumed_by`` (a dest, e.g. ``"resume"``) asks to continue
+    the run in it.
+    """
+    action = output_flag(parser, flag, "folder", **kwargs)
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"write into a {flag} that already holds files, replacing the files this run "
+                             "writes (default: refused, so that a run never replaces another)")
+    parser.set_defaults(run_folder=(action.dest, flag, resumed_by))
+    return action
+
+
+def run_folder_problem(args: argparse.Namespace) -> str | None:
+    """Why the run must not start in its folder (it holds another run's files), or None.
+
+    Examples:
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as folder:
+        ...     args = argparse.Namespace(out=Path(folder), overwrite=False,
+        ...                               run_folder=("out", "--out", None))
+        ...     empty = run_folder_problem(args)
+        ...     _ = (Path(folder) / "summary.json").write_text("{}")
+        ...     held = run_folder_problem(args)
+        ...     args.overwrite = True
+        ...     (empty, held.split(" (")[0].endswith("already holds a run"), run_folder_problem(args))
+        (None, True, None)
+    """
+    dest, flag, resumed_by = getattr(args, "run_folder", None) or (None, "", None)
+    path = getattr(args, dest) if dest else None
+    resumed = resumed_by is not None and getattr(args, resumed_by, None)
+    if path is None or args.overwrite or resumed or not path.is_dir():
+        return None
+    held = sorted(entry.name + ("/" if entry.is_dir() else "") for entry in path.iterdir())
+    if not held:
+        return None
+    shown = ", ".join(held[:4]) + (f", ... ({len(held)} entries)" if len(held) > 4 else "")
+    return (f"{flag} {path} already holds a run ({shown}): give another {flag}, or --overwrite to replace "
+            "its files")
 
 
 def _field(spec: str) -> tuple[type, dataclasses.Field]:
@@ -234,10 +280,16 @@ def _check_text(cls: type, name: str, text: str) -> None:
 
 
 class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """Descriptions as written; each flag's help followed by its default (from its config field if any)."""
+    """Descriptions as written; each flag's help followed by its default (from its config field if any).
+
+    A flag with a ``default_from`` attribute (``"module:NAME"``) shows that constant as its default.
+    """
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
+        source = getattr(action, "default_from", None)  # a module constant, read when the help is shown
+        if source is not None and "(default" not in text:
+            return f"{text} (default: {_shown(config_default(source)[0])})"
         spec = getattr(action, "config_field", None)
         if spec is not None:
             default, meta = config_default(spec)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from uav_swarm.cli.conventions import number, output_flag
+from uav_swarm.cli.conventions import number, run_folder_flag
 
 if TYPE_CHECKING:
     import numpy as np
@@ -24,7 +24,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "env-demo", help="run one episode of uav_swarm_v0 with a scripted policy and write a PNG",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    output_flag(parser, "--out", "folder", default="out/env-demo", help="output folder")
+    run_folder_flag(parser, "--out", default="out/env-demo", help="output folder")
     add("--seed", type=number(int, ge=0), default=0, help="episode seed")
     add("--n-uavs", type=number(int, ge=1, le=10), default=6, help="number of UAVs")
     add("--steps", type=number(int, ge=1), default=300, help="episode length in steps of 0.1 s")

@@ -50,7 +50,7 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import config_flag, number, output_flag, run_folder_flag
 from uav_swarm.cli.simulate import CHECKPOINT_HELP, telemetry_endpoint
 
 __all__ = ["register", "run"]
@@ -71,7 +71,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "unless --simulated)")
     add("--simulated", choices=("ardupilot", "px4"),
         help="fly a simulated fleet of this autopilot, started here (default: none, real vehicles)")
-    output_flag(parser, "--out", "folder", default="out/fly", help="output folder")
+    run_folder_flag(parser, "--out", default="out/fly", help="output folder")
     add("--config", type=Path, help="TOML of FlyConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry], [flight]); flags override it (default: none)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))

@@ -18,7 +18,7 @@ import json
 import sys
 from typing import Any
 
-from uav_swarm.cli.conventions import LazyChoices, config_flag, number, output_flag
+from uav_swarm.cli.conventions import LazyChoices, config_flag, number, output_flag, run_folder_flag
 
 __all__ = ["register", "run", "task_names"]
 
@@ -38,11 +38,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     train_cfg, model_cfg = "learning.train:TrainConfig.", "learning.model:ModelConfig."
 
-    def common(parser: argparse.ArgumentParser) -> None:
+    def common(parser: argparse.ArgumentParser, *, resumes_in_out: bool = False) -> None:
+        """--task, --config and --out (a run's folder, refused when it holds files, unless resumed in)."""
         parser.add_argument("--task", required=True, choices=LazyChoices(task_names), help="the task")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
                             "refine, rule_check; default: none, the task's defaults)")
-        output_flag(parser, "--out", "folder", required=True, help="output folder")
+        if resumes_in_out:
+            output_flag(parser, "--out", "folder", required=True, help="output folder")
+        else:
+            run_folder_flag(parser, "--out", resumed_by="resume_from", required=True, help="output folder")
         parser.set_defaults(func=run)
 
     def generation(parser: argparse.ArgumentParser) -> None:
@@ -58,7 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "dataset", help="generate expert demonstrations into shards (resumable)",
         description="Generate expert demonstrations (scene, expert placement) into shard files in --out. "
         "Run the same command again after a kill to finish it.\n\n" + __doc__)
-    common(dataset)
+    common(dataset, resumes_in_out=True)  # resumable: the same command again finishes it
     generation(dataset)
     dataset.add_argument("--split", choices=splits, default="train", help="seed namespace")
     dataset.add_argument("--shard-size", type=number(int, ge=1), default=256, help="scenes per shard file")

@@ -55,7 +55,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import config_flag, number, run_folder_flag
 
 if TYPE_CHECKING:
     import numpy as np
@@ -80,7 +80,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--task", required=True, choices=("agp", "fp"), help="agp: guards inside; fp: guards outside")
     add("--building", required=True, type=Path,
         help=".geojson (WGS84 Polygon, MultiPolygon or FeatureCollection) or .json/.csv/.txt vertices (m)")
-    output_flag(parser, "--out", "folder", required=True, help="output folder")
+    run_folder_flag(parser, "--out", required=True, help="output folder")
     add("--method", choices=METHODS, default="refined", help="placement method")
     add("--checkpoint",
         help="network for learned/refined (default: the shipped uav_swarm/checkpoints/<task>.pt)")

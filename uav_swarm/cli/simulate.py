@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import config_flag, number, output_flag, run_folder_flag
 
 if TYPE_CHECKING:
     from uav_swarm.runs.fly_config import FlyConfig
@@ -57,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
     cfg = "uav_swarm.runs.simulate_config:SimulateConfig."
-    output_flag(parser, "--out", "folder", default="out/simulate", help="output folder")
+    run_folder_flag(parser, "--out", default="out/simulate", help="output folder")
     add("--config", type=Path, help="TOML of SimulateConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry]); flags override it (default: none, the defaults below)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
