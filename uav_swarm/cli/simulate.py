@@ -50,6 +50,13 @@ CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the
                    "strategy or admission is refused)")
 
 
+NEXT_STEPS = ("next: uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly flies "
+              "this planner on 5 simulated ArduCopters (about 70 s)\n"
+              "next: uav-swarm telemetry watch in a second terminal shows the next run live; the words of the "
+              "table: docs/glossary.md")
+"""What to try after the demo: two lines printed at the end of a finished run."""
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` subcommand."""
     parser = subparsers.add_parser(
@@ -268,4 +275,10 @@ def run(args: argparse.Namespace) -> int:
     print(wrote_line(files, args.out))
     if "recording" in summary:
         print(f"recorded the {config.planner} planner's run in {summary['recording']}")
+    cut = summary.get("interrupted")
+    if cut is not None:
+        print(f"uav-swarm simulate: interrupted (Ctrl-C) at {cut['at_s']:g} s of the {cut['planner']} "
+              f"planner's run: the figures and files above cover {cut['kept']}", file=sys.stderr)
+        return 130
+    print(NEXT_STEPS)
     return 0
