@@ -52,8 +52,8 @@ CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the
 
 NEXT_STEPS = ("next: uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly flies "
               "this planner on 5 simulated ArduCopters (about 70 s)\n"
-              "next: uav-swarm telemetry watch in a second terminal shows the next run live; the words of the "
-              "table: docs/glossary.md")
+              "next: uav-swarm telemetry watch in a second terminal shows the next run live; the words of "
+              "the table: docs/glossary.md")
 """What to try after the demo: two lines printed at the end of a finished run."""
 
 
