@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     margin = add("--margin-z", type=number(float, ge=0.0),
                  help="margin of the validation figures, in standard errors of a validation-against-held-out "
                       "difference (0: none)")
-    margin.default_from = "learning.mission_calibration:MARGIN_Z"  # type: ignore[attr-defined]
+    margin.default_from = "learning.mission_calibration:MARGIN_Z"
     for name, what, kind in (("thresholds", "threshold_abs", float), ("contrasts", "min_contrast", float),
                              ("distances-px", "min_distance_px", int)):
         action = add(f"--{name}", type=kind, nargs="+", help=f"{what} values tried")
