@@ -58,6 +58,13 @@ __all__ = ["register", "run"]
 logger = logging.getLogger(__name__)
 
 
+NEXT_STEPS = ("next: open track.png and qos.png in the output folder (the flight from above; QoS against the "
+              "static reference: docs/glossary.md)\n"
+              "next: uav-swarm vehicles starts a fleet that stays up (one terminal), uav-swarm fly "
+              "--bridge-config out/vehicles/bridge.toml --duration-s 60 flies it (another): docs/fly.md")
+"""What to try after a flight: two lines printed at the end of a finished one."""
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``fly`` subcommand."""
     parser = subparsers.add_parser(
@@ -182,7 +189,13 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     from uav_swarm.runs.fly import fly
 
     stop = threading.Event()
-    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    received: list[int] = []  # the stop signals, in order: Ctrl-C (SIGINT) ends in exit code 130
+
+    def on_signal(number: int, _frame: Any) -> None:
+        received.append(number)
+        stop.set()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         made = bool(args.simulated) and args.bridge_config is None  # a fleet config of this flight only
         result = fly(config, args.out, stop_event=stop, record=args.record, live=live,
@@ -207,4 +220,11 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     print(f"wrote {', '.join(summary['files'])} in {args.out}")
     if "recording" in summary:
         print(f"recorded the flight in {summary['recording']}")
+    if received:
+        name = "Ctrl-C" if received[0] == signal.SIGINT else signal.Signals(received[0]).name
+        flown = f" after {summary['duration_s']:.0f} s of crowd time" if "duration_s" in summary else ""
+        print(f"uav-swarm fly: interrupted ({name}){flown}: the vehicles were sent their end action and the "
+              "files above cover the flight until then", file=sys.stderr)
+        return 128 + received[0]
+    print(NEXT_STEPS)
     return 0
