@@ -20,9 +20,10 @@ it to Foxglove while it flies.
 ``uav-swarm vehicles``, link-loss failsafe set to return home): --n-uavs of them (default 5) on loopback
 ports of their own, or the vehicles of --bridge-config when one is given.
 
-Examples (each flies --duration-s of crowd time, 300 s by default, plus the take-offs and the return):
-  uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly   # 5 simulated ArduCopters
-  uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
+Examples (each flies --duration-s of crowd time, 300 s by default, plus the take-offs and the return;
+all but the first need vehicles running: SITL, real autopilots, or uav-swarm vehicles in another terminal):
+  uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly   # about 70 s
+  uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --duration-s 60 --out out/fly-sitl
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
   uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
@@ -31,11 +32,12 @@ Telemetry left at its default endpoint moves to a free port of 127.0.0.1 when an
 tcp/127.0.0.1:7447, and says where. A vehicle not heard after 3 s is named, with why when its connection
 was refused.
 
-Exit codes: 0 flown and ended (also when stopped early by Ctrl-C or SIGTERM: the vehicles are ended and
-the outputs written), 1 no vehicle could be launched (a vehicle never heard is "not found"; nothing
-written when none flew), 2 bad flags, configuration, checkpoint, output path or telemetry endpoint given
-in --config (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle is armed;
-nothing written); 130 a Ctrl-C while it reads its config and starts --simulated's fleet.
+Exit codes: 0 flown and ended, 1 no vehicle could be launched (a vehicle never heard is "not found";
+nothing written when none flew; the message says what to start), 2 bad flags, configuration, checkpoint,
+output path (an --out holding another run's files: give --overwrite) or telemetry endpoint given in
+--config (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle is armed;
+nothing written); 130 Ctrl-C (143 SIGTERM): the vehicles are sent their end action and what flew is
+written, or, before any vehicle flew, nothing.
 """
 
 from __future__ import annotations
@@ -208,8 +210,7 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
               file=sys.stderr)
         return 2
     except BridgeError as exc:
-        kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "  # a vehicle's failure
-        print(f"uav-swarm fly: {kind}{exc}", file=sys.stderr)
+        print(f"uav-swarm fly: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
     finally:
         for sig, handler in previous.items():

@@ -244,6 +244,9 @@ def _separation_line(kind: str, figures: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Validate the configuration, run the job, print the summary table."""
+    length = f"{args.duration_s:g} s" if args.duration_s is not None else "the configured time"
+    print(f"uav-swarm simulate: loading the planners, then flying {length} of crowd time (180 s by default: "
+          "minutes) into " f"{args.out}; Ctrl-C keeps the part flown", file=sys.stderr, flush=True)
     from bridge.errors import BridgeError
     from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError

@@ -80,6 +80,8 @@ def upload_plans(bridge: BridgeConfig, plans: dict[int, list[tuple]]) -> None:
     """
     from bridge.flight.fleet import Fleet
 
+    logger.info("uploading the final missions to vehicles %s (they must be running: SITL, real autopilots or "
+                "uav-swarm vehicles); each waits for its heartbeat first", sorted(plans))
     with Fleet(bridge) as fleet:
         fleet.upload_plans(plans)
     logger.info("uploaded the final missions to vehicles %s", sorted(plans))
