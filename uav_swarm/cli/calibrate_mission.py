@@ -21,7 +21,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from uav_swarm.cli.learn import task_names
+from uav_swarm.cli.learn import task_choices
 
 __all__ = ["register", "run", "PAPER_ROWS"]
 
@@ -35,14 +35,14 @@ PAPER_ROWS: dict[str, dict[str, float]] = {
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``calibrate-mission`` subcommand."""
-    from uav_swarm.cli.conventions import LazyChoices, number, output_flag
+    from uav_swarm.cli.conventions import number, output_flag
 
     grid = "learning.mission_calibration:MissionGrid."
     parser = subparsers.add_parser(
         "calibrate-mission", help="choose a checkpoint's peak settings for the mission's QoS (validation)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--task", required=True, choices=LazyChoices(task_names), help="the checkpoint's task")
+    add("--task", required=True, choices=task_choices(), help="the checkpoint's task")
     add("--checkpoint", help="the network (default: uav_swarm/checkpoints/<task>.pt)")
     add("--n", type=number(int, ge=1), help="at most this many validation scenes (default: all of the split)")
     output_flag(parser, "--out", "folder", required=True,

@@ -200,14 +200,21 @@ def config_default(spec: str) -> tuple[Any, Mapping[str, Any]]:
 class LazyChoices(Sequence[str]):
     """A flag's ``choices`` computed when first needed (parsing the flag, or its command's help).
 
+    ``listed`` gives the choices the help and the messages list; ``allowed`` (default: membership in
+    ``listed``) decides whether a value given is one, e.g. against a registry that can grow at run time.
+
     Examples:
         >>> choices = LazyChoices(lambda: ("a", "b"))
         >>> "a" in choices, list(choices), len(choices)
         (True, ['a', 'b'], 2)
+        >>> "c" in LazyChoices(lambda: ("a",), allowed=lambda value: value in ("a", "c"))
+        True
     """
 
-    def __init__(self, compute: Callable[[], Sequence[str]]) -> None:
-        self._compute = compute
+    def __init__(self, listed: Callable[[], Sequence[str]],
+                 allowed: Callable[[object], bool] | None = None) -> None:
+        self._compute = listed
+        self._allowed = allowed
         self._values: tuple[str, ...] | None = None
 
     def _all(self) -> tuple[str, ...]:
@@ -222,7 +229,7 @@ class LazyChoices(Sequence[str]):
         return len(self._all())
 
     def __contains__(self, value: object) -> bool:
-        return value in self._all()
+        return self._allowed(value) if self._allowed is not None else value in self._all()
 
 
 def _shown(value: Any) -> str:

@@ -20,14 +20,26 @@ from typing import Any
 
 from uav_swarm.cli.conventions import LazyChoices, config_flag, number, output_flag, run_folder_flag
 
-__all__ = ["register", "run", "task_names"]
+__all__ = ["register", "run", "task_names", "task_choices"]
 
 
 def task_names() -> tuple[str, ...]:
-    """The registered tasks (the choices of ``--task``), read from the registry's source (no import)."""
+    """The shipped tasks (the choices of ``--task`` its help lists), read from the registry's source."""
     from uav_swarm.cli.field_source import read_keys
 
     return read_keys("uav_swarm.missions.registry", "TASKS")
+
+
+def is_task(name: object) -> bool:
+    """Whether ``name`` is a registered task (the registry imported: tasks may be registered at run time)."""
+    from uav_swarm.missions.registry import TASKS
+
+    return name in TASKS
+
+
+def task_choices() -> LazyChoices:
+    """``--task``'s choices: listed from source (``--help`` imports nothing), checked against the registry."""
+    return LazyChoices(task_names, allowed=is_task)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     def common(parser: argparse.ArgumentParser, *, resumes_in_out: bool = False) -> None:
         """--task, --config and --out (a run's folder, refused when it holds files, unless resumed in)."""
-        parser.add_argument("--task", required=True, choices=LazyChoices(task_names), help="the task")
+        parser.add_argument("--task", required=True, choices=task_choices(), help="the task")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
                             "refine, rule_check; default: none, the task's defaults)")
         if resumes_in_out:
@@ -69,7 +81,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     train = subparsers.add_parser(
         "train", help="train the utility network on a dataset",
-        description="Train the utility network on a dataset of expert demonstrations; writes last.pt, "
+        description="Train the utility network on a dataset of expert demonstrations; writes checkpoint.pt, "
         "best.pt and history.json into --out. The flags replace the values of --config's [train] and [model] "
         "tables.\n\n" + __doc__)
     common(train)
@@ -173,9 +185,16 @@ def _train(args: argparse.Namespace) -> int:
     shape = () if args.init else ("width", "depth")  # with --init they grow the init network instead
     model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head", *shape)))
     grow = (args.width, args.depth) if args.init and (args.width or args.depth) else None
-    result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
-                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from,
-                   init=args.init, grow=grow)
+    try:
+        result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
+                       train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from,
+                       init=args.init, grow=grow)
+    except KeyboardInterrupt:  # the checkpoints of the finished epochs stay (written at each epoch's end)
+        last = args.out / "checkpoint.pt"
+        kept = (f"{last} holds the last finished epoch: continue with --resume-from {last}" if last.is_file()
+                else "no epoch had finished: nothing written")
+        print(f"uav-swarm train: interrupted (Ctrl-C): {kept}", file=sys.stderr)
+        return 130
     last = result.history[-1] if result.history else {}
     print(f"checkpoint: {result.checkpoint} (best: {result.best_checkpoint}); last epoch: "
           + ", ".join(f"{k} {v:.4g}" for k, v in last.items()))
@@ -221,6 +240,11 @@ def _evaluate(args: argparse.Namespace) -> int:
                        workers=args.workers, address=args.address, precision=args.precision, tta=args.tta,
                        refiner=refiner, check=check)
     print(markdown_table(args.task, summary), end="")
+    cut = summary.get("interrupted")
+    if cut is not None:
+        print(f"uav-swarm evaluate: interrupted (Ctrl-C) after {cut['scenes_scored']} of {cut['of']} scenes: "
+              f"the table and the files in {args.out} cover those scenes", file=sys.stderr)
+        return 130
     return 0
 
 

@@ -23,8 +23,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from uav_swarm.cli.conventions import LazyChoices, config_flag, number, output_flag
-from uav_swarm.cli.learn import task_names
+from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.learn import task_choices
 
 __all__ = ["register", "run"]
 
@@ -34,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     grid, train_cfg = "learning.search_grid:SearchConfig.", "learning.train:TrainConfig."
     parser = subparsers.add_parser("search", help="grid search of the target's (alpha2, sigma2) (resumable)",
                                    description=__doc__)
-    parser.add_argument("--task", required=True, choices=LazyChoices(task_names), help="the task")
+    parser.add_argument("--task", required=True, choices=task_choices(), help="the task")
     parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks; "
                         "default: none, the task's defaults)")
     parser.add_argument("--data", required=True, help="dataset folder (generated there when --n is given)")
