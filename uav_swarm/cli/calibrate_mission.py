@@ -42,7 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "calibrate-mission", help="choose a checkpoint's peak settings for the mission's QoS (validation)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--task", required=True, choices=task_choices(), help="the checkpoint's task")
+    add("--task", required=True, choices=task_choices(), metavar="TASK",
+        help="the checkpoint's task: %(choices)s")
     add("--checkpoint", help="the network (default: uav_swarm/checkpoints/<task>.pt)")
     add("--n", type=number(int, ge=1), help="at most this many validation scenes (default: all of the split)")
     output_flag(parser, "--out", "folder", required=True,

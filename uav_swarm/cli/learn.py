@@ -52,7 +52,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     def common(parser: argparse.ArgumentParser, *, resumes_in_out: bool = False) -> None:
         """--task, --config and --out (a run's folder, refused when it holds files, unless resumed in)."""
-        parser.add_argument("--task", required=True, choices=task_choices(), help="the task")
+        parser.add_argument("--task", required=True, choices=task_choices(), metavar="TASK",
+                            help="the task: %(choices)s")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
                             "refine, rule_check; default: none, the task's defaults)")
         if resumes_in_out:
@@ -76,7 +77,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "Run the same command again after a kill to finish it.\n\n" + __doc__)
     common(dataset, resumes_in_out=True)  # resumable: the same command again finishes it
     generation(dataset)
-    dataset.add_argument("--split", choices=splits, default="train", help="seed namespace")
+    dataset.add_argument("--split", choices=splits, default="train", metavar="SPLIT",
+                         help="seed namespace: %(choices)s")
     dataset.add_argument("--shard-size", type=number(int, ge=1), default=256, help="scenes per shard file")
 
     train = subparsers.add_parser(
