@@ -218,6 +218,8 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     summary = result.summary
     for line in end_report(summary):
         print(line)
+    if "mean_qos_s1" in summary:
+        print("QoS S1/S2, the static reference, holds and the planner's name: docs/glossary.md")
     print(f"wrote {', '.join(summary['files'])} in {args.out}")
     if "recording" in summary:
         print(f"recorded the flight in {summary['recording']}")

@@ -52,8 +52,8 @@ CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the
 
 NEXT_STEPS = ("next: uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly flies "
               "this planner on 5 simulated ArduCopters (about 70 s)\n"
-              "next: uav-swarm telemetry watch in a second terminal shows the next run live; the words of "
-              "the table: docs/glossary.md")
+              "next: uav-swarm telemetry watch in a second terminal shows the next run live; what each "
+              "figure means: docs/simulate.md")
 """What to try after the demo: two lines printed at the end of a finished run."""
 
 
@@ -274,6 +274,7 @@ def run(args: argparse.Namespace) -> int:
           f"pedestrians, {summary['duration_s']:.0f} s simulated, replan every {config.replan_every} steps, "
           f"seed {config.seed}")
     print(format_summary(summary))
+    print("QoS S1/S2, the static reference, holds and the planner's names: docs/glossary.md")
     files = summary["files"]
     print(wrote_line(files, args.out))
     if "recording" in summary:
