@@ -267,8 +267,15 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     except BridgeError as exc:
-        print(f"uav-swarm simulate: {exc}", file=sys.stderr)
-        return 2 if isinstance(exc, ValueError) else 1
+        if isinstance(exc, ValueError):
+            print(f"uav-swarm simulate: {exc}", file=sys.stderr)
+            return 2
+        bridge = args.bridge_config or "the bridge config"
+        print(f"uav-swarm simulate: the upload failed: {exc}; the run and its missions are written in "
+              f"{args.out}: start the vehicles of {bridge} (SITL, real autopilots, or simulated ones in "
+              f"another terminal: uav-swarm vehicles --bridge-config {bridge}), then uav-swarm mission "
+              f"upload --config {bridge} --from-dir {args.out / 'missions'}", file=sys.stderr)
+        return 1
     summary = result.summary
     print(f"uav_swarm_v0: {config.n_uavs} UAVs, {summary['planners'][config.planner]['n_pedestrians']} "
           f"pedestrians, {summary['duration_s']:.0f} s simulated, replan every {config.replan_every} steps, "
