@@ -133,6 +133,11 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Validate (and start the simulated fleet), then fly."""
+    fleet = f"a simulated {args.simulated} fleet started here" if args.simulated else (
+        f"the vehicles of {args.bridge_config or 'the bridge config of --config'}")
+    wait = f"{args.wait_ready_s:g} s" if args.wait_ready_s is not None else "60 s by default"
+    print(f"uav-swarm fly: loading the planner, then flying {fleet} (waiting up to --wait-ready-s, {wait}, "
+          f"for each); outputs into {args.out}; Ctrl-C ends the flight safely", file=sys.stderr, flush=True)
     from typed_config import ConfigError
     from uav_swarm.runs.fly_config import load_fly_config
     from uav_swarm.runs.outputs.live_view import live_view_option
