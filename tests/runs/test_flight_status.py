@@ -58,15 +58,20 @@ def test_a_line_is_due_every_period_of_the_loop_clock_and_names_what_each_vehicl
         clock.now_s = float(t_s)
         lines.append(status.tick())
     due = [(t_s, line) for t_s, line in enumerate(lines) if line is not None]
-    assert [t_s for t_s, _ in due] == [5, 10]
+    assert [t_s for t_s, _ in due] == [5]  # at 10 s nothing changed: no second line
     assert due[0][1] == ("waiting for heartbeats (5 s of 60 s): vehicle 1 not heard yet (its heartbeat); "
                          "vehicle 2 not heard yet (its heartbeat); vehicle 3 not heard yet (its heartbeat); "
                          "3 waiting")
-    clock.now_s = 40.0  # a loop starved for 28 s: one line when it turns again, not a burst of them
+    clock.now_s = 40.0  # a loop starved for 28 s: one line when it turns again (30 s after the last)
     assert status.tick() is not None
     clock.now_s = 41.0
     assert status.tick() is None
-    assert status.lines == [line for line in lines if line is not None] + status.lines[-1:]
+    clock.now_s = 46.0
+    assert status.tick() is None  # the same again, 6 s later: not said
+    status.enter("ready", limit_s=60.0)  # something changed: said at the next period
+    clock.now_s = 52.0
+    assert status.tick().startswith("waiting until the vehicles are ready (")
+    assert status.lines == [line for line in lines if line is not None] + status.lines[-2:]
 
 
 def test_a_wait_of_the_main_thread_still_says_what_it_waits_for(flight):
@@ -83,7 +88,7 @@ def test_a_wait_of_the_main_thread_still_says_what_it_waits_for(flight):
     status = FlightStatus(flight, 5.0, clock=clock)
     status.enter("preflight")
     status.wait([(1, job), (2, job)], "its pre-flight check (parameters)")
-    assert len(status.lines) == 2  # at 6 s and 11 s of the clock
+    assert len(status.lines) == 1  # at 6 s of the clock; at 11 s nothing changed: no second line
     assert status.lines[0].startswith("pre-flight checks (")
     assert ("vehicle 1 its pre-flight check (parameters); vehicle 2 its pre-flight check (parameters); "
             "vehicle 3 not heard yet (its heartbeat)") in status.lines[0]

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 from typed_config import ConfigError
 from uav_swarm import __version__
-from uav_swarm.cli.conventions import CliParser, add_verbosity, iter_parsers
+from uav_swarm.cli.conventions import CliParser, add_verbosity, iter_parsers, run_folder_problem
 
 __all__ = ["main", "build_parser"]
 
@@ -69,10 +69,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    command = " ".join(filter(None, (args.command, getattr(args, "action", None))))
+    problem = run_folder_problem(args)
+    if problem is not None:
+        print(f"uav-swarm {command}: {problem}", file=sys.stderr)
+        return 2
     try:
         return int(args.func(args) or 0)
     except ConfigError as exc:
-        command = " ".join(filter(None, (args.command, getattr(args, "action", None))))
         print(f"uav-swarm {command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -149,7 +149,10 @@ class FlightLaunch(FlightStep):
                 by_status.setdefault(v.status, []).append(str(v.system_id))
             failed = "; ".join(f"vehicle{'s' if len(ids) > 1 else ''} {', '.join(ids)}: {status}"
                                for status, ids in by_status.items())
-            hint = ("none answered within --wait-ready-s; to fly a simulated fleet instead: uav-swarm fly "
+            source = self.config.bridge_config or "the bridge config"
+            hint = (f"none answered within --wait-ready-s ({self.config.flight.ready_timeout_s:g} s): start "
+                    f"them first (SITL or real autopilots, or simulated ones in another terminal: uav-swarm "
+                    f"vehicles --bridge-config {source}), or fly a fleet started here: uav-swarm fly "
                     "--simulated ardupilot" if all(v.status == "not found" for v in self.vehicles)
                     else "see the warnings above")
             raise BridgeError(f"no vehicle could be launched ({failed}); {hint}")
