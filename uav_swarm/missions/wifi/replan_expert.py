@@ -38,7 +38,7 @@ __all__ = ["ReplanExpertConfig", "ReplanExpert", "travel_m"]
 
 @dataclass(frozen=True)
 class ReplanExpertConfig(Config):
-    """Settings of the expert's replans in flight ([task.expert.replan])."""
+    """Settings of the strategy-2 expert's replans in flight ([task.expert.replan])."""
 
     warm_start: bool = param(
         True, doc="start each replan from the last placement (false: a fresh solve every replan, as before)")

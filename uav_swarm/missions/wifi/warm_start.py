@@ -62,8 +62,14 @@ def warm_placement(task: WifiTask, users_m: np.ndarray, last_m: np.ndarray, warm
 
 
 def replan_expert(task: WifiTask) -> ReplanExpert:
-    """The task's expert for a sequence of crowds, with the settings of ``[task.expert.replan]``."""
+    """The task's expert for a sequence of crowds, with the settings of ``[task.expert.replan]``.
+
+    Strategy 1 solves afresh at every replan (its expert is a stable function of the crowd: the
+    settings apply to strategy 2).
+    """
     config = task.config.expert.replan
+    if task.config.strategy == 1:
+        config = config.replace(warm_start=False)
     return ReplanExpert(
         config,
         fresh=task.expert_placement_m,
