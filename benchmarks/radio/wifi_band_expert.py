@@ -1,15 +1,17 @@
-"""A strategy-2 expert chosen with a tie band: the canonical group layout unless the search beats it clearly.
+"""A strategy-2 expert chosen with a tie band: a canonical layout unless the search beats it clearly.
 
 Strategy 2 on the paper's radio has two experts at the ends of one front: the search expert (more users
 served, a layout that flips under 5 cm of jitter) and the group expert at rest (a canonical layout built
-from the crowd's walking groups, fewer users). The *band* expert places both on the crowd and keeps the
-search's placement only when it serves more than ``band`` users more than the group's (``band`` a share of
-the crowd: ``--bands``); otherwise the group's. Jitter of a few centimetres changes either count by a user
-or two, so the choice flips only on crowds whose gap lies within that of the band.
+from the crowd's walking groups, fewer users). The *band* expert places the search's layout and a
+canonical one on the crowd and keeps the search's only when it serves more than ``band`` x the crowd users
+more (``--bands``); otherwise the canonical one. Two canonical layouts are judged: ``groups``, the group
+expert's, and ``adopted``, the group expert's made valid and improved by the search's local steps
+(:func:`uav_swarm.missions.wifi.expert.adopt_placement`: repair, centring, greedy fill of spare UAVs).
+The choice flips under jitter only where the QoS gap between the two moves across the band.
 
 On ``--n`` held-out crowds (``test`` seed namespace of ``--seed``) and their copies with every pedestrian
 moved by N(0, 5 cm) (generator ``(seed, i)``: the scenes of ``uav-swarm expert-stability --probe jitter``),
-both experts are solved once on each; every band is then judged from the same solves: self-agreement by
+the experts are solved once on each; every band is then judged from the same solves: self-agreement by
 the paper's matching rule (corr, precision) between the band expert's choice on the crowd and on its copy,
 and its QoS S2 on the crowd. One JSON line per crowd is appended to ``--out`` (a rerun skips crowds there).
 
@@ -23,14 +25,18 @@ import argparse
 import json
 import os
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
 from learning.data import sample_seed
 from learning.metrics import MATCH_FRACTION, score_sample
 from uav_swarm.missions.registry import build_task
+from uav_swarm.missions.wifi.expert import adopt_placement
+from uav_swarm.missions.wifi.task import WifiTask
 
 EXPERTS = ("search", "groups")
+CANONICAL = ("groups", "adopted")
 
 
 def main() -> None:
@@ -46,18 +52,25 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done = {json.loads(line)["scene"] for line in out.read_text().splitlines()} if out.is_file() else set()
-    tasks = {m: build_task("wifi-s2", {"strategy": 2, "expert": {"method": m}}) for m in EXPERTS}
+    tasks = {m: cast(WifiTask, build_task("wifi-s2", {"strategy": 2, "expert": {"method": m}}))
+             for m in EXPERTS}
     for i in range(args.n):
         if i in done:
             continue
         task = tasks["search"]
         scene = task.sample(np.random.default_rng(sample_seed(args.seed, "test", i)))
-        moved = task.jitter_scene(scene, np.random.default_rng((args.seed, i)), 0.05)  # type: ignore[attr-defined]
+        moved = task.jitter_scene(scene, np.random.default_rng((args.seed, i)), 0.05)
         row: dict[str, object] = {"scene": i, "seed": args.seed, "users": len(scene.users_m)}
+        placed: dict[str, dict[str, np.ndarray]] = {}
         for method, each in tasks.items():
             # The group expert at rest: no velocities (the crowd of now, not of the next second).
-            on_crowd = each.to_pixels(each.expert_placement_m(scene.users_m))  # type: ignore[attr-defined]
-            on_moved = each.to_pixels(each.expert_placement_m(moved.users_m))  # type: ignore[attr-defined]
+            placed[method] = {"crowd": each.expert_placement_m(scene.users_m),
+                              "moved": each.expert_placement_m(moved.users_m)}
+        placed["adopted"] = {which: adopt_placement(crowd.users_m, placed["groups"][which], task.rules,
+                                                    task.width_m, task.height_m, task.config.expert)
+                             for which, crowd in (("crowd", scene), ("moved", moved))}
+        for method, both in placed.items():
+            on_crowd, on_moved = task.to_pixels(both["crowd"]), task.to_pixels(both["moved"])
             row[method] = {"crowd": on_crowd.tolist(), "moved": on_moved.tolist(),
                            "qos": task.qos(scene, on_crowd)["qos"],
                            "qos_moved": task.qos(moved, on_moved)["qos"]}
@@ -65,35 +78,38 @@ def main() -> None:
         with out.open("a") as f:
             f.write(json.dumps(row) + "\n")
         print(f"crowd {i}: {row['users']} users, load {row['load']:.1f}", flush=True)
-    summarise([out, *map(Path, args.pool)], args.bands, MATCH_FRACTION * tasks["search"].mission_dimension_px)
+    eps_px = MATCH_FRACTION * tasks["search"].mission_dimension_px
+    for canonical in CANONICAL:
+        summarise([out, *map(Path, args.pool)], args.bands, eps_px, canonical)
 
 
-def _choice(row: dict, which: str, band: float) -> tuple[np.ndarray, float]:
+def _choice(row: dict, which: str, band: float, canonical: str) -> tuple[np.ndarray, float]:
     """The band expert's placement on the crowd (``which = "crowd"``) or its copy, and its QoS there."""
     qos_key = "qos" if which == "crowd" else "qos_moved"
-    search, groups = row["search"], row["groups"]
-    pick = search if search[qos_key] - groups[qos_key] > band else groups
+    search, other = row["search"], row[canonical]
+    pick = search if search[qos_key] - other[qos_key] > band else other
     return np.asarray(pick[which], np.float64).reshape(-1, 2), float(pick[qos_key])
 
 
-def summarise(paths: list[Path], bands: list[float], eps_px: float) -> None:
+def summarise(paths: list[Path], bands: list[float], eps_px: float, canonical: str) -> None:
     """Print, per band, the mean self-agreement and QoS S2 over the crowds in ``paths``."""
     rows = [json.loads(line) for path in paths for line in path.read_text().splitlines()]
     seeds = sorted({r["seed"] for r in rows})
     loads = [r["load"] for r in rows]
     reference = float(np.mean([r["search"]["qos"] for r in rows]))
-    print(f"{len(rows)} crowds of seed(s) {seeds}, load average {min(loads):.1f}-{max(loads):.1f}")
+    print(f"canonical layout: {canonical}; {len(rows)} crowds of seed(s) {seeds}, "
+          f"load average {min(loads):.1f}-{max(loads):.1f}")
     print("| band (share of the crowd) | search chosen % | jitter 5 cm corr % | precision % | QoS S2 % "
           "| QoS / search |")
     print("|---|---|---|---|---|---|")
     for band in bands:
         scores, qos, chosen = [], [], []
         for row in rows:
-            a, q = _choice(row, "crowd", band)
-            b, _ = _choice(row, "moved", band)
+            a, q = _choice(row, "crowd", band, canonical)
+            b, _ = _choice(row, "moved", band, canonical)
             scores.append(score_sample(a, b, eps_px))
             qos.append(q)
-            chosen.append(row["search"]["qos"] - row["groups"]["qos"] > band)
+            chosen.append(row["search"]["qos"] - row[canonical]["qos"] > band)
         mean_qos = float(np.mean(qos))
         print(f"| {band:g} | {100 * np.mean(chosen):.0f} | {100 * np.mean([s.corr for s in scores]):.1f} "
               f"| {100 * np.mean([s.precision for s in scores]):.1f} | {100 * mean_qos:.1f} "
