@@ -75,6 +75,7 @@ from uav_swarm.missions.wifi.refine import refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.relocation import warm_up as relocation_warm_up
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, crowd_raster, planner_task
+from uav_swarm.missions.wifi.warm_start import replan_expert
 from uav_swarm.planning.base import (
     AssigningPlanner,
     Planner,
@@ -119,13 +120,19 @@ class ExpertPlanner(AssigningPlanner):
             task = planner_task(task_config, check_n_uavs(n_uavs),
                                 min_separation_m=_uav_separation_m(uav_config))
         super().__init__(n_uavs, config, task, uav_config)
+        self.replans = replan_expert(self.task)
 
     def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
                 ) -> tuple[np.ndarray, None]:
-        """The expert's placement (metres) of the crowd."""
+        """The expert's placement (metres) of the crowd, warm-started from the last ([task.expert.replan])."""
         if len(pedestrians_m) == 0:
             return np.zeros((0, 2)), None
-        return self.task.expert_placement_m(pedestrians_m, velocities_m_s), None
+        return self.replans.place(pedestrians_m, velocities_m_s), None
+
+    def reset(self) -> None:
+        """Forget the previous targets and the last placement: a new sequence starts."""
+        super().reset()
+        self.replans = replan_expert(self.task)
 
 
 def _uav_separation_m(uav_config: UAVConfig | None) -> float:

@@ -51,7 +51,7 @@ import numpy as np
 from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
-from uav_swarm.missions.wifi.ieee80211_expert import place_uavs_80211, refine_80211
+from uav_swarm.missions.wifi.ieee80211_expert import Ieee80211ExpertConfig, place_uavs_80211, refine_80211
 from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.rules import CoverageRules
@@ -323,17 +323,18 @@ class WifiTask:
         return place_uavs(users_m, self.rules, self.width_m, self.height_m, config.expert,
                           velocities_m_s=velocities_m_s)
 
-    def refine_80211(self, users_m: np.ndarray, proposals_m: np.ndarray, max_uavs: int | None = None
-                     ) -> np.ndarray:
+    def refine_80211(self, users_m: np.ndarray, proposals_m: np.ndarray, max_uavs: int | None = None,
+                     config: Ieee80211ExpertConfig | None = None) -> np.ndarray:
         """Proposed positions (metres) refined on the crowd under the 802.11 radio, at most ``max_uavs``.
 
         The 802.11 expert's search from the proposals
-        (:func:`~uav_swarm.missions.wifi.ieee80211_expert.refine_80211`).
+        (:func:`~uav_swarm.missions.wifi.ieee80211_expert.refine_80211`), with the task's
+        ``[task.expert.ieee80211]`` settings unless ``config`` is given.
         """
-        config = self.config
-        return refine_80211(users_m, proposals_m, config.radio, self.width_m, self.height_m,
-                            strategy=config.strategy, max_uavs=max_uavs or self.rules.max_uavs,
-                            min_separation_m=config.min_separation_m, config=config.expert.ieee80211)
+        task = self.config
+        return refine_80211(users_m, proposals_m, task.radio, self.width_m, self.height_m,
+                            strategy=task.strategy, max_uavs=max_uavs or self.rules.max_uavs,
+                            min_separation_m=task.min_separation_m, config=config or task.expert.ieee80211)
 
     def sample(self, rng: np.random.Generator) -> WifiScene:
         """Draw a scenario and warm its crowd up for a random time."""
