@@ -3,7 +3,8 @@
 - :class:`FlightStatus`: while ``fly`` waits (for heartbeats, for each vehicle's position fix and home,
   for the pre-flight checks, in the take-off gate, for the returns home and the end action's answers)
   and while it flies, a status line every ``status_every_s`` (5 s by default) naming what it waits for,
-  vehicle by vehicle. The lines are driven by the flight's own loop (each turn asks :meth:`~FlightStatus.tick`
+  vehicle by vehicle; a line that would say nothing new (its clock aside) is left out, and said again
+  only after 30 s. The lines are driven by the flight's own loop (each turn asks :meth:`~FlightStatus.tick`
   whether one is due), not by a timer thread a busy machine could starve: the main thread never
   blocks longer than one loop turn without asking.
 - the separation guard's holds of each vehicle by reason (held for which vehicle, a stale position,
@@ -22,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import re
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, wait
@@ -38,6 +40,8 @@ __all__ = ["FlightStatus", "end_report"]
 logger = logging.getLogger(__name__)
 
 _TICK_S = 0.02  # the longest a wait of the main thread goes without asking for a line
+_REPEAT_S = 30.0  # a line that says nothing new is said again only after this long (still waiting)
+_ELAPSED = re.compile(r" \(\d+ s( of \d+ s)?\)")  # the clock of a line: "(5 s of 60 s)"
 
 
 class FlightStatus:
@@ -62,6 +66,7 @@ class FlightStatus:
         self._last_holds: dict[tuple[int, Reason], tuple[int, float]] = {}
         self._seen_cycles = 0
         self._detail = ""
+        self._said, self._said_s = "", -math.inf  # the last line without its clock, and when it was said
         self._pending: set[int] = set()
         self._pending_what = ""
         self.launched: set[int] = set()
@@ -91,6 +96,10 @@ class FlightStatus:
         self._next_s = now_s + self.every_s
         self._detail = detail() if detail is not None else ""
         line = self.line(now_s)
+        said = _ELAPSED.sub("", line)
+        if said == self._said and now_s < self._said_s + _REPEAT_S:
+            return None  # nothing changed since the last line: no line, until _REPEAT_S have passed
+        self._said, self._said_s = said, now_s
         self.lines.append(line)
         logger.info("%s", line)
         return line
@@ -236,8 +245,8 @@ class FlightStatus:
         if not blockers:
             return "its column clear, about to take off"
         near = ", ".join(f"vehicle {s} {d:.1f} m" for s, d in blockers)
-        return (f"waits for its column to clear: {near} from its home "
-                f"({safety.config.uav.min_separation_m:g} m needed)")
+        return (f"waits for its column to clear: {near} from its home ({safety.launch_spacing_m:g} m needed, "
+                "the launch spacing)")
 
     def _return_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
         home = self._flight.safety.homes_m.get(vehicle.system_id)
@@ -245,8 +254,9 @@ class FlightStatus:
             return "returning home (no position)"
         away = f"{math.hypot(state.x_m - home[0], state.y_m - home[1]):.1f} m from home"
         hold = self._flight.safety.holds.holding(vehicle.system_id)
+        waits = self._flight.safety.rtl_waits.get(vehicle.system_id)
         if hold is None:
-            return away
+            return away if waits is None else f"{away}, {waits}"
         (state_held, blocker), since_s = hold
         text = reason_text((state_held, blocker))
         other = self._flight._by_sid.get(blocker) if blocker is not None else None
