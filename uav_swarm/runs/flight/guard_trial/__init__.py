@@ -46,6 +46,8 @@ Examples:
     >>> result = fly_trial(Trial(n_uavs=2, area_m=(60.0, 60.0), seed=0, duration_s=20.0))
     >>> result.closest_m >= 5.0, result.breaches, result.outside
     (True, 0, 0)
+
+May import: ``bridge``, ``uav_swarm.world``.
 """
 
 from uav_swarm.runs.flight.guard_trial.cases import (
