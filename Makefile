@@ -13,6 +13,9 @@ TORCH ?= torch==2.13.0
 TORCH_INDEX ?=
 AUTOPILOT ?= ardupilot
 ARGS ?=
+# PYTEST_ARGS adds flags to the tests' command: "-n auto" spreads them over every core (pytest-xdist);
+# CI runs the slow tests too and prints the slowest 20: make test PYTEST_ARGS="-m 'not sitl and not ns3' --durations=20"
+PYTEST_ARGS ?=
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip install --quiet
 TORCH_FROM := $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX),)
@@ -43,7 +46,7 @@ fly-demo: $(VENV)/.demo-installed
 	$(VENV)/bin/uav-swarm fly --simulated $(AUTOPILOT) --duration-s 60 --speedup 2 --out out/fly-$(AUTOPILOT) $(ARGS)
 
 test: $(VENV)/.test-installed
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(PYTEST_ARGS)
 
 lint: $(VENV)/.test-installed
 	$(VENV)/bin/ruff check .

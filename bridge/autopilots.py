@@ -30,6 +30,11 @@ link-loss failsafe         ``FS_GCS_ENABLE`` (0 off, 1 RTL, 7       ``NAV_DLL_AC
                            ``FS_GCS_TIMEOUT`` (s); it watches      ``COM_DL_LOSS_T`` (s); any ground
                            only ``SYSID_MYGCS``'s heartbeat        station's heartbeat keeps the link
 return altitude            ``RTL_ALT``, centimetres above home     ``RTL_RETURN_ALT``, metres above home
+return path (pinned        ``RTL_CONE_SLOPE`` 0 (no cone),         ``RTL_CONE_ANG`` 0 (no cone),
+before arming)             ``RTL_ALT_TYPE`` 0 (above home),        ``RTL_TYPE`` 0 (straight home),
+                           ``FS_OPTIONS`` without the bits that    ``RTL_DESCEND_ALT`` at most the return
+                           continue a mission, a landing or a      altitude
+                           pilot's mode on a GCS failsafe
 geofence                   ``FENCE_ENABLE`` (0 off)                ``GF_ACTION`` (0 none)
 =========================  =====================================  =========================================
 
@@ -76,13 +81,19 @@ class Conventions:
         clear_hint: What to do when it refuses to clear the mission it flies ("" if it never does).
         param_bytewise: Integer parameters travel as their bytes in PARAM_VALUE's float (else cast).
         failsafe_param: The link-loss (ground station) failsafe's action; 0 is off.
-        failsafe_rtl: Its value for "return to launch".
-        failsafe_returns: Its values that leave guided flight for a return or a landing (not a hold).
+        failsafe_rtl: Its value for "return to launch", the only action accepted (the return is the
+            failsafe flight the guard separates; SmartRTL, a landing where it is or a hold are not).
         failsafe_timeout_param: Seconds without the ground station's heartbeat before the action.
         gcs_id_param: The one ground station system id whose heartbeat it watches ("" if any GCS's).
         rtl_alt_param: The return altitude above home.
         rtl_alt_per_m: Units of ``rtl_alt_param`` per metre (100: centimetres).
         fence_param: The geofence's switch (0 is off).
+        rtl_pinned: Parameters of its return path set to these values before arming (no cone, the
+            return altitude above home, straight home).
+        failsafe_options_param: Its failsafe options bitmask ("" if none).
+        failsafe_continue_bits: The bits of it that keep the vehicle flying on instead of returning.
+        rtl_descend_param: The altitude it descends to over home before landing ("" if none); kept at most
+            the return altitude.
     """
 
     name: str
@@ -100,12 +111,15 @@ class Conventions:
     param_bytewise: bool = False
     failsafe_param: str = "FS_GCS_ENABLE"
     failsafe_rtl: float = 1.0
-    failsafe_returns: frozenset[int] = frozenset({1, 2, 3, 4, 5, 6})  # 7: brake (a hold) or land
     failsafe_timeout_param: str = "FS_GCS_TIMEOUT"
     gcs_id_param: str = "SYSID_MYGCS"
     rtl_alt_param: str = "RTL_ALT"
     rtl_alt_per_m: float = 100.0
     fence_param: str = "FENCE_ENABLE"
+    rtl_pinned: tuple[tuple[str, float], ...] = (("RTL_CONE_SLOPE", 0.0), ("RTL_ALT_TYPE", 0.0))
+    failsafe_options_param: str = "FS_OPTIONS"
+    failsafe_continue_bits: int = 0b11010  # continue in AUTO (2), landing (8), pilot-controlled modes (16)
+    rtl_descend_param: str = ""
 
     def first_item(self) -> int:
         """The seq of the mission's first real item (1 after ArduPilot's home, else 0)."""
@@ -144,12 +158,15 @@ PX4 = Conventions(
     param_bytewise=True,
     failsafe_param="NAV_DLL_ACT",
     failsafe_rtl=2.0,
-    failsafe_returns=frozenset({2, 3}),  # 1: hold (AUTO.LOITER, its guided flight)
     failsafe_timeout_param="COM_DL_LOSS_T",
     gcs_id_param="",
     rtl_alt_param="RTL_RETURN_ALT",
     rtl_alt_per_m=1.0,
     fence_param="GF_ACTION",
+    rtl_pinned=(("RTL_CONE_ANG", 0.0), ("RTL_TYPE", 0.0)),
+    failsafe_options_param="",
+    failsafe_continue_bits=0,
+    rtl_descend_param="RTL_DESCEND_ALT",
 )
 """PX4: main and sub modes, item 0 a real item, take-off and reposition altitudes above sea level."""
 

@@ -270,41 +270,47 @@ def evaluate(
     else:  # one scene at a time, as the planner runs it: one thread, none left spinning beside the timed code
         torch.set_num_threads(1)
     samples, scores, max_scores, refined_scores = [], [], [], []
-    for i in tqdm(range(n), disable=None if progress else True, desc="qos", unit="scene"):
-        expert = arrays["positions"][i][arrays["mask"][i]]
-        scene = task.sample(np.random.default_rng(int(arrays["seeds"][i])))
-        if refiner is not None:  # each pipeline timed on this scene alone
-            start = time.perf_counter()
-            utilities.append(utility_maps(ckpt.model, inputs[i:i + 1], resolved, tta)[0])
-            predicted = _learned(utilities[i], inputs[i], peaks, check)
-            learned_ms = (time.perf_counter() - start) * 1e3
-        else:
-            predicted = _learned(utilities[i], inputs[i], peaks, check)
-        score = score_sample(expert, predicted, eps_px)
-        max_scores.append(score_sample(expert, predicted, eps_px, rule="max-matches"))
-        scores.append(score)
-        sample = {
-            "index": int(arrays["indices"][i]), "seed": int(arrays["seeds"][i]),
-            "expert": expert.tolist(), "predicted": predicted.tolist(), **score.to_dict(),
-            "n_matched_max_matches": max_scores[-1].n_matched,
-            "qos": {k: float(v) for k, v in task.qos(scene, predicted).items()},
-            "expert_qos": {k: float(v) for k, v in task.qos(scene, expert).items()},
-        }
-        if refiner is not None:
-            start = time.perf_counter()
-            refined = refiner.refine(scene, predicted)
-            refine_ms = (time.perf_counter() - start) * 1e3
-            start = time.perf_counter()
-            refiner.solve(scene)
-            expert_ms = (time.perf_counter() - start) * 1e3
-            refined_scores.append(score_sample(expert, refined, eps_px))
-            sample["learned"] = {"positions": sample["predicted"], "qos": sample["qos"],
-                                 "time_ms": learned_ms}
-            sample["refined"] = {"positions": refined.tolist(), **refined_scores[-1].to_dict(),
-                                 "qos": {k: float(v) for k, v in task.qos(scene, refined).items()},
-                                 "time_ms": learned_ms + refine_ms, "refine_ms": refine_ms}
-            sample["expert_time_ms"] = expert_ms
-        samples.append(sample)
+    try:  # Ctrl-C: the scenes scored so far are kept, the summary marked as partial
+        for i in tqdm(range(n), disable=None if progress else True, desc="qos", unit="scene"):
+            expert = arrays["positions"][i][arrays["mask"][i]]
+            scene = task.sample(np.random.default_rng(int(arrays["seeds"][i])))
+            if refiner is not None:  # each pipeline timed on this scene alone
+                start = time.perf_counter()
+                utilities.append(utility_maps(ckpt.model, inputs[i:i + 1], resolved, tta)[0])
+                predicted = _learned(utilities[i], inputs[i], peaks, check)
+                learned_ms = (time.perf_counter() - start) * 1e3
+            else:
+                predicted = _learned(utilities[i], inputs[i], peaks, check)
+            score = score_sample(expert, predicted, eps_px)
+            max_scores.append(score_sample(expert, predicted, eps_px, rule="max-matches"))
+            scores.append(score)
+            sample = {
+                "index": int(arrays["indices"][i]), "seed": int(arrays["seeds"][i]),
+                "expert": expert.tolist(), "predicted": predicted.tolist(), **score.to_dict(),
+                "n_matched_max_matches": max_scores[-1].n_matched,
+                "qos": {k: float(v) for k, v in task.qos(scene, predicted).items()},
+                "expert_qos": {k: float(v) for k, v in task.qos(scene, expert).items()},
+            }
+            if refiner is not None:
+                start = time.perf_counter()
+                refined = refiner.refine(scene, predicted)
+                refine_ms = (time.perf_counter() - start) * 1e3
+                start = time.perf_counter()
+                refiner.solve(scene)
+                expert_ms = (time.perf_counter() - start) * 1e3
+                refined_scores.append(score_sample(expert, refined, eps_px))
+                sample["learned"] = {"positions": sample["predicted"], "qos": sample["qos"],
+                                     "time_ms": learned_ms}
+                sample["refined"] = {"positions": refined.tolist(), **refined_scores[-1].to_dict(),
+                                     "qos": {k: float(v) for k, v in task.qos(scene, refined).items()},
+                                     "time_ms": learned_ms + refine_ms, "refine_ms": refine_ms}
+                sample["expert_time_ms"] = expert_ms
+            samples.append(sample)
+    except KeyboardInterrupt:
+        if not samples:
+            raise
+        k = len(samples)
+        scores, max_scores, refined_scores = scores[:k], max_scores[:k], refined_scores[:k]
     torch.set_num_threads(threads)
 
     max_summary = aggregate(max_scores)
@@ -315,6 +321,8 @@ def evaluate(
         **aggregate(scores), **summarise_qos(samples),
         "max_matches": {"corr": max_summary["corr"], "precision": max_summary["precision"]},
     }
+    if len(samples) < n:
+        summary["interrupted"] = {"scenes_scored": len(samples), "of": n}
     promises = point_promises(ckpt.payload.get("mission_calibration"), choice)
     promises["held"] = {column: {"value": summary[COLUMNS[column]],
                                  "met": bool(summary[COLUMNS[column]] >= promises["paper"][column] - 1e-12)}
@@ -334,12 +342,13 @@ def evaluate(
         "peak_config": peaks.to_dict(), "eps_px": eps_px, "match": "the paper's rule: optimal assignment of "
         "least total distance, then the pairs with distance <= eps_px (n_matched); n_matched_max_matches: "
         "the assignment maximising the number of pairs within eps_px",
-        "test_data": {"seed": seed, "split": split, "n": n}, "samples": samples, "summary": summary,
+        "test_data": {"seed": seed, "split": split, "n": len(samples)}, "samples": samples,
+        "summary": summary,
     })
     write_json_atomic(out / "summary.json", summary)
     write_text_atomic(out / "results.md", markdown_table(task.name, summary))
     if n_examples > 0:
-        k = min(n_examples, n)
+        k = min(n_examples, len(samples))
         plot_examples(out / "examples.png", arrays["inputs"][:k], np.stack(utilities[:k]),
                       [np.asarray(s["expert"]) for s in samples[:k]],
                       [np.asarray(s["predicted"]) for s in samples[:k]],

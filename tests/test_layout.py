@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from collections import defaultdict
 from pathlib import Path
 
@@ -100,6 +101,45 @@ def test_every_package_says_what_lives_there():
             continue
         doc = ast.get_docstring(ast.parse(init.read_text()))
         assert doc and len(doc) > 40, f"{init.relative_to(REPO)} has no docstring"
+
+
+MAX_LINES = 450
+"""No file of the packages, tests or benchmarks is longer (a longer one holds more than one concept)."""
+
+
+def _may_import(init: Path) -> tuple[str, ...]:
+    """The project packages and modules that ``init``'s package may import: its ``May import:`` paragraph."""
+    doc = ast.get_docstring(ast.parse(init.read_text())) or ""
+    paragraph = next((p for p in doc.split("\n\n") if p.startswith("May import:")), None)
+    assert paragraph is not None, f"{init.relative_to(REPO)} does not say what it may import (May import:)"
+    return tuple(re.findall(r"``([a-z_.]+)``", paragraph))
+
+
+def _within(target: str, prefixes: set[str]) -> bool:
+    return any(target == p or target.startswith(p + ".") for p in prefixes)
+
+
+def test_no_import_runs_up_a_floor():
+    modules = _modules()
+    inits = {name: path for name, path in modules.items() if path.name == "__init__.py"}
+    rules = {name: _may_import(path) for name, path in inits.items()}
+    for name, path in modules.items():
+        package = name if name in inits else name.rsplit(".", 1)[0]
+        allowed = {package, *rules[package]}
+        wrong = sorted(t for t in _imports(path, set(modules)) if not _within(t, allowed))
+        assert wrong == [], f"{name} imports {wrong}: its package may import only {sorted(allowed)}"
+
+
+def test_the_floor_rule_reads_prefixes_not_names():
+    assert _within("uav_swarm.world.wifi.phy", {"uav_swarm.world"})
+    assert not _within("uav_swarm.worlds", {"uav_swarm.world"})
+
+
+def test_no_file_is_over_the_line_limit():
+    files = [p for folder in (*PACKAGES, "tests", "benchmarks") for p in (REPO / folder).rglob("*.py")]
+    assert len(files) > 100
+    lines = {str(p.relative_to(REPO)): len(p.read_text().splitlines()) for p in files}
+    assert {name: n for name, n in lines.items() if n > MAX_LINES} == {}
 
 
 def _skipped_by_mypy(pyproject: dict) -> list[str]:

@@ -24,6 +24,8 @@ Examples:
     Traceback (most recent call last):
     ...
     typed_config.ConfigError: Radio.range_m = -1.0 is out of range: allowed 0.0 < range_m <= 1000.0
+
+May import: nothing of the project (the bottom floor).
 """
 
 from __future__ import annotations

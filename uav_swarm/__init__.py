@@ -23,6 +23,8 @@ Examples:
     >>> env = {"RAY_USAGE_STATS_ENABLED": "1"}  # the user's own choice stays
     >>> telemetry_off(env) == {"ORT_DISABLE_TELEMETRY": "1", "RAY_USAGE_STATS_ENABLED": "1"}
     True
+
+May import: ``typed_config``, ``learning``, ``bridge``.
 """
 
 import os

@@ -11,18 +11,28 @@ keeps and re-judges as it does in flight. Rows, all in one process (ratios in on
   motion planning) on the first replan of each scene, and expert / learned. For reference, the same
   planner in eager bfloat16 (not exact), and on two threads (``--threads 1`` only).
 - **S2 learned + refined**: the shipped strategy-2 network with the refinement on the live crowd.
+- **S2 802.11 learned**: strategy 2 under the 802.11 radio as ``configs/simulate/wifi-s2-80211.toml`` flies
+  it: the shipped ``wifi-s2-80211`` network, peaks, planning in motion, then the channel plan of the
+  targets (:func:`uav_swarm.world.wifi.channels.plan_channels`, the plan in force kept while valid), timed
+  together as one replan (wall time, and the process's CPU time: on a loaded machine the wall time waits
+  for the CPU), with each stage's median. Its static QoS: on the first instant of each scene the
+  network's peaks and the 802.11 expert's placement, each judged by the 802.11 model with its channel plan
+  (``WifiTask.qos``), learned / expert over the scenes.
 - **Batch 64**: 64 worlds replanned by one :func:`uav_swarm.planning.batch.plan_batch` call against
   64 single plans of the same worlds, ``--rounds`` rounds (each world's own sequence state).
 
-Goals (issue 36): S1 learned p50 <= 2 ms, p95 <= 4 ms; expert / learned >= 50x; S2 learned + refined
-p50 <= 15 ms; batch-64 throughput >= 10x that of 64 single plans.
+Goals: S1 learned p50 <= 2 ms, p95 <= 4 ms; expert / learned >= 50x; S2 learned + refined
+p50 <= 15 ms; S2 802.11 learned replan (channel plan included) p95 <= 20 ms, its network stage p50 <= 2 ms,
+its static QoS S2 >= 95 % of the expert's; batch-64 throughput >= 10x that of 64 single plans.
 
 Usage: python benchmarks/learning/planner.py [--n 30] [--repeats 5] [--threads 1] [--rounds 3]
+       [--rows s1 s2 s2-80211 batch]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import time
 
@@ -32,17 +42,24 @@ import torch
 from learning.data import sample_seed
 from learning.peaks import find_peaks
 from learning.precision import BF16_CPU_FLAGS, cpu_flags
-from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, crowd_raster
+from uav_swarm.missions.wifi.task import WifiConfig, WifiScene, WifiTask, crowd_raster
 from uav_swarm.planning.batch import plan_batch
 from uav_swarm.planning.planner import ExpertPlanner, LearnedPlanner, PlannerConfig
+from uav_swarm.world.radio_config import RadioConfig
+from uav_swarm.world.wifi.channels import plan_channels
 
 N_UAVS = 10
-GOALS = {"p50": 2.0, "p95": 4.0, "ratio": 50.0, "s2": 15.0, "batch": 10.0}
+GOALS = {"p50": 2.0, "p95": 4.0, "ratio": 50.0, "s2": 15.0, "batch": 10.0, "s2_80211_p95": 20.0,
+         "network_p50": 2.0, "qos": 0.95}
+ALT_M = 10.0
+"""The UAVs' height above the users, metres (``[uav] alt_m``, the 802.11 task's ``altitude_m``)."""
+WIFI_80211 = RadioConfig(propagation="802.11", altitude_m=ALT_M)
 
 
-def scenes(strategy: int, n: int, seed: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+def scenes(strategy: int, n: int, seed: int, task_config: WifiConfig | None = None
+           ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """``n`` held-out scenes: pedestrians, their velocities and random UAV positions."""
-    task = WifiTask(WifiConfig(strategy=strategy))
+    task = WifiTask(task_config or WifiConfig(strategy=strategy))
     out = []
     for i in range(n):
         rng = np.random.default_rng(sample_seed(seed, "test", i))
@@ -68,7 +85,7 @@ def stats(values_ms: list[float]) -> str:
     return f"p50 {np.median(a):8.3f} ms   p95 {np.percentile(a, 95):8.3f} ms   max {a.max():8.3f} ms"
 
 
-def verdict(ok: bool) -> str:
+def verdict(ok: bool | np.bool_) -> str:
     return "meets" if ok else "MISSES"
 
 
@@ -98,7 +115,9 @@ def single_s1(args: argparse.Namespace, config: PlannerConfig) -> tuple[LearnedP
     s1 = scenes(1, args.n, args.seed)
     for scene in s1[:2]:  # warm-up
         sequence(learned, scene, 2)
-    learned_ms, expert_ms, parts = [], [], {}
+    learned_ms: list[float] = []
+    expert_ms: list[float] = []
+    parts: dict[str, list[float]] = {}
     for scene in s1:
         learned_ms += [r.latency_ms for r in sequence(learned, scene, args.repeats)]
         for name, seconds in stages(learned, scene).items():
@@ -145,6 +164,63 @@ def refined_s2(args: argparse.Namespace, config: PlannerConfig) -> None:
           f"(goal p50 <= {GOALS['s2']:.0f} ms: {verdict(np.median(values) <= GOALS['s2'])})")
 
 
+def s2_80211(args: argparse.Namespace, config: PlannerConfig) -> None:
+    """The S2 802.11 learned row: replans with their channel plan, the stages, the static QoS."""
+    task_config = WifiConfig(strategy=2, radio=WIFI_80211)
+    planner = LearnedPlanner(N_UAVS, task_config, config=config)
+    task = WifiTask(task_config)
+    altitudes = np.full(N_UAVS, ALT_M)
+    worlds = scenes(2, args.n, args.seed, task_config)
+    timings = ", ".join(f"{k} {v:.2f} ms" for k, v in planner.engine_choice.timings_ms.items())
+    print(f"S2 802.11 engine chosen at load: {planner.engine} (batch-1 medians: {timings})")
+    for world in worlds[:2]:  # warm-up
+        sequence(planner, world, 2)
+    replan_ms: list[float] = []
+    cpu_ms: list[float] = []
+    parts: dict[str, list[float]] = {}
+    for peds, vels, uavs in worlds:
+        planner.reset()
+        channels = None
+        for _ in range(args.repeats):
+            start, cpu = time.perf_counter(), time.process_time()
+            result = planner.plan(peds, uavs, vels)
+            channels = plan_channels(result.targets_m, WIFI_80211, altitudes, channels)
+            replan_ms.append((time.perf_counter() - start) * 1e3)
+            cpu_ms.append((time.process_time() - cpu) * 1e3)
+            parts.setdefault("channels", []).append((time.perf_counter() - start) * 1e3 - result.latency_ms)
+            peds, uavs = peds + vels, (uavs + result.targets_m) / 2.0
+        for name, seconds in stages(planner, (peds, vels, uavs)).items():
+            parts.setdefault(name, []).append(seconds * 1e3)
+    peds_n = [len(w[0]) for w in worlds]
+    p95, network = float(np.percentile(replan_ms, 95)), float(np.median(parts["network"]))
+    print(f"{args.n} held-out S2 scenes under 802.11 ({min(peds_n)}-{max(peds_n)} pedestrians), {N_UAVS} "
+          f"UAVs, {args.repeats} replans each, planning in motion, load average {_load()}")
+    print(f"S2 802.11 learned ({planner.engine} + peaks + motion + channel plan): {stats(replan_ms)}   "
+          f"(goal p95 <= {GOALS['s2_80211_p95']:.0f} ms: {verdict(p95 <= GOALS['s2_80211_p95'])})")
+    print(f"  the same replans in the process's CPU time (the wait for a loaded machine's CPU is not "
+          f"in it): {stats(cpu_ms)}")
+    goal = GOALS["network_p50"]
+    print("  stages (median ms): " + ", ".join(f"{k} {np.median(v):.3f}" for k, v in parts.items())
+          + f"   (network goal p50 <= {goal:.0f} ms: {verdict(network <= goal)})")
+    learned_qos, expert_qos, expert_s = [], [], []
+    for peds, vels, _ in worlds:
+        scene = WifiScene(peds, 0.0, vels)
+        peaks_m = planner.propose(peds, vels)[0]
+        learned_qos.append(task.qos(scene, task.to_pixels(peaks_m))["qos"])
+        start = time.perf_counter()
+        expert_m = task.expert_placement_m(peds, vels)
+        expert_s.append(time.perf_counter() - start)
+        expert_qos.append(task.qos(scene, task.to_pixels(expert_m))["qos"])
+    ratio = float(np.mean(learned_qos) / np.mean(expert_qos))
+    print(f"  static QoS S2 on the {args.n} scenes: learned peaks {np.mean(learned_qos):.3f}, 802.11 expert "
+          f"{np.mean(expert_qos):.3f} ({np.median(expert_s):.2f} s median), learned / expert {ratio:.3f}   "
+          f"(goal >= {GOALS['qos']:.2f}: {verdict(ratio >= GOALS['qos'])}); load average {_load()}")
+
+
+def _load() -> str:
+    return ", ".join(f"{v:.2f}" for v in os.getloadavg())
+
+
 def batched(args: argparse.Namespace, learned: LearnedPlanner) -> None:
     """64 worlds: one plan_batch call against 64 single plans, ``--rounds`` rounds."""
     worlds = scenes(1, 64, args.seed + 1)
@@ -183,14 +259,21 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3, help="rounds of the 64-world batch")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--threads", type=int, default=1, help="PlannerConfig.torch_threads")
+    parser.add_argument("--rows", nargs="+", choices=["s1", "s2", "s2-80211", "batch"],
+                        default=["s1", "s2", "s2-80211", "batch"], help="the rows measured")
     args = parser.parse_args()
     config = PlannerConfig(torch_threads=args.threads)
     flags = ", ".join(sorted(BF16_CPU_FLAGS & cpu_flags())) or "none"
     print(f"python {platform.python_version()}, torch {torch.__version__}, {platform.machine()}, "
           f"{args.threads} inference thread(s); bfloat16 CPU flags: {flags}")
-    learned, _ = single_s1(args, config)
-    refined_s2(args, config)
-    batched(args, learned)
+    if "s1" in args.rows or "batch" in args.rows:
+        learned, _ = single_s1(args, config)
+        if "batch" in args.rows:
+            batched(args, learned)
+    if "s2" in args.rows:
+        refined_s2(args, config)
+    if "s2-80211" in args.rows:
+        s2_80211(args, config)
 
 
 if __name__ == "__main__":

@@ -4,4 +4,6 @@
 launches, repositions and ends a flight by each vehicle's own autopilot convention;
 :mod:`bridge.flight.params` reads and sets a vehicle's parameters and :mod:`bridge.flight.preflight`
 checks its link-loss failsafe, geofence and return altitude before it is armed.
+
+May import: ``typed_config``, ``bridge``.
 """

@@ -1,4 +1,4 @@
-"""Checks before arming: the vehicle's own link-loss failsafe, its geofence, its return altitude.
+"""Checks before arming: the vehicle's own link-loss failsafe, its geofence, its return flight.
 
 A vehicle flown from a ground station must leave guided flight by itself when that ground
 station goes silent (a crash, a cut link, ``kill -9``): otherwise it hovers where it was told
@@ -6,16 +6,22 @@ until its battery ends. :func:`preflight` reads, with the parameter protocol
 (:mod:`bridge.flight.params`) and its autopilot's names (:mod:`bridge.autopilots`):
 
 - the link-loss failsafe's action and timeout (ArduPilot ``FS_GCS_ENABLE`` / ``FS_GCS_TIMEOUT``,
-  PX4 ``NAV_DLL_ACT`` / ``COM_DL_LOSS_T``); an action that does not return or land the vehicle
-  (off, or a hold) is refused, naming the vehicle and the parameter, unless ``set_failsafe``:
-  then it is set to return to launch and read back;
+  PX4 ``NAV_DLL_ACT`` / ``COM_DL_LOSS_T``); any action but return to launch (off, a hold, a landing
+  where it is, SmartRTL, a mission's landing) is refused, naming the vehicle and the parameter, unless
+  ``set_failsafe``: then it is set to return to launch and read back (the return is the one failsafe
+  flight the guard keeps apart from the others, :mod:`uav_swarm.world.guard.failsafe`);
 - which ground station the failsafe watches: ArduPilot watches only the heartbeat of
   ``SYSID_MYGCS``, so it must be this bridge's own system id (another ground station's heartbeat
   would keep the vehicle in guided flight after the bridge died); PX4 watches any;
 - its geofence switch (``FENCE_ENABLE``, ``GF_ACTION``): reported (:func:`warn_fences_off` warns once
   for every vehicle whose fence is off);
-- its return altitude (``RTL_ALT`` in centimetres, ``RTL_RETURN_ALT`` in metres), set to
-  ``rtl_alt_m`` (the return plan's layer for this vehicle) and read back.
+- its return flight, set and read back (:func:`set_return_altitude`, :func:`pin_return_path`): the
+  return altitude (``RTL_ALT`` in centimetres, ``RTL_RETURN_ALT`` in metres) to ``rtl_alt_m`` (this
+  vehicle's return layer), no cone (``RTL_CONE_SLOPE`` / ``RTL_CONE_ANG`` = 0: a cone would lower the
+  return near home below the layer), the altitude above home (``RTL_ALT_TYPE`` = 0) and straight home
+  (``RTL_TYPE`` = 0), PX4's ``RTL_DESCEND_ALT`` at most the return altitude, and no "continue" bit in
+  ArduPilot's ``FS_OPTIONS`` (a mission, a landing or a pilot's mode flown on through a lost link). A
+  parameter that cannot be set is refused, naming it: nothing is armed.
 """
 
 from __future__ import annotations
@@ -27,10 +33,11 @@ from typing import Any
 from bridge.autopilots import Conventions
 from bridge.config import ProtocolConfig
 from bridge.errors import RefusedError
-from bridge.flight.params import ParamValue, read_param, set_param
+from bridge.flight.params import ParamError, ParamValue, read_param, set_param
 from bridge.link.mavlink import MavlinkLink
 
-__all__ = ["PreflightError", "PreflightReport", "preflight", "warn_fences_off", "DEFAULT_FAILSAFE_TIMEOUT_S"]
+__all__ = ["PreflightError", "PreflightReport", "preflight", "pin_return_path", "set_return_altitude",
+           "warn_fences_off", "DEFAULT_FAILSAFE_TIMEOUT_S"]
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +65,8 @@ class PreflightReport:
     failsafe_set: bool
     fence_enabled: bool
     rtl_alt_m: float
+    return_path: dict[str, float]
+    """Each parameter of the return path as read back after it was set."""
 
     def to_dict(self) -> dict[str, Any]:
         """The report as a dict."""
@@ -102,9 +111,10 @@ def preflight(link: MavlinkLink, system_id: int, conventions: Conventions, *, gc
 
     action = read(conventions.failsafe_param)
     changed = False
-    if int(action.value) not in conventions.failsafe_returns:
+    if int(action.value) != int(conventions.failsafe_rtl):
         action = ensure(action, conventions.failsafe_rtl,
-                        f"its link-loss failsafe does not return or land it ({conventions.name})")
+                        f"its link-loss failsafe is not return to launch ({conventions.name}: "
+                        f"{conventions.failsafe_param} = {conventions.failsafe_rtl:g})")
         changed = True
     timeout = read(conventions.failsafe_timeout_param)
     if timeout.value <= 0:
@@ -120,16 +130,79 @@ def preflight(link: MavlinkLink, system_id: int, conventions: Conventions, *, gc
     fence = read(conventions.fence_param)
     if fence.value == 0:  # reported (fence_enabled); the caller warns once for every such vehicle
         log.debug("vehicle %d: its own geofence is off (%s = 0)", system_id, conventions.fence_param)
-    rtl = read(conventions.rtl_alt_param)
-    wanted_rtl = round(rtl_alt_m * conventions.rtl_alt_per_m, 3)
-    if abs(rtl.value - wanted_rtl) > 1e-3:
-        rtl = set_param(link, system_id, rtl.name, wanted_rtl, rtl.param_type, bytewise=bytewise,
-                        protocol=protocol)
+    held_m = set_return_altitude(link, system_id, conventions, rtl_alt_m, protocol)
+    path = pin_return_path(link, system_id, conventions, rtl_alt_m, protocol)
     return PreflightReport(
         system_id=system_id, autopilot=conventions.name,
         failsafe=f"{action.name} = {action.value:g}, {timeout.name} = {timeout.value:g} s",
         failsafe_action=int(action.value), failsafe_timeout_s=float(timeout.value), failsafe_set=changed,
-        fence_enabled=fence.value != 0, rtl_alt_m=rtl.value / conventions.rtl_alt_per_m)
+        fence_enabled=fence.value != 0, rtl_alt_m=held_m, return_path=path)
+
+
+def _settle(link: MavlinkLink, system_id: int, conventions: Conventions, name: str, wanted: float,
+            protocol: ProtocolConfig, why: str, *, at_most: bool = False) -> float:
+    """Read ``name``; set it to ``wanted`` unless it holds it (or less, ``at_most``); the value read back.
+
+    Raises:
+        PreflightError: It cannot be read or set (naming it, its wanted value and ``why``).
+    """
+    bytewise = conventions.param_bytewise
+    try:
+        current = read_param(link, system_id, name, bytewise=bytewise, protocol=protocol)
+        if current.value <= wanted + 1e-3 and (at_most or current.value >= wanted - 1e-3):
+            return current.value
+        log.info("vehicle %d: %s was %g: set to %g (%s)", system_id, name, current.value, wanted, why)
+        return set_param(link, system_id, name, wanted, current.param_type, bytewise=bytewise,
+                         protocol=protocol).value
+    except ParamError as exc:
+        raise PreflightError(system_id, f"{name} cannot be set to {wanted:g} ({exc.args[0]}): {why}; "
+                                        "nothing was armed") from None
+
+
+def set_return_altitude(link: MavlinkLink, system_id: int, conventions: Conventions, rtl_alt_m: float,
+                        protocol: ProtocolConfig | None = None) -> float:
+    """Set the vehicle's return altitude above home to ``rtl_alt_m`` and read it back; the altitude it holds.
+
+    Before arming, and in flight when the return layers are ordered anew (metres).
+
+    Raises:
+        PreflightError: Naming the parameter, when it cannot be set.
+    """
+    wanted = round(rtl_alt_m * conventions.rtl_alt_per_m, 3)
+    held = _settle(link, system_id, conventions, conventions.rtl_alt_param, wanted,
+                   protocol or ProtocolConfig(), "its return layer")
+    return held / conventions.rtl_alt_per_m
+
+
+def pin_return_path(link: MavlinkLink, system_id: int, conventions: Conventions, rtl_alt_m: float,
+                    protocol: ProtocolConfig | None = None) -> dict[str, float]:
+    """Pin the return path (no cone, above home, straight home, no "continue" failsafe option); read back.
+
+    Raises:
+        PreflightError: Naming the parameter that cannot be set.
+    """
+    protocol = protocol or ProtocolConfig()
+    held: dict[str, float] = {}
+    for name, wanted in conventions.rtl_pinned:
+        held[name] = _settle(link, system_id, conventions, name, wanted, protocol,
+                             "its return must climb where it is to its layer and fly straight home")
+    if conventions.rtl_descend_param:
+        held[conventions.rtl_descend_param] = _settle(
+            link, system_id, conventions, conventions.rtl_descend_param, rtl_alt_m, protocol,
+            "it must not descend over home from above its return layer", at_most=True)
+    if conventions.failsafe_options_param:
+        name, bits = conventions.failsafe_options_param, conventions.failsafe_continue_bits
+        try:
+            options = read_param(link, system_id, name, bytewise=conventions.param_bytewise,
+                                 protocol=protocol)
+        except ParamError as exc:
+            raise PreflightError(system_id, f"{name} cannot be read ({exc.args[0]}); nothing was armed"
+                                 ) from None
+        wanted = float(int(options.value) & ~bits)
+        held[name] = _settle(link, system_id, conventions, name, wanted, protocol,
+                             "a lost link must start its return, not continue a mission, a landing or a "
+                             "pilot's mode")
+    return held
 
 
 def warn_fences_off(reports: list[PreflightReport], fence_params: dict[int, str]) -> None:

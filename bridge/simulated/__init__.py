@@ -9,4 +9,6 @@ position controllers (their acceleration and jerk limits; PX4's on each axis).
 :mod:`bridge.simulated.ardupilot` and :mod:`bridge.simulated.px4` answer as ArduCopter and PX4 do and fly
 on the core in real time; :mod:`bridge.simulated.fleet` starts a fleet of them on a bridge config's
 loopback endpoints, each on its own home along a launch line (``uav-swarm vehicles``, ``fly --simulated``).
+
+May import: ``typed_config``, ``bridge``.
 """

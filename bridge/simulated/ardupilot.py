@@ -21,8 +21,10 @@ tracking error. ``realism`` adds the imperfections of :class:`~bridge.simulated.
 GLOBAL_POSITION_INT carries its latest report (age, rate, noise; ``time_boot_ms`` is when it was true),
 and its command link loses and delays COMMAND_LONG and COMMAND_INT.
 
-**The end.** RTL is ArduCopter's: climb to ``RTL_ALT`` (centimetres above home; its current altitude when
-higher, or when ``RTL_ALT`` is 0), fly home at that altitude, descend and land, then disarm. LAND descends
+**The end.** RTL is ArduCopter's: climb where it is to ``RTL_ALT`` (centimetres above home; its current
+altitude when higher, or when ``RTL_ALT`` is 0), fly home at that altitude, descend and land, then disarm.
+With ``RTL_CONE_SLOPE`` > 0 (its default, 3) the return altitude is lowered near home to the cone's,
+``max(slope * distance, altitude + 2.5 m)`` at most, as ArduCopter does (set 0: no cone). LAND descends
 where it is. Its ground station failsafe is ArduCopter's too: with ``FS_GCS_ENABLE`` set, once a heartbeat
 of its ground station (``SYSID_MYGCS``, a ``MAV_TYPE_GCS`` heartbeat) was heard, an armed vehicle that
 hears none for ``FS_GCS_TIMEOUT`` seconds switches to RTL (LAND for 5); ``FS_GCS_ENABLE = 0``
@@ -50,7 +52,8 @@ _INT8, _INT16, _INT32, _REAL32 = (m.MAV_PARAM_TYPE_INT8, m.MAV_PARAM_TYPE_INT16,
                                   m.MAV_PARAM_TYPE_REAL32)
 ARDUPILOT_PARAMS = {
     "FS_GCS_ENABLE": (0.0, _INT8), "FS_GCS_TIMEOUT": (5.0, _REAL32), "SYSID_MYGCS": (255.0, _INT16),
-    "RTL_ALT": (1500.0, _INT32), "FENCE_ENABLE": (0.0, _INT8),
+    "RTL_ALT": (1500.0, _INT32), "FENCE_ENABLE": (0.0, _INT8), "RTL_CONE_SLOPE": (3.0, _REAL32),
+    "RTL_ALT_TYPE": (0.0, _INT8), "FS_OPTIONS": (16.0, _INT32),
     "WPNAV_SPEED": (1000.0, _REAL32), "WPNAV_ACCEL": (250.0, _REAL32), "WPNAV_SPEED_UP": (250.0, _REAL32),
     "WPNAV_SPEED_DN": (150.0, _REAL32), "WPNAV_ACCEL_Z": (100.0, _REAL32), "WPNAV_RADIUS": (200.0, _REAL32),
     "PSC_JERK_XY": (5.0, _REAL32), "PSC_POSXY_P": (1.0, _REAL32), "PSC_VELXY_P": (2.0, _REAL32)}
@@ -59,6 +62,7 @@ FAILSAFE_ON = {"FS_GCS_ENABLE": 1.0}
 """ArduCopter's ground station failsafe set to RTL (``params`` of a vehicle an operator prepared)."""
 _POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV_LOITER_TIME)
 _ARRIVED_M = 0.5
+_CONE_MIN_CLIMB_M = 2.5  # ArduCopter's RTL_ABS_MIN_CLIMB: the least climb a cone leaves
 _SLOWEST = 0.1  # m/s or m/s^2: ArduCopter constrains its speeds and accelerations to a positive floor
 
 
@@ -177,6 +181,14 @@ class ArduCopter(SimVehicle):
     def _rtl_alt_m(self) -> float:
         return self.param("RTL_ALT") / 100.0
 
+    def _return_alt_for(self, distance_m: float, z_m: float) -> float:
+        """ArduCopter's return altitude ``distance_m`` off home at ``z_m``: ``RTL_ALT`` within its cone."""
+        target = max(self._rtl_alt_m(), z_m)
+        slope = self.param("RTL_CONE_SLOPE")
+        if slope > 0:
+            target = min(target, max(distance_m * slope, z_m + _CONE_MIN_CLIMB_M))
+        return max(target, z_m)
+
     def _returning(self) -> bool:
         return self.custom_mode == RTL
 
@@ -184,7 +196,7 @@ class ArduCopter(SimVehicle):
         """RTL: climb to the return altitude where it is, fly home at it, then descend."""
         x, y, z = self._setpoint()
         if self._return_alt_m is None:
-            self._return_alt_m = max(self._rtl_alt_m(), z)
+            self._return_alt_m = self._return_alt_for(math.hypot(x, y), z)
         if math.hypot(x, y) <= _ARRIVED_M:
             return (0.0, 0.0, 0.0)
         if z < self._return_alt_m - 0.05:

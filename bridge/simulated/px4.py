@@ -29,9 +29,10 @@ v1.16.0) and from what real PX4 SITL did, independently of the bridge's own tabl
   AUTO.TAKEOFF, ``MPC_Z_V_AUTO_UP`` and ``MPC_Z_V_AUTO_DN`` otherwise; the smaller of
   ``MPC_ACC_UP_MAX`` and ``MPC_ACC_DOWN_MAX`` vertically. ``MPC_JERK_AUTO`` is served at its default;
   the point mass has no jerk limit.
-- **The end**: AUTO.RTL climbs to ``RTL_RETURN_ALT`` (metres above home; its altitude when higher),
-  flies home at it and lands; AUTO.LAND lands where it is; on the ground "Landing detected" and
-  disarmed.
+- **The end**: AUTO.RTL climbs where it is to ``RTL_RETURN_ALT`` (metres above home; its altitude when
+  higher; with ``RTL_CONE_ANG`` > 0, its default 45, lowered near home to ``distance / tan(angle)``, not
+  below ``RTL_DESCEND_ALT``), flies home at it and lands; AUTO.LAND lands where it is; on the ground
+  "Landing detected" and disarmed.
 - **Data link loss** (Commander's GCS link check): once a ground station's heartbeat
   (``MAV_TYPE_GCS``, any system id) was heard, an armed vehicle that hears none for
   ``COM_DL_LOSS_T`` seconds takes ``NAV_DLL_ACT``: 0 nothing (PX4's default), 1 hold (AUTO.LOITER),
@@ -61,7 +62,8 @@ _POSITIONED = (m.MAV_CMD_NAV_WAYPOINT, m.MAV_CMD_NAV_LOITER_UNLIM, m.MAV_CMD_NAV
 _INT32, _REAL32 = m.MAV_PARAM_TYPE_INT32, m.MAV_PARAM_TYPE_REAL32
 PX4_PARAMS = {
     "NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32), "RTL_RETURN_ALT": (60.0, _REAL32),
-    "GF_ACTION": (2.0, _INT32), "MIS_TAKEOFF_ALT": (2.5, _REAL32),
+    "GF_ACTION": (2.0, _INT32), "MIS_TAKEOFF_ALT": (2.5, _REAL32), "RTL_CONE_ANG": (45.0, _INT32),
+    "RTL_TYPE": (0.0, _INT32), "RTL_DESCEND_ALT": (30.0, _REAL32),
     "MPC_XY_CRUISE": (5.0, _REAL32), "MPC_XY_VEL_MAX": (12.0, _REAL32), "MPC_ACC_HOR": (3.0, _REAL32),
     "MPC_JERK_AUTO": (4.0, _REAL32), "MPC_TKO_SPEED": (1.5, _REAL32), "MPC_Z_V_AUTO_UP": (3.0, _REAL32),
     "MPC_Z_V_AUTO_DN": (1.5, _REAL32), "MPC_ACC_UP_MAX": (4.0, _REAL32), "MPC_ACC_DOWN_MAX": (3.0, _REAL32)}
@@ -129,6 +131,19 @@ class Px4Copter(ArduCopter):
 
     def _rtl_alt_m(self) -> float:
         return self.param("RTL_RETURN_ALT")
+
+    def _return_alt_for(self, distance_m: float, z_m: float) -> float:
+        """PX4's return altitude: ``RTL_RETURN_ALT``, lowered by its cone near home.
+
+        Within ``RTL_CONE_ANG`` of home it is ``distance / tan(angle)``, not below ``RTL_DESCEND_ALT``; never
+        below where it is.
+        """
+        target = self._rtl_alt_m()
+        angle_deg = self.param("RTL_CONE_ANG")
+        if 0 < angle_deg < 90:
+            cone_m = distance_m / math.tan(math.radians(angle_deg))
+            target = min(target, max(cone_m, self.param("RTL_DESCEND_ALT")))
+        return max(target, z_m)
 
     def _returning(self) -> bool:
         return self.mode == RTL

@@ -2,6 +2,8 @@
 
 ``SwarmPublisher`` and ``SwarmSubscriber`` are importable from here (``from bridge.telemetry import
 SwarmPublisher``), as before the package was divided.
+
+May import: ``typed_config``, ``bridge``.
 """
 
 from bridge.telemetry.pubsub import SwarmPublisher, SwarmSubscriber

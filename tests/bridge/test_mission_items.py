@@ -113,13 +113,13 @@ def test_one_altitude_model_never_descends_after_take_off_unasked(points, takeof
 def test_simulate_missions_fly_at_the_simulated_altitude(tmp_path):
     from bridge.config import BridgeConfig
     from bridge.missions.files import load_plan
-    from uav_swarm.runs.simulate import _final_plans, _write_plan_files
+    from uav_swarm.runs.simulate_missions import final_plans, write_plan_files
     from uav_swarm.world.uav import UAVConfig
 
     bridge = BridgeConfig()  # take-off 20 m by default
-    plans = _final_plans(bridge, np.array([[30.0, 40.0], [5.0, 60.0]]), UAVConfig(alt_m=10.0),
+    plans = final_plans(bridge, np.array([[30.0, 40.0], [5.0, 60.0]]), UAVConfig(alt_m=10.0),
                          np.array([200.0, 200.0]))
-    for path in _write_plan_files(bridge, plans, tmp_path):
+    for path in write_plan_files(bridge, plans, tmp_path):
         assert [item.z for item in load_plan(path).items] == [10.0, 10.0, 10.0]  # take-off, target, loiter
 
 

@@ -1,12 +1,14 @@
 """Smoke test of ``uav-swarm env-demo`` and its scripted placement."""
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from uav_swarm.cli import main
 from uav_swarm.cli.env_demo import greedy_targets_m
 
 
+@pytest.mark.slow
 def test_env_demo_writes_a_png_and_a_summary(tmp_path, capsys):
     argv = ["env-demo", "--out", str(tmp_path / "demo"), "--steps", "8", "--n-uavs", "2", "--seed", "3"]
     assert main(argv) == 0

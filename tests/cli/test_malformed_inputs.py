@@ -118,6 +118,7 @@ def test_a_mistake_ends_in_one_line_naming_it_exit_2_nothing_written(argv, named
     assert sorted(os.listdir(tmp_path)) == [], "something was written"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("argv", [
     ["dataset", "--task", "wifi-s1", "--n", "-5", "--seed", "1", "--out", "out"],
     ["mission", "export", "--config", BRIDGE, "--plans", "missing.json", "--out", "out"],

@@ -344,6 +344,7 @@ def test_a_separation_no_guard_set_keeps_is_named_as_the_cause(tmp_path, capsys)
     assert "min_clearance_m" not in err and not out.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["expert", "refined", "learned"])
 def test_guards_of_a_site_keep_the_minimum_separation_across_buildings(tmp_path, method):
     site = BUILDINGS / ("ferguson_two_parts.geojson" if method != "learned" else "urban_market.geojson")

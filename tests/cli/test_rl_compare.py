@@ -2,9 +2,12 @@
 
 import json
 
+import pytest
+
 from uav_swarm.cli import main
 
 
+@pytest.mark.slow
 def test_table_rows_are_measured_and_reproducible(tmp_path, capsys) -> None:
     args = ["rl-compare", "--controllers", "random", "expert", "--episodes", "2", "--duration-s", "2",
             "--n-uavs", "3", "--seed", "7"]

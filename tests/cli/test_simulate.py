@@ -343,3 +343,27 @@ def test_a_radio_altitude_other_than_the_flight_altitude_exits_2_naming_the_fiel
     err = capsys.readouterr().err
     assert "task.radio.altitude_m = 30.0 differs from uav.alt_m = 10.0" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_an_upload_to_vehicles_not_running_ends_naming_what_to_start(tmp_path, tiny_checkpoint, small_config,
+                                                                      capsys):
+    """No vehicle serves the bridge config: the run is written, the last line says what to start and how
+    to upload the missions then (exit code 1), and it begins with no exception class."""
+    ports = {7: free_udp_port(), 8: free_udp_port()}
+    lines = ["[protocol]", "heartbeat_timeout_s = 1.0", ""]
+    for sid, port in ports.items():
+        lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "udpin:127.0.0.1:{port}"', ""]
+    bridge = tmp_path / "bridge.toml"
+    bridge.write_text("\n".join(lines), encoding="utf-8")
+    out = tmp_path / "out"
+    argv = ["simulate", "--out", str(out), "--config", str(small_config),
+            "--checkpoint", str(tiny_checkpoint), "--n-uavs", "2", "--duration-s", "1", "--no-gif",
+            "--no-expert", "--no-telemetry", "--quiet",
+            "--bridge-config", str(bridge)]
+    assert main(argv) == 1
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith("uav-swarm simulate: the upload failed: ")
+    assert f"uav-swarm vehicles --bridge-config {bridge}" in last
+    assert f"uav-swarm mission upload --config {bridge} --from-dir {out / 'missions'}" in last
+    assert (out / "summary.json").is_file() and sorted(p.name for p in (out / "missions").iterdir()) == [
+        "vehicle_7.plan", "vehicle_8.plan"]

@@ -123,7 +123,11 @@ def test_fly_with_no_vehicle_running_names_each_one_then_sums_up_and_points_at_s
     assert [w for w in warnings if re.fullmatch(summary, w)] == [warnings[warnings.index(named[-1]) + 1]]
     assert not any("flying without it" in w for w in warnings)
     assert "sleeping" not in printed + err
-    assert "--simulated ardupilot" in err.strip().splitlines()[-1]
+    last = err.strip().splitlines()[-1]
+    assert "--simulated ardupilot" in last
+    assert f"start them first (SITL or real autopilots, or simulated ones in another terminal: uav-swarm " \
+           f"vehicles --bridge-config {config})" in last  # what to start, named
+    assert last.startswith("uav-swarm fly: no vehicle could be launched")  # no exception class first
     assert not out.exists()
 
 

@@ -59,13 +59,57 @@ def test_dataset_train_evaluate_commands(blobs, tmp_path, capsys):
                  "--seed", "4", "--out", str(evaluation), "--workers", "1", "--examples", "0"]) == 0
     assert "| blobs |" in capsys.readouterr().out
     assert main(["evaluate", "--task", "wifi-s1", "--checkpoint", str(run / "checkpoint.pt"), "--n", "4",
-                 "--seed", "4", "--out", str(evaluation)]) == 2
+                 "--seed", "4", "--out", str(evaluation), "--overwrite"]) == 2
     assert "not 'wifi-s1'" in capsys.readouterr().err
     assert main(["train", "--task", "blobs", "--data", str(tmp_path / "nothing"), "--out", str(run)]) == 2
+    assert main(["train", "--task", "blobs", "--config", str(config), "--data", str(data),
+                 "--out", str(run)]) == 2  # a second run into the first one's folder
+    assert "--overwrite" in capsys.readouterr().err
     config.write_text("[task]\nsize_px = 24\n")
     assert main(["train", "--task", "blobs", "--config", str(config), "--data", str(data),
-                 "--out", str(run)]) == 2
+                 "--out", str(run), "--overwrite"]) == 2
     assert "size_px" in capsys.readouterr().err
+
+
+def _interrupt_on_call(monkeypatch, module, name: str, call: int) -> None:
+    """``module.name``'s ``call``-th call raises KeyboardInterrupt, as Ctrl-C landing there."""
+    original, calls = getattr(module, name), []
+
+    def wrapped(*args, **kwargs):
+        calls.append(None)
+        if len(calls) == call:
+            raise KeyboardInterrupt
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, wrapped)
+
+
+def test_ctrl_c_in_train_and_evaluate_keeps_the_finished_part_and_exits_130(blobs, tmp_path, capsys,
+                                                                           monkeypatch):
+    import learning.evaluate
+    import learning.train
+
+    config = tmp_path / "blobs.toml"
+    config.write_text("[task]\nsize_px = 16\n[model]\nwidth = 4\n[train]\nbatch_size = 4\ndevice = 'cpu'\n"
+                      "epochs = 4\n")
+    data, run, evaluation = tmp_path / "data", tmp_path / "run", tmp_path / "eval"
+    assert main(["dataset", "--task", "blobs", "--config", str(config), "--n", "12", "--seed", "4",
+                 "--out", str(data), "--workers", "1"]) == 0
+    with monkeypatch.context() as patch:  # epoch 1 writes checkpoint.pt (and best.pt); Ctrl-C in epoch 2
+        _interrupt_on_call(patch, learning.train, "save_checkpoint", 3)
+        assert main(["train", "--task", "blobs", "--config", str(config), "--data", str(data),
+                     "--out", str(run)]) == 130
+    assert "interrupted (Ctrl-C)" in capsys.readouterr().err
+    assert main(["train", "--task", "blobs", "--config", str(config), "--data", str(data), "--out", str(run),
+                 "--resume-from", str(run / "checkpoint.pt")]) == 0  # resumed in its own folder: allowed
+    # scoring: two calls of score_sample per scene; Ctrl-C in the third scene keeps two
+    _interrupt_on_call(monkeypatch, learning.evaluate, "score_sample", 5)
+    assert main(["evaluate", "--task", "blobs", "--checkpoint", str(run / "checkpoint.pt"), "--n", "4",
+                 "--seed", "4", "--out", str(evaluation), "--workers", "1", "--examples", "0"]) == 130
+    summary = json.loads((evaluation / "summary.json").read_text())
+    assert summary["interrupted"] == {"scenes_scored": 2, "of": 4}
+    assert len(json.loads((evaluation / "results.json").read_text())["samples"]) == 2
+    assert "interrupted (Ctrl-C) after 2 of 4 scenes" in capsys.readouterr().err
 
 
 def test_train_width_and_depth_flags_set_a_new_network_or_grow_the_init_one(blobs, tmp_path, capsys):

@@ -163,6 +163,7 @@ def test_bfloat16_inference_stays_close_to_float32(tiny_checkpoint):
     assert np.abs(approx - exact).max() <= 0.05 * max(1.0, np.abs(exact).max())
 
 
+@pytest.mark.slow
 def test_bfloat16_peaks_of_the_shipped_network_equal_float32_peaks_within_a_pixel():
     """Eager bfloat16 at the balanced peak settings: its peaks are float32's (>= 99 %).
 

@@ -12,6 +12,7 @@ import time
 from collections.abc import Iterator
 from concurrent.futures import Future
 
+import numpy as np
 import pytest
 
 from bridge.config import BridgeConfig
@@ -24,6 +25,7 @@ from uav_swarm.runs.flight.holds import HoldRecord, holds_text
 from uav_swarm.runs.flight.loop import Flight
 from uav_swarm.runs.flight.status import FlightStatus, end_report
 from uav_swarm.runs.fly_config import load_fly_config
+from uav_swarm.world.guard import Bounds
 
 
 class Clock:
@@ -58,15 +60,20 @@ def test_a_line_is_due_every_period_of_the_loop_clock_and_names_what_each_vehicl
         clock.now_s = float(t_s)
         lines.append(status.tick())
     due = [(t_s, line) for t_s, line in enumerate(lines) if line is not None]
-    assert [t_s for t_s, _ in due] == [5, 10]
+    assert [t_s for t_s, _ in due] == [5]  # at 10 s nothing changed: no second line
     assert due[0][1] == ("waiting for heartbeats (5 s of 60 s): vehicle 1 not heard yet (its heartbeat); "
                          "vehicle 2 not heard yet (its heartbeat); vehicle 3 not heard yet (its heartbeat); "
                          "3 waiting")
-    clock.now_s = 40.0  # a loop starved for 28 s: one line when it turns again, not a burst of them
+    clock.now_s = 40.0  # a loop starved for 28 s: one line when it turns again (30 s after the last)
     assert status.tick() is not None
     clock.now_s = 41.0
     assert status.tick() is None
-    assert status.lines == [line for line in lines if line is not None] + status.lines[-1:]
+    clock.now_s = 46.0
+    assert status.tick() is None  # the same again, 6 s later: not said
+    status.enter("ready", limit_s=60.0)  # something changed: said at the next period
+    clock.now_s = 52.0
+    assert status.tick().startswith("waiting until the vehicles are ready (")
+    assert status.lines == [line for line in lines if line is not None] + status.lines[-2:]
 
 
 def test_a_wait_of_the_main_thread_still_says_what_it_waits_for(flight):
@@ -83,7 +90,7 @@ def test_a_wait_of_the_main_thread_still_says_what_it_waits_for(flight):
     status = FlightStatus(flight, 5.0, clock=clock)
     status.enter("preflight")
     status.wait([(1, job), (2, job)], "its pre-flight check (parameters)")
-    assert len(status.lines) == 2  # at 6 s and 11 s of the clock
+    assert len(status.lines) == 1  # at 6 s of the clock; at 11 s nothing changed: no second line
     assert status.lines[0].startswith("pre-flight checks (")
     assert ("vehicle 1 its pre-flight check (parameters); vehicle 2 its pre-flight check (parameters); "
             "vehicle 3 not heard yet (its heartbeat)") in status.lines[0]
@@ -96,8 +103,8 @@ def test_the_take_off_gate_names_what_blocks_a_column(flight):
     for vehicle in flight.vehicles:
         vehicle.status = "launching"
     status.enter("launch")
-    # vehicle 1 hovers 3 m from vehicle 2's home: vehicle 2's column is not clear, vehicle 3's is
-    hovering = VehicleState(system_id=1, armed=True, x_m=13.0, y_m=0.0, z_m=10.0, relative_alt_m=10.0,
+    # vehicle 1 hovers 2 m from vehicle 2's home: vehicle 2's column is not clear, vehicle 3's (8 m) is
+    hovering = VehicleState(system_id=1, armed=True, x_m=12.0, y_m=0.0, z_m=10.0, relative_alt_m=10.0,
                             lat_deg=0.0, lon_deg=0.0, position_time_s=time.time())
     safety.decide([(1, hovering, None, False)], 0.0, time.time())
     release = threading.Event()
@@ -115,9 +122,9 @@ def test_the_take_off_gate_names_what_blocks_a_column(flight):
     assert _eventually(lambda: "vehicle 3 arming" in status.line(time.monotonic()))
     line = status.line(time.monotonic())
     assert "vehicle 3 arming (its column clear)" in line
-    min_m = flight.config.uav.min_separation_m
-    assert (f"vehicle 2 waits for its column to clear: vehicle 1 3.0 m from its home ({min_m:g} m needed)"
-            in line)
+    spacing_m = flight.safety.launch_spacing_m  # 8 m: the launch spacing
+    assert (f"vehicle 2 waits for its column to clear: vehicle 1 2.0 m from its home ({spacing_m:g} m "
+            "needed, the launch spacing)" in line)
     release.set()
     flight.stop()
     for thread in threads:
@@ -174,4 +181,35 @@ def test_the_end_report_names_a_vehicle_never_launched_and_the_closest_pair_in_f
         "separation (minimum 5 m): closest pair in flight 8.3 m (vehicles 1 and 2 at 12.0 s), 0 conflicts, "
         "0.0 s below the minimum, 4 holds by the guard",
         "30 s flown with expert: mean QoS S1 0.500 against 0.800 for the static reference (62 % of it); "
-        "S2 0.250, mean throughput 2.00 Mbps (paper)"]
+        "S2 0.250, mean throughput 2.00 Mbps (paper)",
+        "the static reference is the expert's placement of each instant's crowd judged as if the vehicles "
+        "were already there: no flight, no guard"]
+
+
+def test_a_cycle_of_holds_found_by_the_flight_guard_is_named_in_the_next_line(flight):
+    """Two vehicles of the flight's own guard swap head on: they hold each other, and the line says so."""
+    fleet = flight.safety.guard.fleet
+    rows = {sid: flight.safety.uav_of(sid) for sid in (2, 3)}
+    position = {rows[2]: np.array([0.0, 0.0]), rows[3]: np.array([30.0, 1.0])}
+    goals = np.full((3, 2), np.nan)
+    goals[rows[2]], goals[rows[3]] = (30.0, 0.0), (0.0, 0.0)
+    for row, p in position.items():
+        fleet.join(row, p, Bounds(accel_m_s2=2.5, command_delay_s=0.5), now_s=0.0, radius_m=0.0)
+    status = FlightStatus(flight, 5.0, clock=Clock())
+    now_s = 0.0
+    while not fleet.deadlocks and now_s < 30.0:
+        for row, decision in enumerate(fleet.decide(goals, now_s)):
+            if decision.point_m is not None:
+                fleet.acknowledged(row, decision.seq, now_s)
+                position[row] = np.array(decision.point_m)
+        now_s += 0.5
+        for row, p in position.items():
+            fleet.measure(row, p, np.zeros(2), now_s, now_s)
+    _, cycle = fleet.deadlocks[0]
+    sid_of = {row: sid for sid, row in rows.items()}
+    ids = [sid_of[row] for row in cycle]
+    line = status.line(time.monotonic())
+    after_s = flight.config.guard.sidestep_after_s
+    cycle_text = f"{ids[0]} -> {ids[1]} -> {ids[0]}"
+    assert f"cycles of holds (each goes round after {after_s:g} s held): {cycle_text}" in line
+    assert "cycles of holds" not in status.line(time.monotonic())  # said once

@@ -20,7 +20,7 @@ from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from typed_config import ConfigError
 from uav_swarm.cli.simulate import format_summary
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.runs.outputs.radio_report import MCS_BANDS, mcs_band_shares
+from uav_swarm.runs.outputs.radio_report import MCS_BANDS, SERVICE_CLASSES, mcs_band_shares
 from uav_swarm.runs.simulate import sequence_crowds, simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
 from uav_swarm.world.comms import Association
@@ -78,6 +78,30 @@ def test_the_sinr_and_mcs_figures_equal_a_replay_of_the_recorded_flight(wifi_run
     assert sum(wifi["mcs_shares"].values()) == pytest.approx(1.0)
     # "not served" is exactly the users the radio does not serve (S1 counts MCS 0 or better)
     assert np.allclose(shares[:, 0], 1.0 - run.qos_s1, atol=1e-12)
+
+
+def test_the_rate_bar_accounts_for_every_user_and_the_table_says_why_s2_is_lower(wifi_run):
+    config, result, _ = wifi_run
+    run = result.runs["expert"]
+    replay = _replay(config, run)
+    bar = config.task.radio.min_user_rate_mbps
+    expected = []
+    for c in replay:  # recomputed user by user from the replayed association
+        served, fast = c.association >= 0, c.throughput_mbps >= bar
+        expected.append([np.mean(~served & ~c.in_range), np.mean(~served & c.in_range),
+                         np.mean(served & ~fast), np.mean(served & fast)])
+    expected = np.array(expected)
+    assert np.allclose(run.radio.service, expected, rtol=0, atol=1e-12)
+    assert np.allclose(run.radio.service[:, 3], run.qos_s2, atol=1e-12)  # QoS S2: at the bar
+    assert np.allclose(run.radio.service[:, 2:].sum(axis=1), run.qos_s1, atol=1e-12)  # S1: served
+    assert np.array_equal(run.radio.stations, [c.users_per_uav for c in replay])
+    rate_bar = result.summary["planners"]["expert"]["wifi_80211"]["rate_bar"]
+    assert rate_bar["rate_bar_mbps"] == bar and rate_bar["admission_on_rate"] is True
+    for c, name in enumerate(SERVICE_CLASSES):
+        assert rate_bar["shares"][name] == pytest.approx(expected[:, c].mean(), abs=1e-12)
+    table = format_summary(result.summary)
+    refused = f"{rate_bar['shares']['refused']:.0%} in range but refused on rate"
+    assert f"expert against the {bar:g} Mbps bar" in table and refused in table
 
 
 def test_the_channel_plan_changes_only_at_replans_and_uses_the_usable_channels(wifi_run):

@@ -4,6 +4,8 @@ Each subcommand lives in its own module of this package with a
 ``register(subparsers)`` function that adds its parser and sets ``func``.
 Modules import their heavy dependencies inside the command function so that
 ``uav-swarm --help`` stays fast.
+
+May import: ``typed_config``, ``learning``, ``bridge``, ``uav_swarm``.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from collections.abc import Sequence
 
 from typed_config import ConfigError
 from uav_swarm import __version__
-from uav_swarm.cli.conventions import CliParser, add_verbosity, iter_parsers
+from uav_swarm.cli.conventions import CliParser, add_verbosity, iter_parsers, run_folder_problem
 
 __all__ = ["main", "build_parser"]
 
@@ -67,10 +69,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    command = " ".join(filter(None, (args.command, getattr(args, "action", None))))
+    problem = run_folder_problem(args)
+    if problem is not None:
+        print(f"uav-swarm {command}: {problem}", file=sys.stderr)
+        return 2
     try:
         return int(args.func(args) or 0)
     except ConfigError as exc:
-        command = " ".join(filter(None, (args.command, getattr(args, "action", None))))
         print(f"uav-swarm {command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

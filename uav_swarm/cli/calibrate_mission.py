@@ -21,6 +21,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from uav_swarm.cli.learn import task_choices
+
 __all__ = ["register", "run", "PAPER_ROWS"]
 
 PAPER_ROWS: dict[str, dict[str, float]] = {
@@ -31,21 +33,17 @@ PAPER_ROWS: dict[str, dict[str, float]] = {
 }
 """The paper's correspondence, precision and QoS of each task (its results table)."""
 
-_GRID_HELP = "(default: %(default)s)"
-
-
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``calibrate-mission`` subcommand."""
-    from learning.mission_calibration import MARGIN_Z, MissionGrid
     from uav_swarm.cli.conventions import number, output_flag
-    from uav_swarm.missions.registry import TASKS
 
-    grid = MissionGrid()
+    grid = "learning.mission_calibration:MissionGrid."
     parser = subparsers.add_parser(
         "calibrate-mission", help="choose a checkpoint's peak settings for the mission's QoS (validation)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    add("--task", required=True, choices=tuple(TASKS), help="the checkpoint's task")
+    add("--task", required=True, choices=task_choices(), metavar="TASK",
+        help="the checkpoint's task: %(choices)s")
     add("--checkpoint", help="the network (default: uav_swarm/checkpoints/<task>.pt)")
     add("--n", type=number(int, ge=1), help="at most this many validation scenes (default: all of the split)")
     output_flag(parser, "--out", "folder", required=True,
@@ -53,17 +51,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     output_flag(parser, "--write-checkpoint", "file",
                 help="write the checkpoint with both operating points here (default: not written; it may be "
                      "--checkpoint itself)")
-    add("--margin-z", type=number(float, ge=0.0), default=MARGIN_Z,
-        help="margin of the validation figures, in standard errors of a validation-against-held-out "
-             "difference (0: none) (default: %(default)s)")
-    add("--thresholds", type=float, nargs="+", default=list(grid.thresholds),
-        help=f"threshold_abs values tried {_GRID_HELP}")
-    add("--contrasts", type=float, nargs="+", default=list(grid.contrasts),
-        help=f"min_contrast values tried {_GRID_HELP}")
-    add("--distances-px", type=int, nargs="+", default=list(grid.distances_px),
-        help=f"min_distance_px values tried {_GRID_HELP}")
-    add("--regions", nargs="+", default=list(grid.regions),
-        help="where peaks may stand: any, filled (inside the building), empty (outside) " + _GRID_HELP)
+    margin = add("--margin-z", type=number(float, ge=0.0),
+                 help="margin of the validation figures, in standard errors of a validation-against-held-out "
+                      "difference (0: none)")
+    margin.default_from = "learning.mission_calibration:MARGIN_Z"
+    for name, what, kind in (("thresholds", "threshold_abs", float), ("contrasts", "min_contrast", float),
+                             ("distances-px", "min_distance_px", int),
+                             ("regions", "region (any, filled: inside the building, empty: outside)", str)):
+        action = add(f"--{name}", type=kind, nargs="+", help=f"{what} values tried")
+        action.config_field = grid + name.replace("-", "_")
     parser.set_defaults(func=run)
 
 
@@ -130,8 +126,9 @@ def run(args: argparse.Namespace) -> int:
         if args.task not in PAPER_ROWS:
             raise ConfigError(f"--task {args.task}: the paper has no row for it; allowed "
                               f"{sorted(PAPER_ROWS)}")
-        grid = MissionGrid(thresholds=tuple(args.thresholds), contrasts=tuple(args.contrasts),
-                           distances_px=tuple(args.distances_px), regions=tuple(args.regions))
+        grids = ("thresholds", "contrasts", "distances_px", "regions")
+        given = {name: tuple(getattr(args, name)) for name in grids if getattr(args, name) is not None}
+        grid = MissionGrid(**given)
         path = args.checkpoint or str(default_checkpoint(args.task))
         ckpt = load_checkpoint(path, task_name=args.task)
         task = build_task(args.task, ckpt.task_config)
@@ -140,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     out = Path(args.out)
     report = calibrate_mission(ckpt, task, PAPER_ROWS[args.task], out / "validation-scenes", n=args.n,
-                               grid=grid, margin_z=args.margin_z)
+                               grid=grid, **({} if args.margin_z is None else {"margin_z": args.margin_z}))
     write_json_atomic(out / "calibration.json", report)
     table = front_table(report)
     write_text_atomic(out / "front.md", table)

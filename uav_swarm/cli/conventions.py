@@ -10,6 +10,8 @@
 - :func:`output_flag`: a folder or file the command writes, checked when parsed (before any work): an
   existing file given for a folder, a folder given for a file, a path under a file or a place this
   user cannot write is refused naming the flag.
+- :func:`run_folder_flag`: a run's output folder; one that already holds files is refused naming
+  ``--overwrite`` (:func:`run_folder_problem`, before any work): a run never replaces another silently.
 
 Examples:
     >>> parser = CliParser(prog="demo")
@@ -29,13 +31,14 @@ import importlib
 import os
 import re
 import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import UnionType
 from typing import Any, Literal, Union, get_args, get_origin, get_type_hints
 
 __all__ = ["CliParser", "CliHelpFormatter", "config_flag", "number", "plain_text", "iter_parsers",
-           "add_verbosity", "SWITCH_ACTIONS", "output_flag", "output_problem"]
+           "add_verbosity", "SWITCH_ACTIONS", "output_flag", "output_problem", "config_default",
+           "LazyChoices", "run_folder_flag", "run_folder_problem"]
 
 SWITCH_ACTIONS = (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._StoreConstAction,
                   argparse._HelpAction, argparse._VersionAction, argparse._CountAction)
@@ -121,6 +124,50 @@ def output_flag(parser: argparse.ArgumentParser, flag: str, kind: Literal["folde
     return action
 
 
+def run_folder_flag(parser: argparse.ArgumentParser, flag: str = "--out", *,
+                    resumed_by: str | None = None, **kwargs: Any) -> argparse.Action:
+    """Add ``flag``, a run's output folder, and ``--overwrite``: a run never replaces another silently.
+
+    A folder that already holds files is refused naming ``--overwrite`` (see :func:`run_folder_problem`),
+    unless ``--overwrite`` is given or the flag ``resumed_by`` (a dest, e.g. ``"resume"``) asks to continue
+    the run in it.
+    """
+    action = output_flag(parser, flag, "folder", **kwargs)
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"write into a {flag} that already holds files, replacing the files this run "
+                             "writes (default: refused, so that a run never replaces another)")
+    parser.set_defaults(run_folder=(action.dest, flag, resumed_by))
+    return action
+
+
+def run_folder_problem(args: argparse.Namespace) -> str | None:
+    """Why the run must not start in its folder (it holds another run's files), or None.
+
+    Examples:
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as folder:
+        ...     args = argparse.Namespace(out=Path(folder), overwrite=False,
+        ...                               run_folder=("out", "--out", None))
+        ...     empty = run_folder_problem(args)
+        ...     _ = (Path(folder) / "summary.json").write_text("{}")
+        ...     held = run_folder_problem(args)
+        ...     args.overwrite = True
+        ...     (empty, held.split(" (")[0].endswith("already holds a run"), run_folder_problem(args))
+        (None, True, None)
+    """
+    dest, flag, resumed_by = getattr(args, "run_folder", None) or (None, "", None)
+    path = getattr(args, dest) if dest else None
+    resumed = resumed_by is not None and getattr(args, resumed_by, None)
+    if path is None or args.overwrite or resumed or not path.is_dir():
+        return None
+    held = sorted(entry.name + ("/" if entry.is_dir() else "") for entry in path.iterdir())
+    if not held:
+        return None
+    shown = ", ".join(held[:4]) + (f", ... ({len(held)} entries)" if len(held) > 4 else "")
+    return (f"{flag} {path} already holds a run ({shown}): give another {flag}, or --overwrite to replace "
+            "its files")
+
+
 def _field(spec: str) -> tuple[type, dataclasses.Field]:
     """``"package.module:Class.field"`` -> the config class and its field (imported only now)."""
     module_name, _, qualified = spec.partition(":")
@@ -128,6 +175,61 @@ def _field(spec: str) -> tuple[type, dataclasses.Field]:
     cls = getattr(importlib.import_module(module_name), class_name)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     return cls, fields[field_name]
+
+
+def config_default(spec: str) -> tuple[Any, Mapping[str, Any]]:
+    """The default and metadata of the field ``spec``: read from its source, imported if not literal.
+
+    ``"module:NAME"`` (no field) is a module constant: its value and no metadata.
+    """
+    from uav_swarm.cli.field_source import read_constant, read_field
+
+    module_name, _, qualified = spec.partition(":")
+    if "." not in qualified:
+        try:
+            return read_constant(module_name, qualified), {}
+        except LookupError:
+            return getattr(importlib.import_module(module_name), qualified), {}
+    found = read_field(spec)
+    if found is not None:
+        return found
+    _, field = _field(spec)
+    return field.default, field.metadata
+
+
+class LazyChoices(Sequence[str]):
+    """A flag's ``choices`` computed when first needed (parsing the flag, or its command's help).
+
+    ``listed`` gives the choices the help and the messages list; ``allowed`` (default: membership in
+    ``listed``) decides whether a value given is one, e.g. against a registry that can grow at run time.
+
+    Examples:
+        >>> choices = LazyChoices(lambda: ("a", "b"))
+        >>> "a" in choices, list(choices), len(choices)
+        (True, ['a', 'b'], 2)
+        >>> "c" in LazyChoices(lambda: ("a",), allowed=lambda value: value in ("a", "c"))
+        True
+    """
+
+    def __init__(self, listed: Callable[[], Sequence[str]],
+                 allowed: Callable[[object], bool] | None = None) -> None:
+        self._compute = listed
+        self._allowed = allowed
+        self._values: tuple[str, ...] | None = None
+
+    def _all(self) -> tuple[str, ...]:
+        if self._values is None:
+            self._values = tuple(self._compute())
+        return self._values
+
+    def __getitem__(self, index: Any) -> Any:
+        return self._all()[index]
+
+    def __len__(self) -> int:
+        return len(self._all())
+
+    def __contains__(self, value: object) -> bool:
+        return self._allowed(value) if self._allowed is not None else value in self._all()
 
 
 def _shown(value: Any) -> str:
@@ -185,21 +287,26 @@ def _check_text(cls: type, name: str, text: str) -> None:
 
 
 class CliHelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """Descriptions as written; each flag's help followed by its default (from its config field if any)."""
+    """Descriptions as written; each flag's help followed by its default (from its config field if any).
+
+    A flag with a ``default_from`` attribute (``"module:NAME"``) shows that constant as its default.
+    """
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
+        source = getattr(action, "default_from", None)  # a module constant, read when the help is shown
+        if source is not None and "(default" not in text:
+            return f"{text} (default: {_shown(config_default(source)[0])})"
         spec = getattr(action, "config_field", None)
         if spec is not None:
-            _, field = _field(spec)
+            default, meta = config_default(spec)
             if text == _FIELD_DOC:
-                text = field.metadata.get("doc", "").replace("%", "%%")
-            meta = field.metadata
+                text = meta.get("doc", "").replace("%", "%%")
             bounds = [f"{op} {meta[k]}" for k, op in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<"))
                       if meta.get(k) is not None]
             allowed = f"; allowed {' and '.join(bounds)}" if bounds else ""
             if "(default" not in text:
-                shown = _shown(field.default).replace("%", "%%")
+                shown = _shown(default).replace("%", "%%")
                 key = getattr(action, "config_key", None)
                 source = f", or {key} of --config" if key else ""
                 text += f" (default: {shown}{source}{allowed})"

@@ -8,10 +8,12 @@ to the UAVs with the least total travel (Hungarian) and replans every ``--replan
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
-import numpy as np
+from uav_swarm.cli.conventions import number, run_folder_flag
 
-from uav_swarm.cli.conventions import number, output_flag
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["register", "run", "greedy_targets_m"]
 
@@ -22,7 +24,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "env-demo", help="run one episode of uav_swarm_v0 with a scripted policy and write a PNG",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
-    output_flag(parser, "--out", "folder", default="out/env-demo", help="output folder")
+    run_folder_flag(parser, "--out", default="out/env-demo", help="output folder")
     add("--seed", type=number(int, ge=0), default=0, help="episode seed")
     add("--n-uavs", type=number(int, ge=1, le=10), default=6, help="number of UAVs")
     add("--steps", type=number(int, ge=1), default=300, help="episode length in steps of 0.1 s")
@@ -46,6 +48,7 @@ def greedy_targets_m(density: np.ndarray, width_m: float, height_m: float, n_uav
     Returns:
         (n_uavs, 2) target positions in metres (pixel centres).
     """
+    import numpy as np
     from scipy.signal import fftconvolve
 
     from uav_swarm.world.raster import pixels_to_metres
@@ -70,6 +73,7 @@ def greedy_targets_m(density: np.ndarray, width_m: float, height_m: float, n_uav
 
 def _assign(positions_m: np.ndarray, targets_m: np.ndarray) -> np.ndarray:
     """Targets reordered so that the total travel distance is minimal (Hungarian)."""
+    import numpy as np
     from scipy.optimize import linear_sum_assignment
 
     cost = np.linalg.norm(positions_m[:, None, :] - targets_m[None, :, :], axis=2)
@@ -80,6 +84,7 @@ def _assign(positions_m: np.ndarray, targets_m: np.ndarray) -> np.ndarray:
 def run(args: argparse.Namespace) -> int:
     """Run the episode, print a summary and write ``env_demo.png`` into ``--out``."""
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -20,9 +20,10 @@ it to Foxglove while it flies.
 ``uav-swarm vehicles``, link-loss failsafe set to return home): --n-uavs of them (default 5) on loopback
 ports of their own, or the vehicles of --bridge-config when one is given.
 
-Examples (each flies --duration-s of crowd time, 300 s by default, plus the take-offs and the return):
-  uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly   # 5 simulated ArduCopters
-  uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --out out/fly
+Examples (each flies --duration-s of crowd time, 300 s by default, plus the take-offs and the return;
+all but the first need vehicles running: SITL, real autopilots, or uav-swarm vehicles in another terminal):
+  uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly   # about 70 s
+  uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --duration-s 60 --out out/fly-sitl
   uav-swarm fly --bridge-config configs/bridge/ardupilot_sitl_10.toml --wait-ready-s 120   # just booted
   uav-swarm fly --bridge-config fleet.toml --duration-s 600 --mode mission --end land
   uav-swarm fly --bridge-config fleet.toml --ros2   # on ROS 2, with operator targets (docs/ros2.md)
@@ -31,11 +32,12 @@ Telemetry left at its default endpoint moves to a free port of 127.0.0.1 when an
 tcp/127.0.0.1:7447, and says where. A vehicle not heard after 3 s is named, with why when its connection
 was refused.
 
-Exit codes: 0 flown and ended (also when stopped early by Ctrl-C or SIGTERM: the vehicles are ended and
-the outputs written), 1 no vehicle could be launched (a vehicle never heard is "not found"; nothing
-written when none flew), 2 bad flags, configuration, checkpoint, output path or telemetry endpoint given
-in --config (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle is armed;
-nothing written); 130 a Ctrl-C while it reads its config and starts --simulated's fleet.
+Exit codes: 0 flown and ended, 1 no vehicle could be launched (a vehicle never heard is "not found";
+nothing written when none flew; the message says what to start), 2 bad flags, configuration, checkpoint,
+output path (an --out holding another run's files: give --overwrite) or telemetry endpoint given in
+--config (before anything is sent to a vehicle), or a pre-flight refusal (before any vehicle is armed;
+nothing written); 130 Ctrl-C (143 SIGTERM): the vehicles are sent their end action and what flew is
+written, or, before any vehicle flew, nothing.
 """
 
 from __future__ import annotations
@@ -50,12 +52,19 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import config_flag, number, output_flag, run_folder_flag
 from uav_swarm.cli.simulate import CHECKPOINT_HELP, telemetry_endpoint
 
 __all__ = ["register", "run"]
 
 logger = logging.getLogger(__name__)
+
+
+NEXT_STEPS = ("next: open track.png and qos.png in the output folder (the flight from above; QoS against the "
+              "static reference: docs/glossary.md)\n"
+              "next: uav-swarm vehicles starts a fleet that stays up (one terminal), uav-swarm fly "
+              "--bridge-config out/vehicles/bridge.toml --duration-s 60 flies it (another): docs/fly.md")
+"""What to try after a flight: two lines printed at the end of a finished one."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -71,7 +80,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "unless --simulated)")
     add("--simulated", choices=("ardupilot", "px4"),
         help="fly a simulated fleet of this autopilot, started here (default: none, real vehicles)")
-    output_flag(parser, "--out", "folder", default="out/fly", help="output folder")
+    run_folder_flag(parser, "--out", default="out/fly", help="output folder")
     add("--config", type=Path, help="TOML of FlyConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry], [flight]); flags override it (default: none)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
@@ -124,6 +133,11 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Validate (and start the simulated fleet), then fly."""
+    fleet = f"a simulated {args.simulated} fleet started here" if args.simulated else (
+        f"the vehicles of {args.bridge_config or 'the bridge config of --config'}")
+    wait = f"{args.wait_ready_s:g} s" if args.wait_ready_s is not None else "60 s by default"
+    print(f"uav-swarm fly: loading the planner, then flying {fleet} (waiting up to --wait-ready-s, {wait}, "
+          f"for each); outputs into {args.out}; Ctrl-C ends the flight safely", file=sys.stderr, flush=True)
     from typed_config import ConfigError
     from uav_swarm.runs.fly_config import load_fly_config
     from uav_swarm.runs.outputs.live_view import live_view_option
@@ -182,7 +196,13 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     from uav_swarm.runs.fly import fly
 
     stop = threading.Event()
-    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    received: list[int] = []  # the stop signals, in order: Ctrl-C (SIGINT) ends in exit code 130
+
+    def on_signal(number: int, _frame: Any) -> None:
+        received.append(number)
+        stop.set()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         made = bool(args.simulated) and args.bridge_config is None  # a fleet config of this flight only
         result = fly(config, args.out, stop_event=stop, record=args.record, live=live,
@@ -195,8 +215,7 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
               file=sys.stderr)
         return 2
     except BridgeError as exc:
-        kind = "" if isinstance(exc, ValueError) else f"{type(exc).__name__}: "  # a vehicle's failure
-        print(f"uav-swarm fly: {kind}{exc}", file=sys.stderr)
+        print(f"uav-swarm fly: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
     finally:
         for sig, handler in previous.items():
@@ -204,7 +223,16 @@ def _fly(args: argparse.Namespace, config: Any, live: Any) -> int:
     summary = result.summary
     for line in end_report(summary):
         print(line)
+    if "mean_qos_s1" in summary:
+        print("QoS S1/S2, the static reference, holds and the planner's name: docs/glossary.md")
     print(f"wrote {', '.join(summary['files'])} in {args.out}")
     if "recording" in summary:
         print(f"recorded the flight in {summary['recording']}")
+    if received:
+        name = "Ctrl-C" if received[0] == signal.SIGINT else signal.Signals(received[0]).name
+        flown = f" after {summary['duration_s']:.0f} s of crowd time" if "duration_s" in summary else ""
+        print(f"uav-swarm fly: interrupted ({name}){flown}: the vehicles were sent their end action and the "
+              "files above cover the flight until then", file=sys.stderr)
+        return 128 + received[0]
+    print(NEXT_STEPS)
     return 0

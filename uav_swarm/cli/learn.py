@@ -18,29 +18,48 @@ import json
 import sys
 from typing import Any
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import LazyChoices, config_flag, number, output_flag, run_folder_flag
 
-__all__ = ["register", "run", "task_names"]
+__all__ = ["register", "run", "task_names", "task_choices"]
 
 
 def task_names() -> tuple[str, ...]:
-    """The registered tasks (the choices of ``--task``)."""
+    """The shipped tasks (the choices of ``--task`` its help lists), read from the registry's source."""
+    from uav_swarm.cli.field_source import read_keys
+
+    return read_keys("uav_swarm.missions.registry", "TASKS")
+
+
+def is_task(name: object) -> bool:
+    """Whether ``name`` is a registered task (the registry imported: tasks may be registered at run time)."""
     from uav_swarm.missions.registry import TASKS
 
-    return tuple(TASKS)
+    return name in TASKS
+
+
+def task_choices() -> LazyChoices:
+    """``--task``'s choices: listed from source (``--help`` imports nothing), checked against the registry."""
+    return LazyChoices(task_names, allowed=is_task)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``dataset``, ``train`` and ``evaluate`` subcommands."""
-    from learning.data import SPLITS
+    from uav_swarm.cli.field_source import read_keys
+
+    splits = LazyChoices(lambda: sorted(read_keys("learning.data", "SPLITS")))  # no numpy for --help
 
     train_cfg, model_cfg = "learning.train:TrainConfig.", "learning.model:ModelConfig."
 
-    def common(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--task", required=True, choices=task_names(), help="the task")
+    def common(parser: argparse.ArgumentParser, *, resumes_in_out: bool = False) -> None:
+        """--task, --config and --out (a run's folder, refused when it holds files, unless resumed in)."""
+        parser.add_argument("--task", required=True, choices=task_choices(), metavar="TASK",
+                            help="the task: %(choices)s")
         parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks, "
                             "refine, rule_check; default: none, the task's defaults)")
-        output_flag(parser, "--out", "folder", required=True, help="output folder")
+        if resumes_in_out:
+            output_flag(parser, "--out", "folder", required=True, help="output folder")
+        else:
+            run_folder_flag(parser, "--out", resumed_by="resume_from", required=True, help="output folder")
         parser.set_defaults(func=run)
 
     def generation(parser: argparse.ArgumentParser) -> None:
@@ -56,14 +75,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "dataset", help="generate expert demonstrations into shards (resumable)",
         description="Generate expert demonstrations (scene, expert placement) into shard files in --out. "
         "Run the same command again after a kill to finish it.\n\n" + __doc__)
-    common(dataset)
+    common(dataset, resumes_in_out=True)  # resumable: the same command again finishes it
     generation(dataset)
-    dataset.add_argument("--split", choices=sorted(SPLITS), default="train", help="seed namespace")
+    dataset.add_argument("--split", choices=splits, default="train", metavar="SPLIT",
+                         help="seed namespace: %(choices)s")
     dataset.add_argument("--shard-size", type=number(int, ge=1), default=256, help="scenes per shard file")
 
     train = subparsers.add_parser(
         "train", help="train the utility network on a dataset",
-        description="Train the utility network on a dataset of expert demonstrations; writes last.pt, "
+        description="Train the utility network on a dataset of expert demonstrations; writes checkpoint.pt, "
         "best.pt and history.json into --out. The flags replace the values of --config's [train] and [model] "
         "tables.\n\n" + __doc__)
     common(train)
@@ -167,9 +187,16 @@ def _train(args: argparse.Namespace) -> int:
     shape = () if args.init else ("width", "depth")  # with --init they grow the init network instead
     model_cfg = settings.model.replace(**_overrides(args, ("arch", "peak_head", *shape)))
     grow = (args.width, args.depth) if args.init and (args.width or args.depth) else None
-    result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
-                   train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from,
-                   init=args.init, grow=grow)
+    try:
+        result = train(args.data, args.out, model_config=model_cfg, target_config=settings.targets,
+                       train_config=train_cfg, peak_config=settings.peaks, resume=args.resume_from,
+                       init=args.init, grow=grow)
+    except KeyboardInterrupt:  # the checkpoints of the finished epochs stay (written at each epoch's end)
+        last = args.out / "checkpoint.pt"
+        kept = (f"{last} holds the last finished epoch: continue with --resume-from {last}" if last.is_file()
+                else "no epoch had finished: nothing written")
+        print(f"uav-swarm train: interrupted (Ctrl-C): {kept}", file=sys.stderr)
+        return 130
     last = result.history[-1] if result.history else {}
     print(f"checkpoint: {result.checkpoint} (best: {result.best_checkpoint}); last epoch: "
           + ", ".join(f"{k} {v:.4g}" for k, v in last.items()))
@@ -215,6 +242,11 @@ def _evaluate(args: argparse.Namespace) -> int:
                        workers=args.workers, address=args.address, precision=args.precision, tta=args.tta,
                        refiner=refiner, check=check)
     print(markdown_table(args.task, summary), end="")
+    cut = summary.get("interrupted")
+    if cut is not None:
+        print(f"uav-swarm evaluate: interrupted (Ctrl-C) after {cut['scenes_scored']} of {cut['of']} scenes: "
+              f"the table and the files in {args.out} cover those scenes", file=sys.stderr)
+        return 130
     return 0
 
 

@@ -53,11 +53,12 @@ import logging
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
+from uav_swarm.cli.conventions import config_flag, number, run_folder_flag
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["register", "run", "load_network", "propose", "place_building"]
 
@@ -79,7 +80,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--task", required=True, choices=("agp", "fp"), help="agp: guards inside; fp: guards outside")
     add("--building", required=True, type=Path,
         help=".geojson (WGS84 Polygon, MultiPolygon or FeatureCollection) or .json/.csv/.txt vertices (m)")
-    output_flag(parser, "--out", "folder", required=True, help="output folder")
+    run_folder_flag(parser, "--out", required=True, help="output folder")
     add("--method", choices=METHODS, default="refined", help="placement method")
     add("--checkpoint",
         help="network for learned/refined (default: the shipped uav_swarm/checkpoints/<task>.pt)")
@@ -103,6 +104,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _tiles(footprint: Any, size_px: int, margin_px: int, max_pixel_m: float) -> list[Any]:
     """The pieces of the outer ring the network sees, each fitting the raster at ``max_pixel_m``."""
+    import numpy as np
     import shapely
 
     from uav_swarm.missions.monitoring.footprint import Footprint, FootprintError
@@ -136,6 +138,8 @@ def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float, min_sep
     Each raster's peaks stand ``min_separation_m`` apart; across tiles a peak closer than that to an earlier
     one is dropped.
     """
+    import numpy as np
+
     from learning.inference import utility_maps
     from learning.peaks import find_peaks
     from uav_swarm.missions.monitoring.footprint import FootprintError, fit_to_raster
@@ -162,6 +166,7 @@ def propose(task: Any, footprint: Any, network: Any, max_pixel_m: float, min_sep
 
 def _separated(points_m: np.ndarray, fixed_m: np.ndarray, min_separation_m: float) -> np.ndarray:
     """The points in order, each dropped when closer than ``min_separation_m`` to a fixed or kept one."""
+    import numpy as np
     kept = [np.asarray(p) for p in fixed_m]
     out = []
     for p in points_m:
@@ -181,6 +186,7 @@ def load_network(task: Any, checkpoint: str | None, operating_point: str | None 
     Raises:
         ConfigError: A ``[peaks]`` value that cannot apply, or an operating point the checkpoint lacks.
     """
+    import numpy as np
     import torch
 
     from learning.checkpoint import load_checkpoint
@@ -207,6 +213,8 @@ def place_building(task: Any, footprint: Any, method: str, network: Any, sight: 
 
     Its guards keep ``sight.min_separation_m`` between them and to ``fixed_m`` (other buildings' guards).
     """
+    import numpy as np
+
     from uav_swarm.cli.place_output import PlacedBuilding
     from uav_swarm.missions.monitoring.outline_guards import judge, reference_guards, repair_on_outline
 
@@ -262,6 +270,8 @@ def counted(n: int, noun: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Place every building's guards and write the outputs; unplaceable input exits with code 2."""
+    import numpy as np
+
     from bridge.config import BridgeConfig
     from bridge.errors import BridgeError
     from bridge.missions.files import save_mission

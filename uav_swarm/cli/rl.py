@@ -17,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import config_flag, number, run_folder_flag
 
 __all__ = ["register", "run_train", "run_compare"]
 
@@ -26,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``rl-train`` and ``rl-compare`` subcommands."""
     train = subparsers.add_parser("rl-train", help="train MAPPO (TorchRL) on uav_swarm_v0",
                                   description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    output_flag(train, "--out", "folder", required=True, help="output folder")
+    run_folder_flag(train, "--out", resumed_by="resume", required=True, help="output folder")
     train.add_argument("--config", type=Path, help="MappoConfig TOML (default: none, the defaults below)")
     train.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.pt")
     for flag in ("seed", "num-envs", "total-frames", "frames-per-batch", "max-minutes", "max-cycles",
@@ -37,7 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     compare = subparsers.add_parser("rl-compare",
                                     help="random, MAPPO, learned and expert on the same episodes",
                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    output_flag(compare, "--out", "folder", required=True,
+    run_folder_flag(compare, "--out", required=True,
                          help="output folder (comparison.json, comparison.md)")
     compare.add_argument("--policy", type=Path,
                          help="MAPPO policy.pt (written by rl-train; default: none, needed for mappo)")

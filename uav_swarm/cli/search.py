@@ -24,7 +24,7 @@ import argparse
 import sys
 
 from uav_swarm.cli.conventions import config_flag, number, output_flag
-from uav_swarm.cli.learn import task_names
+from uav_swarm.cli.learn import task_choices
 
 __all__ = ["register", "run"]
 
@@ -34,7 +34,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     grid, train_cfg = "learning.search_grid:SearchConfig.", "learning.train:TrainConfig."
     parser = subparsers.add_parser("search", help="grid search of the target's (alpha2, sigma2) (resumable)",
                                    description=__doc__)
-    parser.add_argument("--task", required=True, choices=task_names(), help="the task")
+    parser.add_argument("--task", required=True, choices=task_choices(), metavar="TASK",
+                            help="the task: %(choices)s")
     parser.add_argument("--config", help="task settings TOML (tables task, targets, model, train, peaks; "
                         "default: none, the task's defaults)")
     parser.add_argument("--data", required=True, help="dataset folder (generated there when --n is given)")

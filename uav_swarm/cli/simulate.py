@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from uav_swarm.cli.conventions import config_flag, number, output_flag
+from uav_swarm.cli.conventions import config_flag, number, output_flag, run_folder_flag
 
 if TYPE_CHECKING:
     from uav_swarm.runs.fly_config import FlyConfig
@@ -50,6 +50,13 @@ CHECKPOINT_HELP = ("learned planner checkpoint (default: the shipped one for the
                    "strategy or admission is refused)")
 
 
+NEXT_STEPS = ("next: uav-swarm fly --simulated ardupilot --duration-s 60 --speedup 2 --out out/fly flies "
+              "this planner on 5 simulated ArduCopters (about 70 s)\n"
+              "next: uav-swarm telemetry watch in a second terminal shows the next run live; what each "
+              "figure means: docs/simulate.md")
+"""What to try after the demo: two lines printed at the end of a finished run."""
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` subcommand."""
     parser = subparsers.add_parser(
@@ -57,7 +64,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add = parser.add_argument
     cfg = "uav_swarm.runs.simulate_config:SimulateConfig."
-    output_flag(parser, "--out", "folder", default="out/simulate", help="output folder")
+    run_folder_flag(parser, "--out", default="out/simulate", help="output folder")
     add("--config", type=Path, help="TOML of SimulateConfig (keys and tables [task], [uav], [planning], "
                                     "[telemetry]); flags override it (default: none, the defaults below)")
     config_flag(parser, "--planner", cfg + "planner", choices=("learned", "expert"))
@@ -130,6 +137,8 @@ def telemetry_endpoint(config: RunConfig, config_path: Path | None) -> RunConfig
 
 def format_summary(summary: dict[str, Any]) -> str:
     """The summary as a small text table (one row per planner, then the ratios)."""
+    from uav_swarm.runs.outputs.radio_report import admission_line
+
     header = (f"{'planner':<8} {'QoS S1 mean':>11} {'min':>6} {'QoS S2 mean':>11} {'min':>6} "
               f"{'Mbps mean':>9} {'plan ms p50':>11} {'p95':>8}")
     lines = [header, "-" * len(header)]
@@ -149,6 +158,8 @@ def format_summary(summary: dict[str, Any]) -> str:
     for kind, s in summary["planners"].items():
         if "wifi_80211" in s:
             lines.append(_wifi_line(kind, s["wifi_80211"]))
+            if s["wifi_80211"].get("rate_bar", {}).get("admission_on_rate"):  # why QoS S2 is what it is
+                lines.append("  " + admission_line(kind, s["wifi_80211"]))
     paper = {kind: s["mean_qos_s2_paper_radio"] for kind, s in summary["planners"].items()
              if "mean_qos_s2_paper_radio" in s}
     if paper:
@@ -237,6 +248,9 @@ def _separation_line(kind: str, figures: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Validate the configuration, run the job, print the summary table."""
+    length = f"{args.duration_s:g} s" if args.duration_s is not None else "the configured time"
+    print(f"uav-swarm simulate: loading the planners, then flying {length} of crowd time (180 s by default: "
+          "minutes) into " f"{args.out}; Ctrl-C keeps the part flown", file=sys.stderr, flush=True)
     from bridge.errors import BridgeError
     from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
@@ -257,15 +271,29 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     except BridgeError as exc:
-        print(f"uav-swarm simulate: {exc}", file=sys.stderr)
-        return 2 if isinstance(exc, ValueError) else 1
+        if isinstance(exc, ValueError):
+            print(f"uav-swarm simulate: {exc}", file=sys.stderr)
+            return 2
+        bridge = args.bridge_config or "the bridge config"
+        print(f"uav-swarm simulate: the upload failed: {exc}; the run and its missions are written in "
+              f"{args.out}: start the vehicles of {bridge} (SITL, real autopilots, or simulated ones in "
+              f"another terminal: uav-swarm vehicles --bridge-config {bridge}), then uav-swarm mission "
+              f"upload --config {bridge} --from-dir {args.out / 'missions'}", file=sys.stderr)
+        return 1
     summary = result.summary
     print(f"uav_swarm_v0: {config.n_uavs} UAVs, {summary['planners'][config.planner]['n_pedestrians']} "
           f"pedestrians, {summary['duration_s']:.0f} s simulated, replan every {config.replan_every} steps, "
           f"seed {config.seed}")
     print(format_summary(summary))
+    print("QoS S1/S2, the static reference, holds and the planner's names: docs/glossary.md")
     files = summary["files"]
     print(wrote_line(files, args.out))
     if "recording" in summary:
         print(f"recorded the {config.planner} planner's run in {summary['recording']}")
+    cut = summary.get("interrupted")
+    if cut is not None:
+        print(f"uav-swarm simulate: interrupted (Ctrl-C) at {cut['at_s']:g} s of the {cut['planner']} "
+              f"planner's run: the figures and files above cover {cut['kept']}", file=sys.stderr)
+        return 130
+    print(NEXT_STEPS)
     return 0

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from uav_swarm.cli.conventions import number, output_flag
-from uav_swarm.cli.learn import task_names
+from uav_swarm.cli.learn import task_choices
 
 __all__ = ["register", "run"]
 
@@ -22,7 +22,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "expert-stability",
         help="the expert's agreement with itself under grid symmetries or sub-pixel jitter",
         description=__doc__)
-    parser.add_argument("--task", required=True, choices=task_names(), help="the task")
+    parser.add_argument("--task", required=True, choices=task_choices(), metavar="TASK",
+                            help="the task: %(choices)s")
     parser.add_argument("--config", help="task settings TOML (its [task] table is used; default: none)")
     parser.add_argument("--probe", choices=("symmetry", "jitter"), default="symmetry",
                         help="moved scenes: by a grid symmetry, or by a normal jitter (Wi-Fi crowds)")

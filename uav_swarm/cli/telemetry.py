@@ -119,6 +119,13 @@ def run(args: argparse.Namespace) -> int:
     from typed_config import ConfigError
 
     config = _config(args)
+    bound = " or ".join(filter(None, (args.duration_s and f"for {args.duration_s:g} s",
+                                      args.count and f"until {args.count} messages"))) or "until Ctrl-C"
+    where = ", ".join(config.connect or config.listen)
+    print(f"uav-swarm telemetry {args.action}: listening for swarm {config.swarm!r} on {where} (Zenoh) "
+          f"{bound}; nothing shows until a run publishes: start uav-swarm simulate or uav-swarm fly (another "
+          "terminal)",
+          file=sys.stderr, flush=True)
     with ExitStack() as stack:
         try:
             ros = _ros_node(args, config.swarm, stack) if args.action == "ros2" else None

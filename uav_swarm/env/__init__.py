@@ -12,6 +12,8 @@
 
 The environment is imported on first use of one of its names, so that
 ``uav_swarm.env.config`` can be imported without PettingZoo.
+
+May import: ``typed_config``, ``uav_swarm.world``.
 """
 
 from __future__ import annotations

@@ -5,6 +5,9 @@
 
 Both import their library only when called; a missing library raises an ImportError that says
 ``pip install 'uav-swarm[marl]'``.
+
+May import: ``typed_config``, ``uav_swarm.world``, ``uav_swarm.missions``, ``uav_swarm.env``,
+``uav_swarm.planning``, ``uav_swarm.runs``.
 """
 
 from uav_swarm.marl.supersuit_vec import supersuit_vec_env

@@ -5,7 +5,8 @@ subclasses propose candidate positions, the base assigns them to the UAVs (plann
 snapshot assignment; the planner module's docstring tells both).
 
 Separation: the planners keep every target at least the minimum separation from every other, the larger
-of the task's ``min_separation_m`` and the UAVs' ``[uav] min_separation_m`` (:func:`separated_task`):
+of the task's ``min_separation_m`` and the UAVs' ``[uav] min_separation_m``
+(:func:`~uav_swarm.missions.wifi.task.planner_task`):
 the proposals are separated by construction and the assignment keeps them so.
 """
 
@@ -14,7 +15,7 @@ from __future__ import annotations
 import copy
 import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
@@ -24,14 +25,15 @@ from typed_config import Config, ConfigError, param
 from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.refine import WifiRefineConfig
 from uav_swarm.missions.wifi.rule_check import RuleCheckConfig
-from uav_swarm.missions.wifi.task import WifiConfig, coverage_rules
+from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, planner_task
 from uav_swarm.planning.assignment import assign_targets
 from uav_swarm.planning.horizon import warm_up
 from uav_swarm.planning.motion import MotionConfig, MotionPlanning
+from uav_swarm.planning.parking import warm_up as parking_warm_up
 from uav_swarm.world.separation import check_fleet_fits
 from uav_swarm.world.uav import UAVConfig
 
-__all__ = ["PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "check_n_uavs", "separated_task",
+__all__ = ["PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "check_n_uavs",
            "task_with_uav_separation"]
 
 
@@ -136,19 +138,6 @@ def check_n_uavs(n_uavs: int) -> int:
     return int(n_uavs)
 
 
-def separated_task(task_config: WifiConfig | None, uav_config: UAVConfig | None) -> WifiConfig:
-    """The task config whose placements keep the UAVs' minimum separation too (the larger of the two).
-
-    Examples:
-        >>> separated_task(WifiConfig(min_separation_m=2.0), UAVConfig(min_separation_m=8.0)).min_separation_m
-        8.0
-    """
-    task_config = task_config or WifiConfig()
-    if uav_config is None or uav_config.min_separation_m <= task_config.min_separation_m:
-        return task_config
-    return task_config.replace(min_separation_m=uav_config.min_separation_m)
-
-
 def task_with_uav_separation(task_config: WifiConfig, uav_config: UAVConfig, n_uavs: int) -> WifiConfig:
     """The task config of a run whose ``[uav] min_separation_m`` is the one minimum (simulate, fly).
 
@@ -177,8 +166,9 @@ class AssigningPlanner(ABC):
     Args:
         n_uavs: Number of UAVs, 1 to 10.
         config: Mode (motion or snapshot), hysteresis and target gap.
-        task_config: The Wi-Fi task whose rules and radio planning in motion judges with; default
-            ``WifiConfig()``.
+        task: The Wi-Fi task whose rules and radio planning in motion judges with (its expert's
+            ``max_uavs`` at most ``n_uavs``: :func:`~uav_swarm.missions.wifi.task.planner_task`); default
+            ``WifiConfig()``'s for ``n_uavs`` UAVs and ``uav_config``'s minimum separation.
         uav_config: The UAVs' speed and acceleration limits and minimum separation; default ``UAVConfig()``.
 
     Raises:
@@ -187,22 +177,28 @@ class AssigningPlanner(ABC):
 
     name = "planner"
 
-    def __init__(self, n_uavs: int, config: PlannerConfig | None = None,
-                 task_config: WifiConfig | None = None, uav_config: UAVConfig | None = None) -> None:
+    def __init__(self, n_uavs: int, config: PlannerConfig | None = None, task: WifiTask | None = None,
+                 uav_config: UAVConfig | None = None) -> None:
         self.n_uavs = check_n_uavs(n_uavs)
         self.config = config or PlannerConfig()
         self._previous: np.ndarray | None = None
-        task_config = separated_task(task_config, uav_config)
+        if task is None:
+            task = planner_task(None, self.n_uavs, min_separation_m=uav_config.min_separation_m if uav_config
+                                else 0.0)
+        self.task = task
+        """The Wi-Fi task the planner proposes for and judges with."""
+        task_config = task.config
         scenario = task_config.scenario
         self.min_gap_m = max(self.config.min_gap_m, task_config.min_separation_m)
         """Smallest distance between two targets: ``min_gap_m``, or the minimum separation when larger."""
         self._area_m = np.array([scenario.width_m, scenario.height_m])
         self.motion = MotionPlanning(
-            self.n_uavs, coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs)),
+            self.n_uavs, replace(task.rules, max_uavs=min(task.rules.max_uavs, self.n_uavs)),
             task_config.radio, task_config.strategy, (scenario.width_m, scenario.height_m), uav_config,
             self.config.motion, self.min_gap_m)
         if self.config.mode == "motion":
             warm_up()  # the horizon's compiled loop, loaded now rather than at the first replan
+            parking_warm_up()  # and the spares' parking search
 
     @abstractmethod
     def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None

@@ -37,12 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
-from scipy.spatial import cKDTree
 
 from typed_config import Config, param
 from uav_swarm.missions.wifi.capacitated import admitted_users
 from uav_swarm.missions.wifi.rules import CoverageRules, assign_users
 from uav_swarm.planning.horizon import horizon_qos, travelled_m
+from uav_swarm.planning.parking import parking_spot
 from uav_swarm.planning.spacing import separate_targets
 from uav_swarm.world.comms import RadioConfig
 from uav_swarm.world.uav import UAVConfig
@@ -338,25 +338,12 @@ class MotionPlanning:
         out = np.clip(targets, 0.0, self.area_m)
         spare = (index < 0) & ~kept
         if self.rules.max_users is not None and np.any(spare) and len(predicted):
-            tree = cKDTree(predicted)
+            reach_m = self.rules.radius_m + self.config.park_margin_m
             for j in np.flatnonzero(spare):
                 start = out[j] if self._previous is None else self._previous[j]  # a free spot stays
-                out[j] = self._parking(tree, start, np.delete(out, j, axis=0))
+                out[j] = parking_spot(predicted, start, np.delete(out, j, axis=0), self.area_m, reach_m,
+                                      self.min_gap_m)
         priority = np.lexsort((np.arange(self.n_uavs), spare, ~kept))
         separated = separate_targets(out, self.min_gap_m, priority, self.area_m)
         return separated, separated - out
 
-    def _parking(self, tree: cKDTree, start: np.ndarray, others: np.ndarray) -> np.ndarray:
-        """The nearest point to ``start`` (rings of 5 m) with no user within reach, inside the area."""
-        reach = self.rules.radius_m + self.config.park_margin_m
-        for radius in np.arange(0.0, float(np.hypot(*self.area_m)), 5.0):
-            count = max(1, int(np.ceil(2.0 * np.pi * radius / 5.0)))
-            angles = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
-            ring = start + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
-            ring = np.clip(ring, 0.0, self.area_m)
-            free = tree.query_ball_point(ring, reach, return_length=True) == 0
-            if len(others):
-                free &= np.linalg.norm(ring[:, None] - others[None], axis=-1).min(axis=1) >= self.min_gap_m
-            if np.any(free):
-                return ring[int(np.argmax(free))]
-        return start

@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import importlib.resources
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -73,20 +74,21 @@ from uav_swarm.env.config import MAX_UAVS
 from uav_swarm.missions.wifi.refine import refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.relocation import warm_up as relocation_warm_up
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
-from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, coverage_rules, crowd_raster
+from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, crowd_raster, planner_task
+from uav_swarm.missions.wifi.warm_start import replan_expert
 from uav_swarm.planning.base import (
     AssigningPlanner,
     Planner,
     PlannerConfig,
     PlanResult,
     check_n_uavs,
-    separated_task,
 )
 from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["PLANNER_KINDS", "PlannerConfig", "PlanResult", "Planner", "AssigningPlanner", "LearnedPlanner",
-           "ExpertPlanner", "make_planner", "default_checkpoint", "shipped_checkpoint_name", "check_n_uavs"]
+           "ExpertPlanner", "make_planner", "make_planners", "default_checkpoint", "shipped_checkpoint_name",
+           "check_n_uavs"]
 
 logger = logging.getLogger(__name__)
 
@@ -105,23 +107,37 @@ class ExpertPlanner(AssigningPlanner):
         task_config: The Wi-Fi task (strategy, radio, expert settings); default ``WifiConfig()``.
         config: Mode, hysteresis and target gap.
         uav_config: The UAVs' speed and acceleration limits (planning in motion).
+        task: The task already built for ``n_uavs`` UAVs (another planner's, to compare with it), in place
+            of ``task_config``.
     """
 
     name = "expert-hungarian"
 
     def __init__(self, n_uavs: int, task_config: WifiConfig | None = None,
-                 config: PlannerConfig | None = None, uav_config: UAVConfig | None = None) -> None:
-        task_config = separated_task(task_config, uav_config)
-        super().__init__(n_uavs, config, task_config, uav_config)
-        expert = task_config.expert.replace(max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
-        self.task = WifiTask(task_config.replace(expert=expert))
+                 config: PlannerConfig | None = None, uav_config: UAVConfig | None = None, *,
+                 task: WifiTask | None = None) -> None:
+        if task is None:
+            task = planner_task(task_config, check_n_uavs(n_uavs),
+                                min_separation_m=_uav_separation_m(uav_config))
+        super().__init__(n_uavs, config, task, uav_config)
+        self.replans = replan_expert(self.task)
 
     def propose(self, pedestrians_m: np.ndarray, velocities_m_s: np.ndarray | None = None
                 ) -> tuple[np.ndarray, None]:
-        """The expert's placement (metres) of the crowd."""
+        """The expert's placement (metres) of the crowd, warm-started from the last ([task.expert.replan])."""
         if len(pedestrians_m) == 0:
             return np.zeros((0, 2)), None
-        return self.task.expert_placement_m(pedestrians_m, velocities_m_s), None
+        return self.replans.place(pedestrians_m, velocities_m_s), None
+
+    def reset(self) -> None:
+        """Forget the previous targets and the last placement: a new sequence starts."""
+        super().reset()
+        self.replans = replan_expert(self.task)
+
+
+def _uav_separation_m(uav_config: UAVConfig | None) -> float:
+    """The UAVs' minimum separation a planner's placements keep too (0 without a UAV config)."""
+    return 0.0 if uav_config is None else uav_config.min_separation_m
 
 
 def default_checkpoint(task_name: str = "wifi-s1") -> Path:
@@ -199,37 +215,38 @@ class LearnedPlanner(AssigningPlanner):
     def __init__(self, n_uavs: int, task_config: WifiConfig | None = None,
                  checkpoint: str | Path | None = None, config: PlannerConfig | None = None,
                  uav_config: UAVConfig | None = None) -> None:
-        task_config = separated_task(task_config, uav_config)
-        super().__init__(n_uavs, config, task_config, uav_config)
         import torch
 
         from learning.checkpoint import CheckpointError, load_checkpoint
         from learning.inference import select_engine
         from learning.precision import resolve_precision
 
-        self.task = WifiTask(task_config)
-        task_name = self.task.name
-        self.refinement = self.config.refinement or strategy_refinement(task_config.strategy)
-        """The refinement's settings: ``[planning.refinement]``, else the strategy's own."""
-        if self.config.refine:
-            self.refinement.check_rules(self.task.rules, "[planning.refinement]")
-            relocation_warm_up()  # strategy 2's relocation search: compiled once, before the first replan
+        n_uavs = check_n_uavs(n_uavs)  # before anything is loaded
+        task_config = WifiConfig() if task_config is None else task_config
         shipped = shipped_checkpoint_name(task_config)
+        task_name = f"wifi-s{task_config.strategy}"  # the task's name, checked against the checkpoint's
         path = default_checkpoint(shipped) if checkpoint in (None, "") else Path(checkpoint)
         if not path.is_file():
             if checkpoint in (None, ""):
                 raise CheckpointError(_missing_checkpoint_message(path, task_name, shipped))
             raise CheckpointError(f"checkpoint not found: {path} (--checkpoint)")
-        side = task_config.size_px
         ckpt = load_checkpoint(path, task_name=task_name)
         trained = ckpt.task_config
         _check_radio(path, trained, task_config, shipped, from_shipped=checkpoint in (None, ""))
         velocity = bool(trained.get("velocity_channels", False))
         if velocity != task_config.velocity_channels:  # the raster is the network's: take its channels
-            task_config = task_config.replace(velocity_channels=velocity)
-            self.task = WifiTask(task_config)
             logger.info("%s was trained with velocity_channels = %s: the planner's raster follows", path,
                         velocity)
+        super().__init__(n_uavs, config, planner_task(task_config, n_uavs,
+                                                      min_separation_m=_uav_separation_m(uav_config),
+                                                      velocity_channels=velocity), uav_config)
+        task_config = self.task.config
+        side = task_config.size_px
+        self.refinement = self.config.refinement or strategy_refinement(task_config.strategy)
+        """The refinement's settings: ``[planning.refinement]``, else the strategy's own."""
+        if self.config.refine:
+            self.refinement.check_rules(self.task.rules, "[planning.refinement]")
+            relocation_warm_up()  # strategy 2's relocation search: compiled once, before the first replan
         if tuple(ckpt.input_shape) != (self.task.channels, side, side):
             raise CheckpointError(f"{path}: trained on inputs of shape {tuple(ckpt.input_shape)}, not "
                                   f"{(self.task.channels, side, side)} (the planner's raster)")
@@ -249,7 +266,6 @@ class LearnedPlanner(AssigningPlanner):
         self.name = ("cnn-peaks" + ("-rulecheck" if self.config.rule_check else "")
                      + ("-refine" if self.config.refine else "") + "-hungarian")
         self._check = WifiRuleCheck(self.task, self.config.rule_checking) if self.config.rule_check else None
-        self._rules = coverage_rules(task_config, max_uavs=min(task_config.expert.max_uavs, self.n_uavs))
         self.min_separation_px = task_config.min_separation_m * side / task_config.scenario.width_m
         """The peaks' minimum separation in raster pixels (the task's, at least the UAVs')."""
         fixed = {} if self._check is None else {
@@ -295,7 +311,8 @@ class LearnedPlanner(AssigningPlanner):
             if self.config.refine and self.task.config.radio.propagation == "802.11":
                 peaks_m = self.task.refine_80211(peds, peaks_m, self.n_uavs)
             elif self.config.refine:
-                peaks_m = refine_placement(peds, peaks_m, self._rules, self.task.width_m, self.task.height_m,
+                task = self.task
+                peaks_m = refine_placement(peds, peaks_m, task.rules, task.width_m, task.height_m,
                                            self.refinement)
             out.append((peaks_m, utility))
         return out
@@ -304,7 +321,7 @@ class LearnedPlanner(AssigningPlanner):
 def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | None = None, *,
                  checkpoint: str | Path | None = None, config: PlannerConfig | None = None,
                  uav_config: UAVConfig | None = None) -> Planner:
-    """Build a planner by name.
+    """Build a planner by name: :func:`make_planners` of one kind.
 
     Args:
         kind: ``"learned"`` or ``"expert"``.
@@ -318,9 +335,38 @@ def make_planner(kind: str, n_uavs: int = MAX_UAVS, task_config: WifiConfig | No
         ConfigError: Unknown ``kind`` or ``n_uavs`` out of range (checked before anything is loaded).
         learning.checkpoint.CheckpointError: See :class:`LearnedPlanner`.
     """
-    if kind not in PLANNER_KINDS:
-        raise ConfigError(f"planner = {kind!r} is not allowed: choose one of {list(PLANNER_KINDS)}")
+    return make_planners((kind,), n_uavs, task_config, checkpoint=checkpoint, config=config,
+                         uav_config=uav_config)[kind]
+
+
+def make_planners(kinds: Sequence[str], n_uavs: int = MAX_UAVS, task_config: WifiConfig | None = None, *,
+                  checkpoint: str | Path | None = None, config: PlannerConfig | None = None,
+                  uav_config: UAVConfig | None = None) -> dict[str, Planner]:
+    """Build planners by name in one trip: one task, built once, shared by all (the flown and the compared).
+
+    The learned planner (when asked for) loads and checks its checkpoint, builds the task for its raster
+    (:func:`~uav_swarm.missions.wifi.task.planner_task`), its refinement, rule check and engine; the
+    expert then plans for that same task (the raster's velocity channels are the network's, which the
+    expert does not read). The arguments are :func:`make_planner`'s.
+
+    Examples:
+        >>> planners = make_planners(["expert"], n_uavs=3)
+        >>> list(planners), planners["expert"].task.rules.max_uavs
+        (['expert'], 3)
+
+    Raises:
+        ConfigError: An unknown kind or ``n_uavs`` out of range (checked before anything is loaded).
+        learning.checkpoint.CheckpointError: See :class:`LearnedPlanner`.
+    """
+    for kind in kinds:
+        if kind not in PLANNER_KINDS:
+            raise ConfigError(f"planner = {kind!r} is not allowed: choose one of {list(PLANNER_KINDS)}")
     check_n_uavs(n_uavs)
-    if kind == "learned":
-        return LearnedPlanner(n_uavs, task_config, checkpoint, config, uav_config)
-    return ExpertPlanner(n_uavs, task_config, config, uav_config)
+    planners: dict[str, Planner] = {}
+    task = None
+    if "learned" in kinds:
+        learned = LearnedPlanner(n_uavs, task_config, checkpoint, config, uav_config)
+        planners["learned"], task = learned, learned.task
+    if "expert" in kinds:
+        planners["expert"] = ExpertPlanner(n_uavs, task_config, config, uav_config, task=task)
+    return {kind: planners[kind] for kind in kinds}

@@ -21,9 +21,10 @@ Telemetry (Zenoh, loopback by default): each vehicle's state on ``uav_swarm/<swa
 (``source = "vehicle"``) as each GLOBAL_POSITION_INT arrives, with its accepted target; the plans on
 ``/plan``; the QoS of the measured positions over the simulated crowd on ``/qos``.
 
-The loop itself is :class:`uav_swarm.runs.flight.loop.Flight`. Outputs in ``out_dir``: ``qos.png``,
-``timeseries.csv`` (QoS over time), ``track.csv`` (each vehicle's measured track and target, and its
-channel under the 802.11 radio) and ``summary.json`` (events, failures, QoS, the config);
+The loop itself is :class:`uav_swarm.runs.flight.loop.Flight`. Outputs in ``out_dir``: ``qos.png``
+(QoS over time with the static reference), ``timeseries.csv`` (QoS over time), ``track.png`` (the
+flight from above: paths, homes, last targets, the crowd), ``track.csv`` (each vehicle's measured track
+and target, and its channel under the 802.11 radio) and ``summary.json`` (events, failures, QoS, the config);
 with ``record``, an MCAP file of the flight at crowd time, and with ``live``, the same messages streamed
 to Foxglove as they happen (:mod:`uav_swarm.runs.outputs.recording`).
 """
@@ -37,6 +38,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from bridge.errors import BridgeError
 from bridge.flight.preflight import PreflightError
 from uav_swarm.planning.planner import make_planner
@@ -44,6 +47,7 @@ from uav_swarm.runs.flight.loop import Flight
 from uav_swarm.runs.fly_config import FlyConfig
 from uav_swarm.runs.outputs.fanout import RunOutputs
 from uav_swarm.runs.outputs.records import QosTrace
+from uav_swarm.runs.service import StaticReference
 from uav_swarm.runs.summary import planner_names, summarise_flight
 
 if TYPE_CHECKING:
@@ -202,10 +206,19 @@ def fly(config: FlyConfig, out_dir: str | Path, *, stop_event: threading.Event |
     if trace is not None and trace.times_s.size:
         from uav_swarm.runs.outputs.plots import write_timeseries
 
-        files += [write_qos_figure({"flown": trace}, out_dir / "qos.png"),
-                  write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]
         summary |= summarise_flight(trace, config, n, flight.plans, track, flight.crowd_samples)
+        reference = summary["static_reference"]
+        drawn = StaticReference(np.asarray(reference["times_s"]), np.asarray(reference["qos"]),
+                                tuple(reference["experts"]), reference["every_s"])
+        files += [write_qos_figure({"flown": trace}, out_dir / "qos.png", drawn, config.task.strategy),
+                  write_timeseries({"flown": trace}, out_dir / "timeseries.csv")]
     files.append(_write_track(track, out_dir / "track.csv"))
+    if track:
+        from uav_swarm.runs.outputs.plots import write_track_figure
+
+        crowd = flight.crowd_samples[-1][1] if flight.crowd_samples else None
+        area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
+        files.append(write_track_figure(track, crowd, area_m, out_dir / "track.png"))
     if keep_bridge_config:
         write_bytes_atomic(out_dir / "bridge.toml", Path(config.bridge_config).read_bytes())
         files.append(out_dir / "bridge.toml")

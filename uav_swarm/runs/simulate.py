@@ -43,14 +43,14 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.planning.planner import LearnedPlanner, Planner, make_planner
-from uav_swarm.planning.spacing import separate_targets
+from uav_swarm.planning.planner import LearnedPlanner, Planner, make_planners
 from uav_swarm.runs.outputs.fanout import RunOutputs
 from uav_swarm.runs.outputs.radio_report import RadioLog, radio_line, telemetry_fields
 from uav_swarm.runs.outputs.records import Frame, SequenceRun
 from uav_swarm.runs.separation_watch import SeparationWatch
 from uav_swarm.runs.service import static_reference, target_jumps
 from uav_swarm.runs.simulate_config import SimulateConfig
+from uav_swarm.runs.simulate_missions import final_plans, load_bridge, upload_plans, write_plan_files
 from uav_swarm.runs.summary import (
     planner_names,
     ratios_learned_over_expert,
@@ -61,11 +61,9 @@ from uav_swarm.world.comms import evaluate_coverage
 from uav_swarm.world.wifi.channels import plan_channels
 
 if TYPE_CHECKING:
-    from bridge.config import BridgeConfig
     from bridge.telemetry.schema import Plan, Qos, UavState
     from uav_swarm.runs.outputs.live_view import LiveView
     from uav_swarm.runs.steering import OperatorTargets
-    from uav_swarm.world.uav import UAVConfig
 
 __all__ = ["SimulationResult", "run_sequence", "sequence_crowds", "simulate"]
 
@@ -169,57 +167,68 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     area_m = (config.task.scenario.width_m, config.task.scenario.height_m)
     watch = SeparationWatch(config.uav, config.n_uavs, area_m, step_s=env.dt_s)  # transitions, closest pair
     steered = 0  # the operator targets' version the transition was planned for
-    for step in tqdm(range(steps), desc=f"{kind} planner", unit="step", disable=None if progress else True,
-                     leave=False):
-        if step % config.replan_every == 0:
-            result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
-                                  env.pedestrian_velocities_m_s)
-            if latencies:
-                moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
-                changes.append(int(np.count_nonzero(moved)))
-            targets = result.targets_m
-            if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes
-                channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels)
-                env.set_channel_plan(channels)
-            plans.append(targets.copy())
-            latencies.append(result.latency_ms)
-            if steering is not None:
-                steering.planned(dict(enumerate(map(tuple, targets))))
-            if outputs.active:
-                plan = _plan(planner, _steered(targets, steering), alt_m, result.latency_ms,
-                             len(latencies) - 1)
-                outputs.plan(step * env.dt_s, plan)
-        if step % config.replan_every == 0 or (steering is not None and steering.version != steered):
-            steered = steering.version if steering is not None else 0  # an operator's change: a transition
-            flown = _steered(targets, steering)
-            watch.replan(step * env.dt_s, env.uav_positions_m, env.uav_velocities_m_s, flown)
-        if sample_every and step % sample_every == 0:  # the crowd walks the same whatever the UAVs do
-            samples.append((step * env.dt_s, np.array(env.pedestrian_positions_m),
-                            np.array(env.pedestrian_velocities_m_s)))
-        before = np.array(env.uav_positions_m)
-        infos = env.step(dict(zip(agents, watch.commands(step * env.dt_s), strict=True)))[-1]
-        guard = watch.observe((step + 1) * env.dt_s, env.uav_positions_m, infos)
-        distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
-        cov = env.coverage
-        qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
-        if admission:  # the same flight judged with the paper's radio, for the paper's table and qos.png
-            qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
-                                                   paper_radio).qos_s2
-        if radio_log is not None:  # channels, SINR/MCS, airtime, co-channel sharing (runs.radio_report)
-            radio_log.observe(cov, env.uav_positions_m)
-        if outputs.active and step % config.telemetry_every == 0:
-            states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard, radio_log)
-            outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered,
-                         association=cov.association, throughput_mbps=cov.throughput_mbps)
-        if frame_every and (step % frame_every == 0 or step == steps - 1):
-            assert result is not None  # planned at step 0 (every replan_every steps from it)
-            frames.append(Frame(
-                time_s=(step + 1) * env.dt_s, pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
-                covered=cov.covered.copy(), uavs_m=np.array(env.uav_positions_m), targets_m=np.array(flown),
-                peaks_m=result.peaks_m.copy(), utility=result.utility, qos_s1=float(cov.qos_s1),
-                qos_s2=float(cov.qos_s2),
-                association=None if radio_log is None else np.array(cov.association),
-                channels=None if radio_log is None or cov.channel is None else np.array(cov.channel)))
+    done, interrupted_at_s = 0, None
+    try:
+        for step in tqdm(range(steps), desc=f"{kind} planner", unit="step",
+                         disable=None if progress else True, leave=False):
+            if step % config.replan_every == 0:
+                result = planner.plan(env.pedestrian_positions_m, env.uav_positions_m,
+                                      env.pedestrian_velocities_m_s)
+                if latencies:
+                    moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
+                    changes.append(int(np.count_nonzero(moved)))
+                targets = result.targets_m
+                if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes
+                    channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels)
+                    env.set_channel_plan(channels)
+                plans.append(targets.copy())
+                latencies.append(result.latency_ms)
+                if steering is not None:
+                    steering.planned(dict(enumerate(map(tuple, targets))))
+                if outputs.active:
+                    plan = _plan(planner, _steered(targets, steering), alt_m, result.latency_ms,
+                                 len(latencies) - 1)
+                    outputs.plan(step * env.dt_s, plan)
+            if step % config.replan_every == 0 or (steering is not None and steering.version != steered):
+                # an operator's change: a transition
+                steered = steering.version if steering is not None else 0
+                flown = _steered(targets, steering)
+                watch.replan(step * env.dt_s, env.uav_positions_m, env.uav_velocities_m_s, flown)
+            if sample_every and step % sample_every == 0:  # the crowd walks the same whatever the UAVs do
+                samples.append((step * env.dt_s, np.array(env.pedestrian_positions_m),
+                                np.array(env.pedestrian_velocities_m_s)))
+            before = np.array(env.uav_positions_m)
+            infos = env.step(dict(zip(agents, watch.commands(step * env.dt_s), strict=True)))[-1]
+            guard = watch.observe((step + 1) * env.dt_s, env.uav_positions_m, infos)
+            distance_m += float(np.linalg.norm(np.asarray(env.uav_positions_m) - before, axis=1).sum())
+            cov = env.coverage
+            qos_s1[step], qos_s2[step], rate[step] = cov.qos_s1, cov.qos_s2, cov.mean_throughput_mbps
+            if admission:  # the same flight judged with the paper's radio, for the paper's table and qos.png
+                qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
+                                                       paper_radio).qos_s2
+            if radio_log is not None:  # channels, SINR/MCS, airtime, co-channel sharing (runs.radio_report)
+                radio_log.observe(cov, env.uav_positions_m)
+            if outputs.active and step % config.telemetry_every == 0:
+                states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard, radio_log)
+                outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered,
+                             association=cov.association, throughput_mbps=cov.throughput_mbps)
+            if frame_every and (step % frame_every == 0 or step == steps - 1):
+                assert result is not None  # planned at step 0 (every replan_every steps from it)
+                frames.append(Frame(
+                    time_s=(step + 1) * env.dt_s, covered=cov.covered.copy(),
+                    pedestrians_m=np.array(env.pedestrian_positions_m, np.float32),
+                    uavs_m=np.array(env.uav_positions_m), targets_m=np.array(flown),
+                    peaks_m=result.peaks_m.copy(), utility=result.utility, qos_s1=float(cov.qos_s1),
+                    qos_s2=float(cov.qos_s2),
+                    association=None if radio_log is None else np.array(cov.association),
+                    channels=None if radio_log is None or cov.channel is None else np.array(cov.channel)))
+            done = step + 1  # every figure of this step recorded
+    except KeyboardInterrupt:  # Ctrl-C: keep the steps finished (the caller says the run was cut short)
+        if done == 0:
+            raise
+        steps, interrupted_at_s = done, done * env.dt_s
+        qos_s1, qos_s2, rate = qos_s1[:done], qos_s2[:done], rate[:done]
+        qos_s2_paper = qos_s2_paper[:done] if admission else qos_s2_paper
     return SequenceRun(
         planner=kind, planner_name=planner.name, times_s=np.arange(1, steps + 1) * env.dt_s, qos_s1=qos_s1,
         qos_s2=qos_s2, throughput_mbps=rate, latency_ms=np.asarray(latencies),
@@ -228,7 +237,8 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
         obstacles_m=np.array(env.scenario.obstacles, dtype=np.float64).reshape(-1, 4), frames=frames,
         target_jumps=target_jumps(np.array(plans)), distance_m=distance_m, qos_s2_paper=qos_s2_paper,
         association=cov.model, separation=watch.summary(), uav_tracks_m=watch.tracks_m,
-        crowd_samples=samples, radio=None if radio_log is None else radio_log.trace())
+        crowd_samples=samples, radio=None if radio_log is None else radio_log.trace(),
+        interrupted_at_s=interrupted_at_s)
 
 
 def _steered(targets_m: np.ndarray, steering: OperatorTargets | None) -> np.ndarray:
@@ -251,66 +261,6 @@ def sequence_crowds(config: SimulateConfig, every_s: float
             yield (step * env.dt_s, np.array(env.pedestrian_positions_m),
                    np.array(env.pedestrian_velocities_m_s))
         env.step(hold)
-
-
-def _load_bridge(config: SimulateConfig) -> BridgeConfig:
-    from bridge.config import BridgeConfig
-    from bridge.geofence import check_geofence
-    from bridge.missions.items import takeoff_altitude
-    from typed_config import ConfigError, load_toml
-
-    bridge = load_toml(BridgeConfig, config.bridge_config) if config.bridge_config else BridgeConfig()
-    if bridge.vehicles and len(bridge.vehicles) < config.n_uavs:
-        raise ConfigError(f"{config.bridge_config}: {len(bridge.vehicles)} vehicles for n_uavs = "
-                          f"{config.n_uavs}: list at least one vehicle per UAV")
-    # Every target lies in the area: its corners at the flight altitude must be inside the fence.
-    width_m, height_m, alt_m = config.task.scenario.width_m, config.task.scenario.height_m, config.uav.alt_m
-    corners = [(0.0, 0.0, alt_m), (width_m, 0.0, alt_m), (0.0, height_m, alt_m), (width_m, height_m, alt_m)]
-    check_geofence([(0.0, 0.0, takeoff_altitude(corners, bridge.mission)), *corners], bridge.geofence)
-    return bridge
-
-
-def _final_plans(bridge: BridgeConfig, targets_m: np.ndarray, uav: UAVConfig, area_m: np.ndarray
-                 ) -> dict[int, list[tuple]]:
-    """Each UAV's plan, its final target at its simulated altitude (``uav.altitudes_m``), by system id.
-
-    Ids are the configured vehicles' (else 1..n). The take-off then climbs no higher than the
-    altitude (:func:`bridge.missions.items.takeoff_altitude`): the mission never descends. The targets
-    are the planner's, at least ``uav.min_separation_m`` apart (horizontally); a plan file never holds
-    closer ones (:func:`uav_swarm.planning.spacing.separate_targets`, a no-op on the planner's targets).
-    """
-    targets_m = separate_targets(targets_m, uav.min_separation_m, upper_m=area_m)
-    ids = [v.system_id for v in bridge.vehicles[:len(targets_m)]] or list(range(1, len(targets_m) + 1))
-    altitudes = uav.altitudes_m(len(targets_m))
-    return {sid: [(float(x), float(y), float(z))]
-            for sid, (x, y), z in zip(ids, targets_m, altitudes, strict=True)}
-
-
-def _write_plan_files(bridge: BridgeConfig, plans: dict[int, list[tuple]], folder: Path) -> list[Path]:
-    """One QGroundControl ``.plan`` per UAV (generic autopilot convention)."""
-    from bridge.missions.files import save_mission
-    from bridge.missions.items import build_mission
-
-    folder.mkdir(parents=True, exist_ok=True)
-    files = []
-    for sid, points in plans.items():
-        path = folder / f"vehicle_{sid}.plan"
-        save_mission(path, build_mission(points, bridge.home, bridge.mission, bridge.geofence))
-        files.append(path)
-    return files
-
-
-def _upload(bridge: BridgeConfig, plans: dict[int, list[tuple]]) -> None:
-    """Upload each UAV's mission to its vehicle (each on its own: heartbeat, home check, verified upload).
-
-    Raises:
-        bridge.flight.fleet.FleetError: Naming each vehicle that failed; the others have their missions.
-    """
-    from bridge.flight.fleet import Fleet
-
-    with Fleet(bridge) as fleet:
-        fleet.upload_plans(plans)
-    logger.info("uploaded the final missions to vehicles %s", sorted(plans))
 
 
 def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = True,
@@ -347,13 +297,14 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     out_dir = Path(out_dir)
     if config.ros2.enabled:
         check_ros2()  # before the network loads and the engines are timed
-    bridge = _load_bridge(config)
+    bridge = load_bridge(config)
     record = None if record is None else check_recording_path(record)
     kinds = [config.planner] + (["expert"] if config.compare_expert and config.planner != "expert" else [])
-    planners = {kind: make_planner(kind, config.n_uavs, config.task, checkpoint=config.checkpoint or None,
-                                   config=config.planning, uav_config=config.uav) for kind in kinds}
+    planners = make_planners(kinds, config.n_uavs, config.task, checkpoint=config.checkpoint or None,
+                             config=config.planning, uav_config=config.uav)
     frame_every = -(-config.n_steps // (config.gif_max_frames - 1)) if config.gif else 0
     runs: dict[str, SequenceRun] = {}
+    interrupted: dict[str, Any] | None = None
     scene = SceneInfo(width_m=config.task.scenario.width_m, height_m=config.task.scenario.height_m,
                       coverage_radius_m=config.task.radio.coverage_radius_m, home=bridge.home,
                       min_separation_m=config.uav.min_separation_m)
@@ -375,10 +326,23 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
                                command="simulate", config=config.to_dict()) as recorder:
                 outputs = RunOutputs(publisher, recorder, ros) if is_flown else None
                 sample_every_s = config.static_every_s if is_flown and config.static_reference else 0.0
-                runs[kind] = run_sequence(config, planner, kind, outputs=outputs,
-                                          steering=steering if is_flown else None,
-                                          frame_every=frame_every if is_flown else 0,
-                                          sample_every_s=sample_every_s, progress=progress)
+                try:
+                    runs[kind] = run_sequence(config, planner, kind, outputs=outputs,
+                                              steering=steering if is_flown else None,
+                                              frame_every=frame_every if is_flown else 0,
+                                              sample_every_s=sample_every_s, progress=progress)
+                except KeyboardInterrupt:
+                    if is_flown:  # not one step flown: nothing to keep
+                        raise
+                    interrupted = {"planner": kind, "at_s": 0.0, "kept": "the flown planner's whole run"}
+                    break
+            cut = runs[kind].interrupted_at_s
+            if cut is not None:  # Ctrl-C: the comparison is not flown, or not kept when cut short
+                interrupted = {"planner": kind, "at_s": cut, "kept": (
+                    f"the flown planner's first {cut:g} s" if is_flown else "the flown planner's whole run")}
+                if not is_flown:
+                    del runs[kind]
+                break
     reference = (static_reference(runs[config.planner].crowd_samples, config.task, config.n_uavs,
                                   config.static_every_s, config.uav.altitudes_m(config.n_uavs))
                  if config.static_reference else None)
@@ -386,9 +350,12 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     out_dir.mkdir(parents=True, exist_ok=True)
     summary: dict[str, Any] = {"planners": {kind: summarise_run(run, config, reference)
                                             for kind, run in runs.items()},
-                               "flown": config.planner, "duration_s": config.n_steps * config.dt_s,
+                               "flown": config.planner,
+                               "duration_s": len(runs[config.planner].times_s) * config.dt_s,
                                "n_uavs": config.n_uavs, "seed": config.seed, "config": config.to_dict(),
                                "radio": radio_line(config.task.radio)}
+    if interrupted is not None:
+        summary["interrupted"] = interrupted
     if reference is not None:
         summary["static_reference"] = reference_record(reference, config.task.strategy)
     if "learned" in runs and "expert" in runs:
@@ -397,7 +364,7 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     for planner in planners.values():
         summary |= planner_names(planner)  # the checkpoint and the expert that ran
     learned = planners.get("learned")
-    if isinstance(learned, LearnedPlanner):  # make_planner's learned planner
+    if isinstance(learned, LearnedPlanner):  # make_planners' learned planner
         summary["network_precision"] = learned.precision
         summary["inference_engine"] = learned.engine
         summary["peaks"] = learned.peak_choice.to_dict()
@@ -411,15 +378,15 @@ def simulate(config: SimulateConfig, out_dir: str | Path, *, progress: bool = Tr
     if config.gif and flown.frames:
         files.append(write_scene_gif(flown, config, out_dir / "scene.gif"))
     area_m = np.array([config.task.scenario.width_m, config.task.scenario.height_m])
-    plans = _final_plans(bridge, flown.final_targets_m, config.uav, area_m)
-    files += _write_plan_files(bridge, plans, out_dir / "missions")
+    plans = final_plans(bridge, flown.final_targets_m, config.uav, area_m)
+    files += write_plan_files(bridge, plans, out_dir / "missions")
     summary["files"] = [str(p.relative_to(out_dir)) for p in files] + ["summary.json"]
     if record is not None:
         summary["recording"] = str(record)
     summary["uploaded_to_vehicles"] = []
     try:
-        if bridge.vehicles:
-            _upload(bridge, plans)
+        if bridge.vehicles and interrupted is None:  # an interrupted run's last plan is not sent
+            upload_plans(bridge, plans)
             summary["uploaded_to_vehicles"] = sorted(plans)
     except BridgeError as exc:
         summary["upload_error"] = str(exc)

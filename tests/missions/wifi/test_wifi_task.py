@@ -8,7 +8,7 @@ from typed_config import ConfigError
 from uav_swarm.missions.registry import make_task, task_factory
 from uav_swarm.missions.wifi.exact import exact_placement
 from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
-from uav_swarm.missions.wifi.rules import assign_users, candidate_grid
+from uav_swarm.missions.wifi.rules import assign_users, candidate_grid, squared_distances
 from uav_swarm.missions.wifi.task import WifiConfig, WifiTask, coverage_rules, crowd_raster
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
 from uav_swarm.world.scenario import ScenarioConfig
@@ -163,3 +163,25 @@ def test_wrong_config_class_and_bad_positions():
     scene = task.sample(np.random.default_rng(0))
     with pytest.raises(ValueError, match="finite"):
         task.qos(scene, np.array([[np.nan, 1.0]]))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_assign_users_equals_the_broadcast_association(seed):
+    """The compiled association equals the (N, K) broadcast it replaces, ties to the lower index."""
+    rng = np.random.default_rng(seed)
+    users = np.round(rng.uniform(0.0, 200.0, (int(rng.integers(0, 600)), 2)), seed % 3)
+    uavs = np.round(rng.uniform(0.0, 200.0, (int(rng.integers(2, 11)), 2)), seed % 3)
+    uavs[1] = uavs[0]  # a tie: the lower index serves
+    radius_m = float(rng.choice([30.0, 45.5, 90.0]))
+    d2 = squared_distances(users, uavs)
+    inside = d2 <= radius_m ** 2
+    nearest = np.argmin(d2, axis=1) if len(users) else np.zeros(0, np.int64)
+    association = np.where(inside[np.arange(len(users)), nearest], nearest, -1)
+    state = assign_users(users, uavs, radius_m)
+    assert np.array_equal(state.association, association)
+    assert np.array_equal(state.distance_sq_m2, d2.min(axis=1, initial=np.inf))
+    assert np.array_equal(state.n_covering, inside.sum(axis=1))
+    assert np.array_equal(state.counts, np.bincount(association[association >= 0], minlength=len(uavs)))
+    alone = association[inside.sum(axis=1) == 1]
+    assert np.array_equal(state.exclusive_counts, np.bincount(alone, minlength=len(uavs)))
+    assert not np.any(state.association == 1)  # UAV 1 stands on UAV 0: it never wins a tie

@@ -13,4 +13,6 @@
 - :mod:`~uav_swarm.missions.monitoring.sightlines`: that visibility's guard-witness test, compiled (numba).
 - :mod:`~uav_swarm.missions.monitoring.outline_guards`: guards judged, repaired and solved exactly on
   that outline.
+
+May import: ``typed_config``, ``learning``, ``bridge``, ``uav_swarm.world``.
 """

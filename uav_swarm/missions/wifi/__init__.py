@@ -6,4 +6,6 @@
 - :mod:`~uav_swarm.missions.wifi.refine`, :mod:`~uav_swarm.missions.wifi.relocation`: refinement
   of learned placements with the rules' guarantee.
 - :mod:`~uav_swarm.missions.wifi.rule_check`: the rule checked on the network's own input.
+
+May import: ``typed_config``, ``learning``, ``uav_swarm.world``.
 """

@@ -53,6 +53,7 @@ from uav_swarm.missions.wifi.capacitated import (
 )
 from uav_swarm.missions.wifi.group_expert import GroupExpertConfig, place_uavs_by_groups
 from uav_swarm.missions.wifi.ieee80211_expert import Ieee80211ExpertConfig
+from uav_swarm.missions.wifi.replan_expert import ReplanExpertConfig
 from uav_swarm.missions.wifi.rules import (
     Assignment,
     CoverageRules,
@@ -64,7 +65,8 @@ from uav_swarm.missions.wifi.rules import (
 )
 from uav_swarm.missions.wifi.stable_expert import StableExpertConfig, place_uavs_stable
 
-__all__ = ["WifiExpertConfig", "CandidatePairs", "PlacementSearch", "separated_candidates", "place_uavs"]
+__all__ = ["WifiExpertConfig", "CandidatePairs", "PlacementSearch", "separated_candidates", "place_uavs",
+           "adopt_placement"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +96,8 @@ class WifiExpertConfig(Config):
     stable: StableExpertConfig = param(StableExpertConfig(), doc="the stable expert ([task.expert.stable])")
     ieee80211: Ieee80211ExpertConfig = param(
         Ieee80211ExpertConfig(), doc="the expert under the 802.11 radio ([task.expert.ieee80211])")
+    replan: ReplanExpertConfig = param(
+        ReplanExpertConfig(), doc="the expert's replans in flight ([task.expert.replan])")
 
     def method_for(self, rules: CoverageRules) -> str:
         """The method that runs under ``rules``: ``"search"``, ``"groups"``, ``"capacitated"``, ``"stable"``.
@@ -391,7 +395,7 @@ def place_uavs(
     if method == "stable":
         return place_uavs_stable(
             users_m, config.stable, lambda crowd: _search_placement(crowd, rules, w, h, config, None),
-            lambda crowd, uavs: _adopted(crowd, uavs, rules, w, h, config))
+            lambda crowd, uavs: adopt_placement(crowd, uavs, rules, w, h, config))
     return _search_placement(users_m, rules, width_m, height_m, config, candidates_m)
 
 
@@ -402,8 +406,8 @@ def _capacitated_placement(users_m: np.ndarray, rules: CoverageRules, width_m: f
     return place_uavs_capacitated(users_m, rules, width_m, height_m, config.capacitated, seeds=[seed])
 
 
-def _adopted(users_m: np.ndarray, uavs_m: np.ndarray, rules: CoverageRules, width_m: float, height_m: float,
-             config: WifiExpertConfig) -> np.ndarray:
+def adopt_placement(users_m: np.ndarray, uavs_m: np.ndarray, rules: CoverageRules, width_m: float,
+                    height_m: float, config: WifiExpertConfig) -> np.ndarray:
     """``uavs_m`` made valid over ``users_m`` (paper's association), then improved by the search's steps."""
     if len(users_m) < rules.min_users or rules.max_uavs == 0:
         return np.zeros((0, 2))

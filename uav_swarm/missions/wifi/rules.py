@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 __all__ = ["CoverageRules", "Assignment", "squared_distances", "assign_users", "is_valid_placement",
@@ -95,6 +96,40 @@ def squared_distances(users_m: np.ndarray, uavs_m: np.ndarray) -> np.ndarray:
     return dx * dx + dy * dy
 
 
+@numba.njit(cache=True, nogil=True)
+def _associate(users_m: np.ndarray, uavs_m: np.ndarray, radius_sq: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`assign_users`'s arrays in one compiled pass.
+
+    The squared distances are :func:`squared_distances`', operation for operation (``dx * dx + dy * dy``);
+    ties go to the lower index.
+    """
+    n, k = users_m.shape[0], uavs_m.shape[0]
+    association = np.full(n, -1, np.int64)
+    best = np.empty(n)
+    counts = np.zeros(k, np.int64)
+    n_covering = np.zeros(n, np.int64)
+    exclusive = np.zeros(k, np.int64)
+    for i in range(n):
+        arg, low, covering = 0, np.inf, 0
+        for j in range(k):
+            dx = users_m[i, 0] - uavs_m[j, 0]
+            dy = users_m[i, 1] - uavs_m[j, 1]
+            d2 = dx * dx + dy * dy
+            if d2 < low:
+                arg, low = j, d2
+            if d2 <= radius_sq:
+                covering += 1
+        best[i] = low
+        n_covering[i] = covering
+        if low <= radius_sq:
+            association[i] = arg
+            counts[arg] += 1
+            if covering == 1:
+                exclusive[arg] += 1
+    return association, best, counts, n_covering, exclusive
+
+
 def assign_users(users_m: np.ndarray, uavs_m: np.ndarray, radius_m: float) -> Assignment:
     """Associate every user with its nearest UAV within ``radius_m``.
 
@@ -102,19 +137,20 @@ def assign_users(users_m: np.ndarray, uavs_m: np.ndarray, radius_m: float) -> As
         users_m: ``(N, 2)`` user positions, metres.
         uavs_m: ``(K, 2)`` UAV positions, metres.
         radius_m: Coverage radius, metres.
+
+    Examples:
+        >>> state = assign_users(np.array([[0.0, 0.0], [5.0, 0.0], [50.0, 0.0]]),
+        ...                      np.array([[1.0, 0.0], [6.0, 0.0]]), 10.0)
+        >>> state.association.tolist(), state.counts.tolist(), state.exclusive_counts.tolist()
+        ([0, 1, -1], [1, 1], [0, 0])
     """
     n, k = len(users_m), len(uavs_m)
     if k == 0:
         none = np.zeros(0, np.int64)
         return Assignment(np.full(n, -1, np.int64), np.full(n, np.inf), none, np.zeros(n, np.int64), none)
-    d2 = squared_distances(users_m, uavs_m)
-    nearest = np.argmin(d2, axis=1)
-    best = d2[np.arange(n), nearest]
-    association = np.where(best <= radius_m * radius_m, nearest, -1)
-    counts = np.bincount(association[association >= 0], minlength=k)
-    n_covering = np.count_nonzero(d2 <= radius_m * radius_m, axis=1)
-    exclusive_counts = np.bincount(association[n_covering == 1], minlength=k)
-    return Assignment(association, best, counts, n_covering, exclusive_counts)
+    users = np.ascontiguousarray(users_m, dtype=np.float64).reshape(-1, 2)
+    uavs = np.ascontiguousarray(uavs_m, dtype=np.float64).reshape(-1, 2)
+    return Assignment(*_associate(users, uavs, float(radius_m) * float(radius_m)))
 
 
 def is_valid_placement(state: Assignment, rules: CoverageRules) -> bool:

@@ -51,7 +51,7 @@ import numpy as np
 from learning.task import MAX_POSITIONS
 from typed_config import Config, ConfigError, param
 from uav_swarm.missions.wifi.expert import WifiExpertConfig, place_uavs
-from uav_swarm.missions.wifi.ieee80211_expert import place_uavs_80211, refine_80211
+from uav_swarm.missions.wifi.ieee80211_expert import Ieee80211ExpertConfig, place_uavs_80211, refine_80211
 from uav_swarm.missions.wifi.refine import WifiRefineConfig, refine_placement, strategy_refinement
 from uav_swarm.missions.wifi.rule_check import WifiRuleCheck
 from uav_swarm.missions.wifi.rules import CoverageRules
@@ -62,7 +62,8 @@ from uav_swarm.world.scenario import ScenarioConfig, random_scenario
 from uav_swarm.world.separation import check_fleet_fits
 from uav_swarm.world.wifi.channels import plan_channels
 
-__all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster"]
+__all__ = ["WifiConfig", "WifiScene", "WifiTask", "WifiRefiner", "coverage_rules", "crowd_raster",
+           "planner_task"]
 
 
 @dataclass(frozen=True)
@@ -172,6 +173,30 @@ def coverage_rules(config: WifiConfig, max_uavs: int | None = None) -> CoverageR
                          max_uavs=config.expert.max_uavs if max_uavs is None else max_uavs,
                          exclusive=config.strategy == 1, admission_control=admission,
                          min_separation_m=config.min_separation_m)
+
+
+def planner_task(config: WifiConfig | None, n_uavs: int, *, min_separation_m: float = 0.0,
+                 velocity_channels: bool | None = None) -> WifiTask:
+    """The one task a planner of ``n_uavs`` UAVs plans, judges and rasterises with, built in one step.
+
+    The config (default ``WifiConfig()``) with the expert's ``max_uavs`` capped to ``n_uavs``, the minimum
+    separation the larger of the task's and ``min_separation_m`` (the UAVs'), and the raster's
+    ``velocity_channels`` where given (a network's own).
+
+    Examples:
+        >>> task = planner_task(WifiConfig(min_separation_m=2.0), 3, min_separation_m=8.0)
+        >>> task.config.min_separation_m, task.config.expert.max_uavs, task.rules.max_uavs
+        (8.0, 3, 3)
+    """
+    config = WifiConfig() if config is None else config
+    changes: dict[str, Any] = {}
+    if min_separation_m > config.min_separation_m:
+        changes["min_separation_m"] = min_separation_m
+    if velocity_channels is not None and velocity_channels != config.velocity_channels:
+        changes["velocity_channels"] = velocity_channels
+    if config.expert.max_uavs > n_uavs:
+        changes["expert"] = config.expert.replace(max_uavs=n_uavs)
+    return WifiTask(config.replace(**changes) if changes else config)
 
 
 def crowd_raster(users_m: np.ndarray, config: WifiConfig, velocities_m_s: np.ndarray | None = None
@@ -298,17 +323,18 @@ class WifiTask:
         return place_uavs(users_m, self.rules, self.width_m, self.height_m, config.expert,
                           velocities_m_s=velocities_m_s)
 
-    def refine_80211(self, users_m: np.ndarray, proposals_m: np.ndarray, max_uavs: int | None = None
-                     ) -> np.ndarray:
+    def refine_80211(self, users_m: np.ndarray, proposals_m: np.ndarray, max_uavs: int | None = None,
+                     config: Ieee80211ExpertConfig | None = None) -> np.ndarray:
         """Proposed positions (metres) refined on the crowd under the 802.11 radio, at most ``max_uavs``.
 
         The 802.11 expert's search from the proposals
-        (:func:`~uav_swarm.missions.wifi.ieee80211_expert.refine_80211`).
+        (:func:`~uav_swarm.missions.wifi.ieee80211_expert.refine_80211`), with the task's
+        ``[task.expert.ieee80211]`` settings unless ``config`` is given.
         """
-        config = self.config
-        return refine_80211(users_m, proposals_m, config.radio, self.width_m, self.height_m,
-                            strategy=config.strategy, max_uavs=max_uavs or self.rules.max_uavs,
-                            min_separation_m=config.min_separation_m, config=config.expert.ieee80211)
+        task = self.config
+        return refine_80211(users_m, proposals_m, task.radio, self.width_m, self.height_m,
+                            strategy=task.strategy, max_uavs=max_uavs or self.rules.max_uavs,
+                            min_separation_m=task.min_separation_m, config=config or task.expert.ieee80211)
 
     def sample(self, rng: np.random.Generator) -> WifiScene:
         """Draw a scenario and warm its crowd up for a random time."""

@@ -1,8 +1,5 @@
 """The live flight of ``fly``: the loop around the separation guard, vehicle by vehicle.
 
-May import ``uav_swarm.runs.outputs``, ``planning``, ``missions``, ``world`` and ``bridge``; never
-``uav_swarm.runs.fly`` or ``simulate`` (they import it).
-
 - :mod:`~uav_swarm.runs.flight.loop`: the loop (:class:`~uav_swarm.runs.flight.loop.Flight`) that ties the
   parts together.
 - :mod:`~uav_swarm.runs.flight.vehicles`: the vehicle table (state, target, outcome).
@@ -14,6 +11,9 @@ May import ``uav_swarm.runs.outputs``, ``planning``, ``missions``, ``world`` and
   :mod:`~uav_swarm.runs.flight.end`: the returns and the end.
 - :mod:`~uav_swarm.runs.flight.status`, :mod:`~uav_swarm.runs.flight.holds`: the status lines and the holds
   record.
-- :mod:`~uav_swarm.runs.flight.guard_trial`: the guard flown by simulated autopilots in simulated time (the
-  fuzz's and the tests' harness).
+- :mod:`~uav_swarm.runs.flight.guard_trial` (a package): the guard flown by simulated autopilots in simulated
+  time (the fuzz's and the tests' harness).
+
+May import: ``typed_config``, ``bridge``, ``uav_swarm.world``, ``uav_swarm.planning``,
+``uav_swarm.runs.outputs``, ``uav_swarm.runs.fly_config``, ``uav_swarm.runs.steering``.
 """

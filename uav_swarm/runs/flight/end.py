@@ -9,21 +9,23 @@ from __future__ import annotations
 
 import logging
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from bridge.errors import BridgeError
 from bridge.flight.guided import end_flight
+from bridge.flight.preflight import set_return_altitude
 from uav_swarm.runs.flight.launch import FlightLaunch
-from uav_swarm.runs.flight.vehicles import TICK_S, FlightVehicle
-from uav_swarm.world.guard.reach import segment_distances_m
+from uav_swarm.runs.flight.vehicles import SILENT, TICK_S, FlightVehicle
+from uav_swarm.world.guard.failsafe import FailsafeFlight, crossing_order, flights_apart
+
+if TYPE_CHECKING:
+    from bridge.link.vehicle_state import VehicleState
 
 __all__ = ["FlightEnd"]
 
 logger = logging.getLogger(__name__)
-
-_HOME_M = 3.0  # a vehicle returning this close to its home (horizontally) is sent RTL
-
 
 class FlightEnd(FlightLaunch):
     """A flight's end (launches and links: :class:`~uav_swarm.runs.flight.launch.FlightLaunch`)."""
@@ -76,72 +78,139 @@ class FlightEnd(FlightLaunch):
         self._event(action, vehicle)
 
     def _return_home(self) -> None:
-        """Staggered returns: every live vehicle flies home through the guard, sent RTL once its way is clear.
+        """Returns planned home with their layers: each live vehicle is sent RTL once its flight is apart.
 
-        A vehicle sent RTL climbs where it is to its own return layer (above every cruise layer, the
-        layers apart), flies home at it and lands: an obstacle the guard keeps the others away from, with
-        the column over its home. It is sent RTL once over its home, or sooner where that way is clear
-        (:meth:`_rtl_clear`); until none is left or ``guard.return_timeout_s`` has passed.
+        The live vehicles' return layers are first ordered by crossing (:meth:`_order_layers`). A vehicle
+        sent RTL climbs where it is to its own return layer (above every cruise layer, the layers apart),
+        flies home at it and lands; until it may be sent (:meth:`_rtl_clear`) it flies home through the
+        guard. After ``guard.return_timeout_s`` the vehicles still away are sent RTL by the same rule, in
+        turn as the others land; one still refused after as long again is sent RTL anyway, named.
         """
-        homes, deadline_s = self.safety.homes_m, time.monotonic() + self.config.guard.return_timeout_s
-        self.flight_status.enter("return", self.config.guard.return_timeout_s)
+        guard, homes = self.config.guard, self.safety.homes_m
+        deadline_s = time.monotonic() + guard.return_timeout_s
+        self.flight_status.enter("return", guard.return_timeout_s)
         flying = [v for v in self.vehicles if v.status == "live" and v.system_id in homes]
         for vehicle in flying:
             vehicle.target_m = (*homes[vehicle.system_id], self.safety.cruise_alt_m[vehicle.system_id])
-        while time.monotonic() < deadline_s and any(v.status == "live" for v in flying):
+        self._order_layers(flying)
+        late = False
+        while any(v.status == "live" for v in flying):
+            if not late and time.monotonic() >= deadline_s:
+                late = True
+                away = ", ".join(f"vehicle {v.system_id}" for v in flying if v.status == "live")
+                logger.warning("%s still away from home after [guard] return_timeout_s = %g s: each sent RTL "
+                               "once its return is apart from the others'", away, guard.return_timeout_s)
+            if time.monotonic() >= deadline_s + guard.return_timeout_s:
+                break
             self._guard_if_due()
             for vehicle in (v for v in flying if v.status == "live"):
-                state, home = self._state(vehicle), homes[vehicle.system_id]
+                state = self._state(vehicle)
                 if state is None or state.x_m is None or state.y_m is None:
                     continue
-                here = (float(state.x_m), float(state.y_m))
-                over = np.hypot(here[0] - home[0], here[1] - home[1]) <= _HOME_M
                 idle = all(job is None or job.done() for job in (vehicle.job, vehicle.guard_job))
-                if (over or self._rtl_clear(vehicle, here)) and idle:  # after its last guard point
+                if idle and self._rtl_clear(vehicle):  # after its last guard point
+                    self.safety.rtl_waits.pop(vehicle.system_id, None)
                     vehicle.status = "ending"
                     vehicle.job = self._pool.submit(self._end_one, vehicle, "rtl")
             self.flight_status.tick()
             time.sleep(TICK_S)
-        away = [v.system_id for v in flying if v.status == "live"]
-        if away:
-            logger.warning("%s still away from home after [guard] return_timeout_s = %g s: sent RTL at once",
-                           ", ".join(f"vehicle {sid}" for sid in away), self.config.guard.return_timeout_s)
+        for vehicle in (v for v in flying if v.status == "live"):
+            logger.warning("vehicle %d: sent RTL without a return apart from the others' (%s) after twice "
+                           "[guard] return_timeout_s", vehicle.system_id,
+                           self.safety.rtl_waits.get(vehicle.system_id, "no position"))
         self.flight_status.wait([(v.system_id, v.job) for v in flying], "the answer to its RTL")
         for vehicle in (v for v in flying if v.status == "ending"):  # its RTL failed: sent again below
             vehicle.status = "live"
 
-    def _rtl_clear(self, vehicle: FlightVehicle, here_m: tuple[float, float]) -> bool:
-        """Whether ``vehicle`` may be sent RTL from ``here_m``: where its autopilot takes it keeps clear.
+    def _order_layers(self, flying: list[FlightVehicle]) -> None:
+        """The live vehicles' return layers by crossing order, set on each vehicle and read back.
 
-        Its RTL climbs over ``here_m`` (inside its certified disc), flies at its own return layer to its
-        home and descends there. That way (the segment from ``here_m`` to its home) keeps the minimum
-        (with the guard's margin) horizontally from the way of every vehicle already returning under RTL
-        (whichever of the two is higher crosses the other's climb or descent), and its home keeps it from
-        the certified disc of every vehicle still flying under the guard (it descends through their
-        layer). A vehicle of unknown position in the air keeps every way closed.
+        A vehicle whose way home passes over another's climb or descent column flies above it
+        (:func:`~uav_swarm.world.guard.failsafe.crossing_order`); the layers the live vehicles hold are
+        given out again in that order. With a cycle the layers stay; a vehicle whose layer cannot be set
+        keeps the one it holds (both: its RTL waits until its flight is apart).
         """
-        guard = self.safety.guard
-        need_m, homes = guard.need_m, self.safety.homes_m
-        mine = np.array([here_m, homes[vehicle.system_id]], dtype=np.float64)
+        flights = {v.system_id: self._failsafe_flight(v) for v in flying}
+        known = [(sid, f) for sid, f in flights.items() if f is not None]
+        order = crossing_order([f for _, f in known], self.safety.guard.need_m)
+        if order is None:
+            logger.info("return layers kept: the ways home cross in a cycle; each RTL waits for its turn")
+            return
+        layers = sorted(self.safety.return_alt_m[sid] for sid, _ in known)
+        wanted = {known[k][0]: layer for k, layer in zip(order, layers, strict=True)}
+        jobs = [(sid, self._pool.submit(self._set_layer, sid, alt_m)) for sid, alt_m in wanted.items()
+                if alt_m != self.safety.return_alt_m[sid]]
+        self.flight_status.wait(jobs, "its return layer set")
+        for _, job in jobs:
+            job.result()
+
+    def _set_layer(self, system_id: int, alt_m: float) -> None:
+        try:
+            held_m = set_return_altitude(self.fleet.link(system_id), system_id,
+                                         self.fleet.conventions(system_id), alt_m, self.bridge.protocol)
+        except BridgeError as exc:
+            logger.warning("vehicle %d: return layer %g m not set (%s): it keeps %g m", system_id, alt_m, exc,
+                           self.safety.return_alt_m[system_id])
+            return
+        self.safety.return_alt_m[system_id] = held_m
+        self._event("return_layer", self._by_sid[system_id], f"{held_m:g} m")
+
+    def _failsafe_flight(self, vehicle: FlightVehicle) -> FailsafeFlight | None:
+        """Where ``vehicle``'s RTL or failsafe may take it: its disc (or position), home and layer."""
+        sid, guard = vehicle.system_id, self.config.guard
+        home = self.safety.homes_m.get(sid)
+        if home is None:
+            return None
+        row, fleet = self.safety.uav_of(sid), self.safety.guard.fleet
+        errors_m = guard.position_error_m + guard.tracking_error_m
+        if fleet.joined(row) or fleet.is_obstacle(row):
+            centre, radius_m = fleet.centre_m(row), fleet.radius_m(row)
+        else:
+            state = self._state(vehicle)
+            if state is None or state.x_m is None or state.y_m is None:
+                return None
+            centre, radius_m = np.array([state.x_m, state.y_m]), errors_m
+        return FailsafeFlight((float(centre[0]), float(centre[1])), float(radius_m), home, errors_m,
+                              self.safety.return_alt_m[sid])
+
+    def _rtl_clear(self, vehicle: FlightVehicle) -> bool:
+        """Whether ``vehicle`` may be sent RTL now: its failsafe flight keeps clear of every other vehicle.
+
+        Its RTL climbs inside its certified disc to its own return layer, flies home at it and descends
+        there (:class:`~uav_swarm.world.guard.failsafe.FailsafeFlight`). That flight must be apart
+        (:func:`~uav_swarm.world.guard.failsafe.flights_apart`) from the flight of every vehicle already
+        in RTL and the possible failsafe flight of every silent one (lost while armed: it may climb where
+        it is at any time), and its home must keep the minimum (with the guard's margin) from the
+        certified disc of every vehicle still flying under the guard (it descends through their layer).
+        A vehicle of unknown position in the air keeps every way closed. Why it waits is kept in
+        ``safety.rtl_waits`` for the status line.
+        """
+        need_m, homes, sid = self.safety.guard.need_m, self.safety.homes_m, vehicle.system_id
+        mine = self._failsafe_flight(vehicle)
         for other in self.vehicles:
-            if other is vehicle:
-                continue
             state = self._state(other)
-            if state is None or state.armed is False:
+            if other is vehicle or state is None or state.armed is False:
                 continue
-            if state.x_m is None or state.y_m is None:
+            why = self._rtl_blocked_by(mine, other, state, need_m, homes[sid])
+            if why:
+                self.safety.rtl_waits[sid] = f"its RTL waits for vehicle {other.system_id} ({why})"
                 return False
-            row = self.safety.uav_of(other.system_id)
-            if other.status in ("ending", "ended"):
-                if other.system_id not in homes:
-                    return False
-                theirs = np.array([(state.x_m, state.y_m), homes[other.system_id]], dtype=np.float64)
-                if float(segment_distances_m(mine[0], mine[1], theirs[0], theirs[1])) < need_m:
-                    return False
-            elif guard.fleet.joined(row) or guard.fleet.is_obstacle(row):
-                gap = float(np.hypot(*(guard.fleet.centre_m(row) - mine[1]))) - guard.fleet.radius_m(row)
-                if not gap >= need_m:
-                    return False
-            elif np.hypot(state.x_m - mine[1][0], state.y_m - mine[1][1]) < need_m:
-                return False
-        return True
+        return mine is not None
+
+    def _rtl_blocked_by(self, mine: FailsafeFlight | None, other: FlightVehicle, state: VehicleState,
+                        need_m: float, home_m: tuple[float, float]) -> str:
+        """Why ``other`` keeps an RTL flying ``mine`` from being sent ("" when it does not)."""
+        if mine is None or state.x_m is None or state.y_m is None:
+            return "its position unknown"
+        row, fleet = self.safety.uav_of(other.system_id), self.safety.guard.fleet
+        if other.status in ("ending", "ended") or other.status in SILENT:
+            theirs = self._failsafe_flight(other)
+            if theirs is None or not flights_apart(mine, theirs, need_m):
+                return "silent: its failsafe may cross" if other.status in SILENT else "its return crosses"
+        elif fleet.joined(row) or fleet.is_obstacle(row):
+            gap = float(np.hypot(*(fleet.centre_m(row) - np.asarray(home_m)))) - fleet.radius_m(row)
+            if not gap >= need_m:
+                return "it flies near our home"
+        elif np.hypot(state.x_m - home_m[0], state.y_m - home_m[1]) < need_m:
+            return "it is near our home"
+        return ""

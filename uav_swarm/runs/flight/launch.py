@@ -11,6 +11,7 @@ a live vehicle seen disarmed is left out.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from typing import TYPE_CHECKING
 
@@ -138,6 +139,7 @@ class FlightLaunch(FlightStep):
                 waiting = []
             if not waiting and not any(v.status == "launching" for v in self.vehicles):
                 break
+            self._clear_columns()
             self._guard_if_due()  # the climbing vehicles are watched from their take-off on
             self.flight_status.tick()
             time.sleep(TICK_S)
@@ -147,10 +149,41 @@ class FlightLaunch(FlightStep):
                 by_status.setdefault(v.status, []).append(str(v.system_id))
             failed = "; ".join(f"vehicle{'s' if len(ids) > 1 else ''} {', '.join(ids)}: {status}"
                                for status, ids in by_status.items())
-            hint = ("none answered within --wait-ready-s; to fly a simulated fleet instead: uav-swarm fly "
+            source = self.config.bridge_config or "the bridge config"
+            hint = (f"none answered within --wait-ready-s ({self.config.flight.ready_timeout_s:g} s): start "
+                    f"them first (SITL or real autopilots, or simulated ones in another terminal: uav-swarm "
+                    f"vehicles --bridge-config {source}), or fly a fleet started here: uav-swarm fly "
                     "--simulated ardupilot" if all(v.status == "not found" for v in self.vehicles)
                     else "see the warnings above")
             raise BridgeError(f"no vehicle could be launched ({failed}); {hint}")
+
+    def _clear_columns(self) -> None:
+        """A live vehicle near the column of one still to climb is sent off it, beyond the launch spacing.
+
+        Homes closer than the launch spacing climb one at a time: the vehicle up first is given a point
+        (through the guard) at least ``1.5`` launch spacings from every home still to climb, the nearest
+        such point to its home of 24 directions and three distances, so the next column clears.
+        """
+        homes, spacing_m = self.safety.homes_m, self.safety.launch_spacing_m
+        climbing = self.safety.climbing
+        pending = [homes[v.system_id] for v in self.vehicles
+                   if v.status == "launching" and v.system_id in homes and v.system_id not in climbing]
+        if not pending:
+            return
+        far_m = 1.5 * spacing_m
+        for vehicle in self.vehicles:
+            home = homes.get(vehicle.system_id)
+            if vehicle.status != "live" or vehicle.target_m is not None or home is None:
+                continue
+            if all(math.dist(home, p) >= spacing_m for p in pending):
+                continue
+            candidates = [(home[0] + r * math.cos(a), home[1] + r * math.sin(a))
+                          for r in (far_m, 2 * far_m, 3 * far_m)
+                          for a in (k * math.pi / 12 for k in range(24))]
+            free = [c for c in candidates if all(math.dist(c, p) >= far_m for p in pending)]
+            if free:
+                x, y = min(free, key=lambda c: math.dist(c, home))
+                vehicle.target_m = (x, y, self.safety.cruise_alt_m[vehicle.system_id])
 
     # -- links ---------------------------------------------------------------------------------
     def _check_links(self) -> None:

@@ -7,12 +7,15 @@ HOME_POSITION, in the flight's East-North frame); ``"grid"`` says where the oper
 refused. A grid closer than ``uav.min_separation_m`` is refused with the config (nothing flies);
 homes closer than it are refused before any vehicle is armed (:func:`check_launch_positions`).
 
-**Take-off**: every vehicle arms, takes off and climbs in its own column, together (their homes are at
-least the minimum apart: each climbs straight up over its home), each only when no airborne vehicle is
-within the minimum of the point it climbs from (:class:`TakeoffGate`); the guard
-(:mod:`uav_swarm.runs.flight.guard`) keeps flying vehicles off a climbing one and off one waiting to climb.
-One rule, the minimum, decides both the layouts the pre-flight check accepts and the column a vehicle
-climbs from: homes the minimum apart always launch.
+**Take-off**: one number from the guard's proof, the launch spacing
+(:func:`uav_swarm.world.guard.failsafe.launch_spacing_m`: the minimum plus the guard's margin plus twice
+the tracking and position errors, 8 m with the defaults), decides how vehicles climb. Vehicles whose homes
+are at least that far apart arm, take off and climb together, each in its own column; a vehicle whose
+home is closer to another's climbs only while no such neighbour is climbing (staggered, one column at a
+time; :class:`TakeoffGate`), and only when no airborne vehicle is within the launch spacing of its home.
+The guard (:mod:`uav_swarm.runs.flight.guard`) keeps flying vehicles off a climbing one and off one
+waiting to climb (two discs the minimum and its margin apart: farther than the launch spacing), so a
+column clears. The pre-flight check names the number when it refuses homes closer than the minimum.
 
 **Return**: every vehicle's return altitude is its own layer (:func:`return_altitudes_m`), above
 every cruise altitude and ``max(min_separation_m + [guard] margin_m, layer_step_m)`` apart, so that vehicles
@@ -32,7 +35,8 @@ from __future__ import annotations
 import contextlib
 import math
 import threading
-from collections.abc import Callable, Iterator, Mapping
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Literal
 
@@ -85,7 +89,8 @@ def grid_slots_m(launch: LaunchConfig, n_vehicles: int) -> list[tuple[float, flo
 
 def check_launch_positions(homes_m: Mapping[int, tuple[float, float]], min_separation_m: float,
                            launch: LaunchConfig,
-                           slots_m: Mapping[int, tuple[float, float]] | None = None) -> None:
+                           slots_m: Mapping[int, tuple[float, float]] | None = None,
+                           spacing_m: float | None = None) -> None:
     """Refuse take-off positions closer than the minimum, or (grid) a home away from its slot.
 
     Args:
@@ -93,6 +98,7 @@ def check_launch_positions(homes_m: Mapping[int, tuple[float, float]], min_separ
         min_separation_m: ``uav.min_separation_m``.
         launch: The launch settings.
         slots_m: With a grid, each vehicle's slot by system id.
+        spacing_m: The launch spacing (named in the refusal; homes closer than it climb one at a time).
 
     Raises:
         PreflightError: Naming the vehicles, their positions and the field.
@@ -111,10 +117,14 @@ def check_launch_positions(homes_m: Mapping[int, tuple[float, float]], min_separ
         for second in ids[a + 1:]:
             gap_m = math.dist(homes_m[first], homes_m[second])
             if gap_m < min_separation_m:
+                together = "" if spacing_m is None else (
+                    f"; homes at least {spacing_m:g} m apart (the launch spacing: the minimum, the guard's "
+                    "margin and twice its tracking and position errors) climb together, closer ones one at "
+                    "a time")
                 raise PreflightError(first, f"it and vehicle {second} would take off {gap_m:.1f} m apart "
                                             "(their homes), closer than uav.min_separation_m = "
                                             f"{min_separation_m:g} m. Nothing was armed: place them farther "
-                                            "apart")
+                                            f"apart{together}")
 
 
 def return_altitudes_m(n_vehicles: int, uav: UAVConfig, margin_m: float = 0.0) -> np.ndarray:
@@ -125,31 +135,75 @@ def return_altitudes_m(n_vehicles: int, uav: UAVConfig, margin_m: float = 0.0) -
 
 
 class TakeoffGate:
-    """Take-offs from clear columns (module docstring): each climbs once no airborne vehicle is near its home.
+    """Take-offs from clear columns (module docstring), staggered where homes are closer than the spacing.
+
+    Each climbs once no airborne vehicle is near its home and no vehicle closer than the launch spacing
+    is climbing.
 
     Args:
         cancel: Set when the flight ends: a vehicle waiting for its turn gives up.
         column_clear: ``column_clear(system_id)``: True when no airborne vehicle is within the minimum
             of where this one climbs.
+        near: ``near(system_id)``: the vehicles whose homes are closer to its home than the launch spacing.
+
+    Examples:
+        >>> import threading
+        >>> gate = TakeoffGate(threading.Event(), lambda sid: True, near=lambda sid: {1: [2], 2: [1]}[sid])
+        >>> with gate.for_vehicle(1)():
+        ...     sorted(gate.climbing), gate.may_climb(2)  # 2 waits while its neighbour climbs
+        ([1], False)
+        >>> gate.may_climb(2)
+        True
     """
 
-    def __init__(self, cancel: threading.Event, column_clear: Callable[[int], bool]) -> None:
+    def __init__(self, cancel: threading.Event, column_clear: Callable[[int], bool],
+                 near: Callable[[int], Iterable[int]] = lambda sid: ()) -> None:
         self._cancel = cancel
         self._column_clear = column_clear
+        self._near = near
+        self._lock = threading.Lock()
         self.waiting: set[int] = set()
         """System ids waiting for their column to clear."""
+        self.climbing: set[int] = set()
+        """System ids arming, taking off or climbing (inside the gate)."""
+        self.climbs: list[tuple[int, float, float]] = []
+        """``(system_id, start, end)`` of each climb (monotonic seconds), for the record."""
+
+    def may_climb(self, system_id: int) -> bool:
+        """Whether it may climb now: no neighbour climbing, none ranked before it waiting, its column clear.
+
+        Neighbours are the vehicles closer than the launch spacing; one with fewer neighbours (then a lower
+        id) goes first: the ends of a line climb first, so a vehicle up first has few columns to clear.
+        """
+        near = set(self._near(system_id))
+        rank = (len(near), system_id)
+        first = [n for n in near & self.waiting if (len(set(self._near(n))), n) < rank]
+        return not (near & self.climbing) and not first and self._column_clear(system_id)
 
     def for_vehicle(self, system_id: int) -> Callable[[], contextlib.AbstractContextManager[None]]:
         """The gate of one vehicle, as :func:`bridge.flight.guided.launch` takes it."""
         return lambda: self._slot(system_id)
 
+    def _claim(self, system_id: int) -> bool:
+        with self._lock:  # the check and the claim at once: two neighbours never both start
+            if not self.may_climb(system_id):
+                return False
+            self.climbing.add(system_id)
+            return True
+
     @contextlib.contextmanager
     def _slot(self, system_id: int) -> Iterator[None]:
         self.waiting.add(system_id)
         try:
-            while not self._column_clear(system_id):
+            while not self._claim(system_id):
                 if self._cancel.wait(_POLL_S):
                     raise FlightError(system_id, "launch cancelled (the flight is ending)")
         finally:
             self.waiting.discard(system_id)
-        yield
+        start_s = time.monotonic()
+        try:
+            yield
+        finally:
+            with self._lock:
+                self.climbing.discard(system_id)
+                self.climbs.append((system_id, start_s, time.monotonic()))

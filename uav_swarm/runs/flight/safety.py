@@ -45,6 +45,7 @@ from uav_swarm.runs.flight.launch_plan import (
     return_altitudes_m,
 )
 from uav_swarm.runs.fly_config import FlyConfig
+from uav_swarm.world.guard.failsafe import launch_spacing_m
 from uav_swarm.world.separation import SeparationMonitor
 
 if TYPE_CHECKING:
@@ -96,10 +97,17 @@ class FlightSafety:
         self.guard_events: dict[str, int] = {"position_stale": 0, "command_unacknowledged": 0,
                                              "outside_bounds": 0}
         self.monitor = SeparationMonitor(config.uav.min_separation_m)
-        self._gate = TakeoffGate(cancel, self._column_clear)
+        guard = config.guard
+        self.launch_spacing_m = launch_spacing_m(config.uav.min_separation_m, margin_m=guard.margin_m,
+                                                 tracking_error_m=guard.tracking_error_m,
+                                                 position_error_m=guard.position_error_m)
+        """Homes at least this far apart climb together; closer ones one at a time (the launch rule)."""
+        self._gate = TakeoffGate(cancel, self._column_clear, self._near)
         self._airborne: dict[int, tuple[float, float]] = {}
         self._lock = threading.Lock()
         self.holds = HoldRecord()
+        self.rtl_waits: dict[int, str] = {}
+        """Why each live vehicle's RTL waits at the end (by system id), for the status line."""
         self.phase = "heartbeat"
         """The flight's phase (set by :class:`uav_swarm.runs.flight.status.FlightStatus`)."""
         self._closest_in_flight_phase: str | None = None
@@ -120,7 +128,8 @@ class FlightSafety:
             ParamError: A parameter could not be read or set.
         """
         positions = {sid: self.home_m(reported) for sid, reported in homes.items()}
-        check_launch_positions(positions, self.config.uav.min_separation_m, self.config.launch, self._slots)
+        check_launch_positions(positions, self.config.uav.min_separation_m, self.config.launch, self._slots,
+                               self.launch_spacing_m)
         self._set_homes(positions)
         try:
             reports = self.fleet.each("pre-flight check", list(homes), self._check_parameters)
@@ -137,7 +146,7 @@ class FlightSafety:
         position = self.home_m(reported)
         others = {sid: home for sid, home in self.homes_m.items() if sid != system_id}
         check_launch_positions({**others, system_id: position}, self.config.uav.min_separation_m,
-                               self.config.launch, self._slots)
+                               self.config.launch, self._slots, self.launch_spacing_m)
         self._set_homes({system_id: position})
         report = self._check_parameters(system_id)
         warn_fences_off([report], self._fence_params([system_id]))
@@ -187,11 +196,31 @@ class FlightSafety:
         """The vehicle's turn to arm, take off and climb (from a clear column)."""
         return self._gate.for_vehicle(system_id)
 
+    def _near(self, system_id: int) -> list[int]:
+        """The vehicles whose homes are closer to this one's than the launch spacing (they climb in turn)."""
+        home = self.homes_m.get(system_id)
+        if home is None:
+            return []
+        spacing_m = self.launch_spacing_m
+        return [sid for sid, other in self.homes_m.items()
+                if sid != system_id and np.hypot(other[0] - home[0], other[1] - home[1]) < spacing_m]
+
+    @property
+    def climbing(self) -> set[int]:
+        """System ids arming, taking off or climbing now."""
+        return set(self._gate.climbing)
+
+    @property
+    def climbs(self) -> list[tuple[int, float, float]]:
+        """``(system_id, start, end)`` of each climb so far (monotonic seconds)."""
+        return list(self._gate.climbs)
+
     def _column_clear(self, system_id: int) -> bool:
-        """No airborne vehicle closer to its home than ``uav.min_separation_m``, the pre-flight check's rule.
+        """No airborne vehicle closer to its home than the launch spacing, and no climbing one.
 
         Homes that far apart always clear (a vehicle airborne over its own home leaves the next one's
-        column clear); a vehicle waiting to climb is a disc the guard keeps the airborne ones off.
+        column clear); a vehicle waiting to climb is a disc the guard keeps the airborne ones off, by the
+        minimum and the guard's margin between the two discs, farther than the launch spacing.
         """
         return not self.column_blockers(system_id)
 
@@ -200,11 +229,16 @@ class FlightSafety:
         home = self.homes_m.get(system_id)
         if home is None:
             return []
-        need_m = self.config.uav.min_separation_m
+        need_m = self.launch_spacing_m
         with self._lock:
             others = [(sid, p) for sid, p in self._airborne.items() if sid != system_id]
         gaps = [(sid, float(np.hypot(p[0] - home[0], p[1] - home[1]))) for sid, p in others]
-        return [(sid, gap_m) for sid, gap_m in gaps if gap_m < need_m]
+        climbing = [(sid, float(np.hypot(self.homes_m[sid][0] - home[0], self.homes_m[sid][1] - home[1])))
+                    for sid in self._near(system_id) if sid in self._gate.climbing]
+        close = {sid: gap_m for sid, gap_m in gaps if gap_m < need_m}
+        for sid, gap_m in climbing:  # a climbing neighbour named once, by the nearer of the two
+            close[sid] = min(gap_m, close.get(sid, gap_m))
+        return sorted(close.items())
 
     # -- in flight ------------------------------------------------------------------------------
     def decide(self, flying: Sequence[tuple[int, VehicleState, tuple[float, float] | None, bool]],
@@ -286,6 +320,7 @@ class FlightSafety:
         limits = {str(sid): self.guard.limits[k].to_dict() for sid, k in sorted(self._uav_of.items())
                   if k in self.guard.limits}
         return {"separation": separation, "guard_limits": limits,
+                "launch_spacing_m": self.launch_spacing_m,
                 "launch": {str(sid): {"x_m": round(x, 2), "y_m": round(y, 2),
                                       "return_alt_m": self.return_alt_m.get(sid)}
                            for sid, (x, y) in sorted(self.homes_m.items())},

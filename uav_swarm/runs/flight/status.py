@@ -3,13 +3,16 @@
 - :class:`FlightStatus`: while ``fly`` waits (for heartbeats, for each vehicle's position fix and home,
   for the pre-flight checks, in the take-off gate, for the returns home and the end action's answers)
   and while it flies, a status line every ``status_every_s`` (5 s by default) naming what it waits for,
-  vehicle by vehicle. The lines are driven by the flight's own loop (each turn asks :meth:`~FlightStatus.tick`
+  vehicle by vehicle; a line that would say nothing new (its clock aside) is left out, and said again
+  only after 30 s. The lines are driven by the flight's own loop (each turn asks :meth:`~FlightStatus.tick`
   whether one is due), not by a timer thread a busy machine could starve: the main thread never
   blocks longer than one loop turn without asking.
 - the separation guard's holds of each vehicle by reason (held for which vehicle, a stale position,
   found outside its disc; :class:`~uav_swarm.runs.flight.holds.HoldRecord`): how many and how long
   (wall-clock seconds). Each status line sums those of its period; ``summary.json`` and the end table
   hold the totals; each hold stays an event ``guard_hold`` of ``summary.json``.
+- the cycles of holds the guard found (vehicles each held by the next; :mod:`uav_swarm.world.guard.deadlock`):
+  ``cycles of holds (each goes round after 2 s held): 2 -> 3 -> 2``.
 - :func:`end_report`: the lines ``fly`` prints at the end, from its ``summary.json``: each vehicle's
   outcome (a vehicle never armed is "not launched", never "ended") with its holds, the closest pair in
   flight (both vehicles airborne), and the flown QoS against the static reference.
@@ -20,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import re
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, wait
@@ -36,6 +40,8 @@ __all__ = ["FlightStatus", "end_report"]
 logger = logging.getLogger(__name__)
 
 _TICK_S = 0.02  # the longest a wait of the main thread goes without asking for a line
+_REPEAT_S = 30.0  # a line that says nothing new is said again only after this long (still waiting)
+_ELAPSED = re.compile(r" \(\d+ s( of \d+ s)?\)")  # the clock of a line: "(5 s of 60 s)"
 
 
 class FlightStatus:
@@ -58,7 +64,9 @@ class FlightStatus:
         self._next_s = self._phase_start_s + self.every_s
         self._stage: dict[int, str] = {}
         self._last_holds: dict[tuple[int, Reason], tuple[int, float]] = {}
+        self._seen_cycles = 0
         self._detail = ""
+        self._said, self._said_s = "", -math.inf  # the last line without its clock, and when it was said
         self._pending: set[int] = set()
         self._pending_what = ""
         self.launched: set[int] = set()
@@ -88,6 +96,10 @@ class FlightStatus:
         self._next_s = now_s + self.every_s
         self._detail = detail() if detail is not None else ""
         line = self.line(now_s)
+        said = _ELAPSED.sub("", line)
+        if said == self._said and now_s < self._said_s + _REPEAT_S:
+            return None  # nothing changed since the last line: no line, until _REPEAT_S have passed
+        self._said, self._said_s = said, now_s
         self.lines.append(line)
         logger.info("%s", line)
         return line
@@ -149,7 +161,21 @@ class FlightStatus:
         held = self._holds_since_last(time.time())
         if held:
             parts.append(f"held in the last {self.every_s:g} s: {held}")
+        cycles = self._cycles_since_last()
+        if cycles:
+            parts.append(cycles)
         return "; ".join(parts)
+
+    def _cycles_since_last(self) -> str:
+        """The cycles of holds the guard found since the last line."""
+        found = self._flight.safety.guard.fleet.deadlocks
+        new, self._seen_cycles = found[self._seen_cycles:], len(found)
+        if not new:
+            return ""
+        sid_of = {self._flight.safety.uav_of(v.system_id): v.system_id for v in self._flight.vehicles}
+        texts = sorted({" -> ".join(str(sid_of.get(r, r)) for r in (*cycle, cycle[0])) for _, cycle in new})
+        after_s = self._flight.config.guard.sidestep_after_s
+        return f"cycles of holds (each goes round after {after_s:g} s held): {', '.join(texts)}"
 
     def _counts(self) -> str:
         by: dict[str, list[int]] = {}
@@ -219,8 +245,8 @@ class FlightStatus:
         if not blockers:
             return "its column clear, about to take off"
         near = ", ".join(f"vehicle {s} {d:.1f} m" for s, d in blockers)
-        return (f"waits for its column to clear: {near} from its home "
-                f"({safety.config.uav.min_separation_m:g} m needed)")
+        return (f"waits for its column to clear: {near} from its home ({safety.launch_spacing_m:g} m needed, "
+                "the launch spacing)")
 
     def _return_wait(self, vehicle: FlightVehicle, state: VehicleState | None) -> str:
         home = self._flight.safety.homes_m.get(vehicle.system_id)
@@ -228,8 +254,9 @@ class FlightStatus:
             return "returning home (no position)"
         away = f"{math.hypot(state.x_m - home[0], state.y_m - home[1]):.1f} m from home"
         hold = self._flight.safety.holds.holding(vehicle.system_id)
+        waits = self._flight.safety.rtl_waits.get(vehicle.system_id)
         if hold is None:
-            return away
+            return away if waits is None else f"{away}, {waits}"
         (state_held, blocker), since_s = hold
         text = reason_text((state_held, blocker))
         other = self._flight._by_sid.get(blocker) if blocker is not None else None
@@ -281,4 +308,7 @@ def end_report(summary: Mapping[str, Any]) -> list[str]:
         lines.append(f"{summary['duration_s']:.0f} s flown with {summary['planner']}: {qos}; S{other} "
                      f"{summary[f'mean_qos_s{other}']:.3f}, mean throughput "
                      f"{summary['mean_throughput_mbps']:.2f} Mbps ({summary['association']})")
+        if static is not None:
+            lines.append("the static reference is the expert's placement of each instant's crowd judged as "
+                         "if the vehicles were already there: no flight, no guard")
     return lines

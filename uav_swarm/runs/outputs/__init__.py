@@ -13,4 +13,7 @@ Below ``simulate``, ``fly`` and :mod:`uav_swarm.runs.flight` (they import it, ne
   ``--live`` through the Foxglove SDK (the only modules that import it).
 - :mod:`uav_swarm.runs.outputs.ros2`: ``--ros2``, the run on ROS 2 topics (the only package that imports
   rclpy).
+
+May import: ``typed_config``, ``bridge``, ``uav_swarm.world``, ``uav_swarm.missions``,
+``uav_swarm.runs.service``, ``uav_swarm.runs.simulate_config``, ``uav_swarm.runs.steering``.
 """

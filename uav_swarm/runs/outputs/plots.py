@@ -1,4 +1,4 @@
-"""Pictures and tables of the main job: the QoS figure, the scene animation, the time series.
+"""Pictures and tables of a run: the QoS figure, the scene animation, the time series, a flight's track.
 
 Drawing only: the runs come from :func:`uav_swarm.runs.simulate.run_sequence`. Runs under the 802.11 radio
 (a ``radio`` :class:`~uav_swarm.runs.outputs.radio_report.RadioTrace`) add the users' SINR and MCS and each
@@ -11,7 +11,7 @@ the figure; the scene animation is :mod:`uav_swarm.runs.outputs.animation` (re-e
 from __future__ import annotations
 
 import io
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -22,7 +22,7 @@ from uav_swarm.runs.outputs.animation import write_scene_gif
 from uav_swarm.runs.outputs.radio_report import MCS_BANDS, RadioTrace
 from uav_swarm.runs.service import StaticReference
 
-__all__ = ["QosSeries", "write_qos_figure", "write_scene_gif", "write_timeseries"]
+__all__ = ["QosSeries", "write_qos_figure", "write_scene_gif", "write_timeseries", "write_track_figure"]
 
 
 class QosSeries(Protocol):
@@ -154,4 +154,54 @@ def write_timeseries(runs: Mapping[str, QosSeries], path: Path) -> Path:
                 line += "," * (len(header) - 5)
             lines.append(line)
     write_bytes_atomic(path, ("\n".join(lines) + "\n").encode())
+    return path
+
+
+def write_track_figure(track: Sequence[Mapping[str, Any]], crowd_m: np.ndarray | None,
+                       area_m: tuple[float, float], path: Path) -> Path:
+    """A flight seen from above: each vehicle's path, its first point (home) and last target, the crowd.
+
+    Args:
+        track: ``fly``'s track rows (``uav_id``, ``x_m``, ``y_m``, ``target_x_m``, ``target_y_m``; local
+            East/North metres from the bridge's home), in time order.
+        crowd_m: ``(N, 2)`` the crowd at the last instant sampled in flight (None: not drawn).
+        area_m: The crowd's area (width, height), drawn as a rectangle from the origin.
+        path: The PNG written (atomically).
+
+    Returns:
+        ``path``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, ax = plt.subplots(figsize=(8, 8), layout="constrained")
+    ax.add_patch(plt.Rectangle((0.0, 0.0), *area_m, fill=False, linestyle=":", color="grey",
+                               label="crowd area"))
+    if crowd_m is not None and len(crowd_m):
+        ax.scatter(crowd_m[:, 0], crowd_m[:, 1], s=4, color="grey", alpha=0.5, label="crowd (last sample)")
+    ax.plot([0.0], [0.0], marker="*", markersize=14, color="black", linestyle="none", label="bridge home")
+    for uav in sorted({row["uav_id"] for row in track}):
+        rows = [row for row in track if row["uav_id"] == uav and row["x_m"] is not None]
+        if not rows:
+            continue
+        xy = np.array([(row["x_m"], row["y_m"]) for row in rows], dtype=float)
+        line = ax.plot(xy[:, 0], xy[:, 1], linewidth=1.2, label=f"UAV {uav} (vehicle {rows[0]['system_id']})")
+        color = line[0].get_color()
+        ax.plot(*xy[0], marker="^", color=color, linestyle="none")
+        targets = [row for row in rows if row.get("target_x_m") is not None]
+        if targets:
+            ax.plot(targets[-1]["target_x_m"], targets[-1]["target_y_m"], marker="x", markersize=9,
+                    color=color, linestyle="none")
+    ax.plot([], [], marker="^", color="black", linestyle="none", label="first position (home)")
+    ax.plot([], [], marker="x", color="black", linestyle="none", label="last target")
+    ax.set(xlabel="East (m)", ylabel="North (m)", title="Flight from above: paths, homes, targets",
+           aspect="equal")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    ax.grid(alpha=0.3)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    plt.close(figure)
+    write_bytes_atomic(path, buffer.getvalue())
     return path

@@ -10,7 +10,13 @@ environment computed (:class:`uav_swarm.world.coverage.Coverage`):
 - each UAV's **airtime** share;
 - the **co-channel pairs sharing airtime**: two UAVs on one channel that hear each other above the
   carrier-sense threshold (:func:`uav_swarm.world.wifi.coverage.channel_conflicts`), so that their access
-  points take turns on the medium.
+  points take turns on the medium;
+- where each user stands against the **rate bar** (``min_user_rate_mbps``, 5 Mbps by default), the shares of
+  :data:`SERVICE_CLASSES`: out of range of every AP, in range but refused (with admission on rate: no AP in
+  range could take one more station with every station keeping the bar), served below the bar, served at
+  the bar or above. QoS S1 counts the last two, QoS S2 the last one: their difference, and the refused users
+  that an admission on rate leaves out of QoS S1 too, say why a strategy-2 run's QoS is lower than
+  strategy 1's (:func:`admission_line`).
 
 :func:`radio_summary` turns a :class:`RadioTrace` into ``summary.json``'s ``radio`` table, and
 :func:`radio_line` names the radio that ran, for the printed table.
@@ -21,6 +27,9 @@ Examples:
     >>> from uav_swarm.world.radio_config import RadioConfig
     >>> radio_line(RadioConfig())
     "radio: the paper's (Gaussian signal to 30 m, 200 Mbps per UAV shared equally)"
+    >>> service_class_shares(np.array([False, True, True, True]), np.array([-1, -1, 0, 1]),
+    ...                      np.array([0.0, 0.0, 2.0, 9.0]), 5.0).tolist()
+    [0.25, 0.25, 0.25, 0.25]
 """
 
 from __future__ import annotations
@@ -34,13 +43,16 @@ from uav_swarm.world.coverage import Coverage
 from uav_swarm.world.radio_config import RadioConfig
 from uav_swarm.world.wifi.coverage import channel_conflicts
 
-__all__ = ["MCS_BANDS", "SERVICE_COLOURS", "RadioTrace", "RadioLog", "mcs_band_shares", "median_sinr_db",
-           "sharing_pairs",
-           "radio_summary", "radio_line", "telemetry_fields"]
+__all__ = ["MCS_BANDS", "SERVICE_CLASSES", "SERVICE_COLOURS", "RadioTrace", "RadioLog", "mcs_band_shares",
+           "median_sinr_db", "service_class_shares", "sharing_pairs", "radio_summary", "radio_line",
+           "admission_line", "telemetry_fields"]
 
 MCS_BANDS: tuple[tuple[str, int, int], ...] = (("not served", -1, -1), ("MCS 0-3", 0, 3), ("MCS 4-7", 4, 7),
                                                 ("MCS 8-11", 8, 11))
 """``(name, lowest, highest)`` MCS index of each band a report counts users in (-1: not served)."""
+
+SERVICE_CLASSES: tuple[str, ...] = ("out of range", "refused", "below the rate bar", "at the rate bar")
+"""Where a user stands against the rate bar (module docstring), in :func:`service_class_shares` order."""
 
 SERVICE_COLOURS: tuple[str, ...] = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
                                     "#e377c2", "#bcbd22", "#17becf", "#393b79")
@@ -53,6 +65,27 @@ def mcs_band_shares(mcs: np.ndarray) -> np.ndarray:
     if mcs.size == 0:
         return np.zeros(len(MCS_BANDS))
     return np.array([np.count_nonzero((mcs >= low) & (mcs <= high)) / mcs.size for _, low, high in MCS_BANDS])
+
+
+def service_class_shares(in_range: np.ndarray, association: np.ndarray, throughput_mbps: np.ndarray,
+                         rate_bar_mbps: float) -> np.ndarray:
+    """(len(SERVICE_CLASSES),) share of the users in each class of :data:`SERVICE_CLASSES` (zeros, no users).
+
+    Args:
+        in_range: (N,) some AP's SINR reaches MCS 0 for the user.
+        association: (N,) the user's AP, -1 when none took it.
+        throughput_mbps: (N,) the user's throughput.
+        rate_bar_mbps: The rate strategy 2 counts (``min_user_rate_mbps``).
+    """
+    n_users = len(association)
+    if n_users == 0:
+        return np.zeros(len(SERVICE_CLASSES))
+    served = np.asarray(association) >= 0
+    at_bar = served & (np.asarray(throughput_mbps) >= rate_bar_mbps)
+    counts = (np.count_nonzero(~served & ~np.asarray(in_range, bool)),
+              np.count_nonzero(~served & np.asarray(in_range, bool)), np.count_nonzero(served & ~at_bar),
+              np.count_nonzero(at_bar))
+    return np.array(counts, dtype=np.float64) / n_users
 
 
 def median_sinr_db(sinr_db: np.ndarray) -> float:
@@ -78,6 +111,8 @@ class RadioTrace:
         mcs_shares: (T, len(MCS_BANDS)) share of the users in each MCS band.
         airtime: (T, K) each UAV's airtime share.
         sharing: (T, K, K) bool, upper triangle: the co-channel pairs sharing airtime.
+        service: (T, len(SERVICE_CLASSES)) share of the users in each class against the rate bar.
+        stations: (T, K) each UAV's stations.
     """
 
     channels: np.ndarray
@@ -85,6 +120,8 @@ class RadioTrace:
     mcs_shares: np.ndarray
     airtime: np.ndarray
     sharing: np.ndarray
+    service: np.ndarray
+    stations: np.ndarray
 
 
 @dataclass
@@ -98,7 +135,8 @@ class RadioLog:
 
     radio: RadioConfig
     altitudes_m: np.ndarray
-    _rows: list[tuple[np.ndarray, float, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+    _rows: list[tuple[np.ndarray, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
+        default_factory=list)
 
     def observe(self, coverage: Coverage, uavs_m: np.ndarray) -> None:
         """One step's coverage (802.11: with SINR, MCS, airtime and channels) and the UAVs' positions."""
@@ -106,9 +144,12 @@ class RadioLog:
                 or coverage.channel is None:
             raise ValueError(f"the coverage of {coverage.model!r} has no 802.11 figures")
         channels = np.array(coverage.channel, np.int64)
+        service = service_class_shares(coverage.in_range, coverage.association, coverage.throughput_mbps,
+                                       self.radio.min_user_rate_mbps)
         self._rows.append((channels, median_sinr_db(coverage.sinr_db), mcs_band_shares(coverage.mcs),
                            np.array(coverage.airtime, np.float64),
-                           sharing_pairs(uavs_m, channels, self.radio, self.altitudes_m)))
+                           sharing_pairs(uavs_m, channels, self.radio, self.altitudes_m), service,
+                           np.array(coverage.users_per_uav, np.int64)))
 
     @property
     def latest_pairs(self) -> int | None:
@@ -120,10 +161,11 @@ class RadioLog:
         k = len(self.altitudes_m)
         if not self._rows:
             return RadioTrace(np.zeros((0, k), np.int64), np.zeros(0), np.zeros((0, len(MCS_BANDS))),
-                              np.zeros((0, k)), np.zeros((0, k, k), bool))
-        channels, sinr, shares, airtime, sharing = zip(*self._rows, strict=True)
+                              np.zeros((0, k)), np.zeros((0, k, k), bool),
+                              np.zeros((0, len(SERVICE_CLASSES))), np.zeros((0, k), np.int64))
+        channels, sinr, shares, airtime, sharing, service, stations = zip(*self._rows, strict=True)
         return RadioTrace(np.stack(channels), np.array(sinr), np.stack(shares), np.stack(airtime),
-                          np.stack(sharing))
+                          np.stack(sharing), np.stack(service), np.stack(stations))
 
 
 def radio_summary(trace: RadioTrace, dt_s: float, radio: RadioConfig) -> dict[str, Any]:
@@ -156,11 +198,51 @@ def radio_summary(trace: RadioTrace, dt_s: float, radio: RadioConfig) -> dict[st
         "co_channel_pairs_mean": float(per_step.mean()) if steps else 0.0,
         "co_channel_sharing_s": float(np.count_nonzero(per_step) * dt_s),
         "co_channel_pairs": pairs,
+        "rate_bar": _rate_bar(trace, radio),
         "final": {"channels": trace.channels[last].tolist(),
                   "median_sinr_db": float(trace.median_sinr_db[last]),
                   "mcs_shares": trace.mcs_shares[last].tolist(), "airtime": trace.airtime[last].tolist(),
                   "co_channel_pairs": int(per_step[last])} if steps else None,
     }
+
+
+def _rate_bar(trace: RadioTrace, radio: RadioConfig) -> dict[str, Any]:
+    """Where the users stood against the rate bar, and what the APs that served carried (means over steps)."""
+    active = trace.stations > 0
+    return {
+        "rate_bar_mbps": radio.min_user_rate_mbps, "admission_on_rate": radio.ieee80211.admits_on_rate,
+        "shares": {name: float(trace.service[:, c].mean()) if len(trace.service) else 0.0
+                   for c, name in enumerate(SERVICE_CLASSES)},
+        "stations_per_serving_ap": float(trace.stations[active].mean()) if active.any() else 0.0,
+        "airtime_of_serving_ap": float(trace.airtime[active].mean()) if active.any() else 0.0,
+    }
+
+
+def admission_line(kind: str, wifi: dict[str, Any]) -> str:
+    """One planner's users against the rate bar, and why QoS S2 is what it is (the printed table's).
+
+    Examples:
+        >>> wifi = {"rate_bar": {"rate_bar_mbps": 5.0, "admission_on_rate": True, "shares": {
+        ...     "out of range": 0.2, "refused": 0.45, "below the rate bar": 0.15, "at the rate bar": 0.2},
+        ...     "stations_per_serving_ap": 8.1, "airtime_of_serving_ap": 0.91}}
+        >>> print(admission_line("learned", wifi))  # doctest: +NORMALIZE_WHITESPACE
+        learned against the 5 Mbps bar: 20% at it or above (QoS S2), 15% served below it, 45% in range but
+        refused on rate, 20% out of range; a serving AP carried 8.1 stations in 91% of the airtime: each AP
+        admits a user only while all its stations keep 5 Mbps in its share of the airtime, so strategy 2
+        refuses users that strategy 1 would serve at a lower rate
+    """
+    bar = wifi["rate_bar"]
+    shares, rate = bar["shares"], bar["rate_bar_mbps"]
+    line = (f"{kind} against the {rate:g} Mbps bar: {shares['at the rate bar']:.0%} at it or above (QoS S2), "
+            f"{shares['below the rate bar']:.0%} served below it, {shares['refused']:.0%} in range but "
+            f"refused{' on rate' if bar['admission_on_rate'] else ''}, {shares['out of range']:.0%} out of "
+            f"range; a serving AP carried {bar['stations_per_serving_ap']:.1f} stations in "
+            f"{bar['airtime_of_serving_ap']:.0%} of the airtime")
+    if bar["admission_on_rate"]:
+        return (line + f": each AP admits a user only while all its stations keep {rate:g} Mbps in its share "
+                "of the airtime, so strategy 2 refuses users that strategy 1 would serve at a lower rate")
+    return line + f": without admission on rate every user in range is served, however far below {rate:g} " \
+        "Mbps"
 
 
 def telemetry_fields(coverage: Coverage, co_channel_pairs: int | None

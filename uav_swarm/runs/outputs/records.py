@@ -65,6 +65,8 @@ class SequenceRun:
             the static reference (empty unless asked for).
         radio: The 802.11 radio's figures after each step (channels, SINR/MCS, airtime, co-channel sharing);
             None under the paper's radio.
+        interrupted_at_s: Where Ctrl-C cut the run short (the arrays cover the steps before it); None: the
+            whole sequence flew.
     """
 
     planner: str
@@ -88,6 +90,7 @@ class SequenceRun:
     uav_tracks_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 2)))
     crowd_samples: list[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=list)
     radio: RadioTrace | None = None
+    interrupted_at_s: float | None = None
 
 
 @dataclass

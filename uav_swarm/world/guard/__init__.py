@@ -79,6 +79,22 @@ and not closing on the other. Such a vehicle flies along its step (an autopilot 
 flies the segment to it); the swing off the segment caused by the velocity it still has is bounded in
 simulation, not by this proof. Every pair apart keeps the proved rule.
 
+**Failsafe flights and the launch** (:mod:`uav_swarm.world.guard.failsafe`, its own proof). What a vehicle
+does on its own is kept apart by construction: a failsafe flight (climb where it is, straight home at its
+return layer, descend) keeps the minimum from another whatever their start times when the lower one's way
+keeps it from the higher one's columns and the columns from each other; return layers are ordered by
+crossing; vehicles climbing together (unsteered) need homes the launch spacing apart,
+``min + margin + 2 (e_t + e_p)``, closer homes climb one at a time.
+
+**Liveness** is not part of this proof: the rule says which points may be sent, not that a vehicle ever
+gets one. The order of the decisions (the vehicle held longest first), the steps round a blocker (cycles
+of holds are found by :mod:`uav_swarm.world.guard.deadlock`) and the parting steps only choose among the
+points the rule accepts, so they change nothing above. The certified
+set of a moving vehicle is a disc (its braking distance in every direction), which makes
+neighbours moving together, crossings and passes beside a hovering vehicle wait
+(``benchmarks/flight/guard_liveness.py``); a set shaped along the committed path (a tube) would need a
+proved bound on the swing across the path, which this proof does not give.
+
 **Outside the bounds** nothing is promised; what can be seen is reported and answered
 (:class:`FleetGuard`): a position older than ``position_age_s`` (the vehicle is sent nothing new: its
 disc needs no measurement), a point not acknowledged within ``command_delay_s`` (kept as possible), a
@@ -88,6 +104,8 @@ its disc widened at half the acceleration, the others kept off it).
 Anchors: buffered Voronoi cells (Zhou et al. 2017: each robot stays in a cell shrunk by its safety
 radius), ORCA (reciprocal velocity obstacles with stated bounds), Skybrush's show validation (minimum
 distance, speed and acceleration checked on every plan); ideas only.
+
+May import: ``typed_config``, ``uav_swarm.world``.
 """
 
 from uav_swarm.world.guard.fleet import Bounds, Decision, FleetGuard

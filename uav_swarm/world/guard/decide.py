@@ -34,13 +34,19 @@ import math
 
 import numpy as np
 
-__all__ = ["choose_points", "STEPS_M"]
+__all__ = ["choose_points", "finite_point", "STEPS_M"]
 
 STEPS_M = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
 """The steps offered on the way to a goal, metres (each half the one before); the whole way first when
 shorter than the first: a vehicle is never committed further ahead, so a new goal can turn it soon."""
 _DETOURS_RAD = (math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2, 3 * math.pi / 4, -3 * math.pi / 4)
+_COS, _SIN = np.cos(_DETOURS_RAD), np.sin(_DETOURS_RAD)
 _ARRIVED_M = 1e-3
+
+
+def finite_point(point_m: np.ndarray) -> bool:
+    """Whether both coordinates of a (2,) point are finite (NaN: none; cheaper than numpy on two numbers)."""
+    return math.isfinite(point_m[0]) and math.isfinite(point_m[1])
 
 
 def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
@@ -53,14 +59,15 @@ def _offers(centre: np.ndarray, goal: np.ndarray, detour: bool, detour_m: float,
     unit = way / length
     steps = [length] if length <= max_step_m else []
     steps += [s for s in STEPS_M if s < length and s <= max_step_m]
-    offers = [centre + unit * s for s in steps]
-    if detour:
-        for turn in _DETOURS_RAD:
-            c, s = math.cos(turn), math.sin(turn)
-            turned = np.array([c * unit[0] - s * unit[1], s * unit[0] + c * unit[1]])
-            turns = [centre + turned * step for step in (detour_m, detour_m / 2, detour_m / 4)]
-            offers += [q for q in turns if area_m is None or bool(np.all((q >= 0.0) & (q <= area_m)))]
-    return np.asarray(offers)
+    offers = centre + unit * np.array(steps)[:, None]  # (S, 2)
+    if not detour:
+        return offers
+    turned = np.stack([_COS * unit[0] - _SIN * unit[1], _SIN * unit[0] + _COS * unit[1]], axis=1)  # (T, 2)
+    turns = (centre + turned[:, None] * np.array([detour_m, detour_m / 2, detour_m / 4])[None, :, None])
+    turns = turns.reshape(-1, 2)  # each turn's three lengths, turn after turn
+    if area_m is not None:
+        turns = turns[np.all((turns >= 0.0) & (turns <= area_m), axis=1)]
+    return np.vstack([offers, turns])
 
 
 def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarray, may_send: np.ndarray,
@@ -108,11 +115,11 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
         if not may_send[i] or not math.isfinite(radii[i]):
             continue
         offers = _offers(centres[i], goal, bool(detour[i]), detour_m, area_m, max_step_m) \
-            if np.all(np.isfinite(goal)) else np.zeros((0, 2))
-        if positions_m is not None and np.all(np.isfinite(positions_m[i])):
+            if finite_point(goal) else np.zeros((0, 2))
+        if positions_m is not None and finite_point(positions_m[i]):
             offers = offers[np.hypot(*(offers - positions_m[i]).T) <= max_step_m + 1e-9]
         if parting is not None and parting[i].any():  # then yield: straight away from each one inside
-            base = positions_m[i] if positions_m is not None and np.all(np.isfinite(positions_m[i])) \
+            base = positions_m[i] if positions_m is not None and finite_point(positions_m[i]) \
                 else centres[i]
             away = base - centres[parting[i]]
             away = away / np.maximum(np.hypot(*away.T), 1e-9)[:, None] * min(parting_step_m, max_step_m)
@@ -125,7 +132,7 @@ def choose_points(centres_m: np.ndarray, radii_m: np.ndarray, goals_m: np.ndarra
         apart = np.hypot(*(offers[:, None] - centres[None]).transpose(2, 0, 1)) - grown[:, None] - radii[None]
         ok = (apart >= threshold[i][None]) | ~others[i][None]  # (M, K)
         if parting is not None and parting[i].any():
-            base = positions_m[i] if positions_m is not None and np.all(np.isfinite(positions_m[i])) \
+            base = positions_m[i] if positions_m is not None and finite_point(positions_m[i]) \
                 else centres[i]  # it flies from where it is to the offer
             step = offers - base  # (M, 2): parting when every point of it is farther from the other
             away = step @ (base - centres).T >= 0.0  # (M, K): the distance grows along the whole step

@@ -27,7 +27,9 @@ refuses every offer near it. A pair closer than required (homes a few metres apa
 taken back) may only **part** or **yield**: a vehicle at rest at its point (or already flying straight
 away) steps at most ``parting_step_m`` along a segment whose every point is at least as far from the
 other's centre as it is (:func:`~uav_swarm.world.guard.decide.choose_points`). Decisions go to the
-vehicle held longest first (priority rotates to who waits), and no point is committed more than
+vehicle held longest first (priority rotates to who waits); vehicles each held by the next (a cycle of
+holds, :mod:`~uav_swarm.world.guard.deadlock`) are recorded in :attr:`FleetGuard.deadlocks`; held,
+each goes round the one it waits for after ``detour_after_s``. No point is committed more than
 ``max_step_m`` ahead. One lock serialises every call (the flight's loop and its sending threads).
 
 Examples:
@@ -53,7 +55,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uav_swarm.world.guard.decide import STEPS_M, choose_points
+from uav_swarm.world.guard.deadlock import hold_cycles
+from uav_swarm.world.guard.decide import STEPS_M, choose_points, finite_point
 from uav_swarm.world.guard.holds import Bounds, Commitment
 
 __all__ = ["Bounds", "Decision", "FleetGuard"]
@@ -118,6 +121,10 @@ class FleetGuard:
         self._joining: set[int] = set()  # joined, its join point not sent yet
         self._stale: set[int] = set()
         self._outside: dict[int, np.ndarray] = {}
+        self._cycles: set[tuple[int, ...]] = set()  # the cycles of holds at the last decision
+        self.deadlocks: list[tuple[float, tuple[int, ...]]] = []
+        """``(now_s, cycle)`` of every cycle of holds found (:mod:`~uav_swarm.world.guard.deadlock`): the
+        vehicles each held by the next, recorded once while it lasts."""
         self.events: list[tuple[float, int, str]] = []
         """``(now_s, vehicle, kind)`` of every bound found broken (position_stale, command_unacknowledged,
         outside_bounds)."""
@@ -307,7 +314,8 @@ class FleetGuard:
         goals[~steered] = np.nan
         finals = goals.copy()
         for i, (via, final) in list(self._via.items()):
-            if (not steered[i] or not np.all(np.isfinite(goals[i])) or not np.allclose(final, goals[i])
+            if (not steered[i] or not finite_point(goals[i])
+                    or not np.all(np.abs(final - goals[i]) <= 1e-8 + 1e-5 * np.abs(goals[i]))  # allclose
                     or float(np.hypot(*(self.centre_m(i) - via))) <= 0.5):
                 del self._via[i]  # reached, or its goal changed
             else:
@@ -318,16 +326,18 @@ class FleetGuard:
         required = np.where(apart, self.required_m[owner[:, None], owner[None]], -np.inf)
         gaps = _gaps_m(centres, radii)
         parting = apart & np.isfinite(gaps) & (gaps < required)
-        for i in range(k):  # parts a vehicle at rest at its point, or already flying straight away
-            towards = centres - self._position[i]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                closing = (towards @ self._velocity[i]) / np.hypot(*towards.T)  # its speed towards each
-            speed = float(np.hypot(*self._velocity[i]))
-            at_rest = (float(np.hypot(*(self._position[i] - centres[i]))) <= _AT_POINT_M
-                       and speed <= self.parting_speed_m_s)
-            fleeing = -closing >= 0.9 * speed  # its velocity points away from that one
-            parting[i] &= (at_rest & ~(closing > 0.5)) | (fleeing & (speed > self.parting_speed_m_s))
         parting[k:] = False
+        if parting.any():  # parts a vehicle at rest at its point, or already flying straight away
+            towards = centres[None] - self._position[:, None]  # (k, n, 2)
+            with np.errstate(invalid="ignore", divide="ignore"):  # each one's speed towards each disc
+                closing = (np.einsum("knc,kc->kn", towards, self._velocity)
+                           / np.hypot(towards[..., 0], towards[..., 1]))
+            speed = np.hypot(*self._velocity.T)
+            at_rest = ((np.hypot(*(self._position - centres[:k]).T) <= _AT_POINT_M)
+                       & (speed <= self.parting_speed_m_s))
+            fleeing = -closing >= 0.9 * speed[:, None]  # its velocity points away from that one
+            parting[:k] &= ((at_rest[:, None] & ~(closing > 0.5))
+                            | (fleeing & (speed > self.parting_speed_m_s)[:, None]))
         order = np.argsort(-waited, kind="stable")  # the longest held first, then by index
         points, _, blockers = choose_points(centres, np.where(present, radii, 0.0), goals, may, required,
                                             detour, self.detour_m, self.area_m, order=order,
@@ -336,13 +346,20 @@ class FleetGuard:
                                             positions_m=np.vstack([self._position, np.full((n - k, 2),
                                                                                            np.nan)]))
         blockers = np.where(blockers >= k, owner[np.maximum(blockers, 0)], blockers)
-        decisions = []
-        for i in range(k):
-            decisions.append(self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s))
-            if (decisions[-1].state == "held" and blockers[i] >= 0 and i not in self._via
+        decisions = [self._decision(i, points[i], int(blockers[i]), goals[i], may[i], now_s)
+                     for i in range(k)]
+        self._note_cycles(decisions, now_s)
+        for i, decision in enumerate(decisions):
+            if (decision.state == "held" and blockers[i] >= 0 and i not in self._via
                     and now_s - self._held_since.get(i, now_s) >= self.detour_after_s):
                 self._go_round(i, int(blockers[i]), finals[i], now_s)
         return decisions
+
+    def _note_cycles(self, decisions: list[Decision], now_s: float) -> None:
+        """Record each cycle of holds once while it lasts (its members go round as any held vehicle)."""
+        cycles = hold_cycles(np.array([d.blocker if d.state == "held" else -1 for d in decisions]))
+        self.deadlocks += [(now_s, cycle) for cycle in cycles if cycle not in self._cycles]
+        self._cycles = set(cycles)
 
     def _go_round(self, i: int, blocker: int, goal: np.ndarray, now_s: float) -> None:
         """Send a vehicle held long by ``blocker`` by a point beside it, with room to pass at each step."""
@@ -377,11 +394,11 @@ class FleetGuard:
             self._joining.discard(i)
             here = hold.centre_m  # its first command: the point it joined at, so its chain starts sent
             return Decision("on", (float(here[0]), float(here[1])), seq=self.sent(i, here, now_s))
-        if np.all(np.isfinite(point)):
+        if finite_point(point):
             self._held_since.pop(i, None)
             seq = self.sent(i, point, now_s)
             return Decision("free", (float(point[0]), float(point[1])), blocker, seq)
-        arrived = not np.all(np.isfinite(goal)) or float(np.hypot(*(goal - hold.centre_m))) <= 1e-3
+        arrived = not finite_point(goal) or float(np.hypot(*(goal - hold.centre_m))) <= 1e-3
         if arrived and may and len(hold.chain) > 1:  # its newest point was never acknowledged: again
             here = hold.centre_m
             return Decision("on", (float(here[0]), float(here[1])), seq=self.sent(i, here, now_s))

@@ -27,6 +27,7 @@ Examples:
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from uav_swarm.world.radio_config import RadioConfig
@@ -38,32 +39,103 @@ __all__ = ["plan_channels", "plan_is_valid"]
 
 def plan_is_valid(plan: np.ndarray, conflict: np.ndarray, usable: tuple[int, ...]) -> bool:
     """One world's ``plan`` (K,) uses usable channels only and puts no two conflicting APs on one channel."""
-    if not set(np.asarray(plan).tolist()) <= set(usable):
-        return False
-    same = plan[:, None] == plan[None, :]
-    return not bool(np.any(same & conflict))
+    return bool(_valid(np.asarray(plan, np.int64), np.asarray(conflict, np.bool_),
+                       np.asarray(usable, np.int64)))
 
 
-def _colour(conflict: np.ndarray, power_mw: np.ndarray, usable: tuple[int, ...], previous: np.ndarray | None
-            ) -> np.ndarray:
+@numba.njit(cache=True, nogil=True)
+def _valid(plan: np.ndarray, conflict: np.ndarray, usable: np.ndarray) -> bool:
+    """:func:`plan_is_valid` of one world, compiled."""
+    n_uavs = plan.size
+    for k in range(n_uavs):
+        if not np.any(usable == plan[k]):
+            return False
+        for j in range(n_uavs):
+            if conflict[k, j] and plan[j] == plan[k]:
+                return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _numpy_sum(values: np.ndarray) -> float:
+    """``values.sum()`` as numpy adds a short float64 array (pairwise: eight partial sums from 8 values)."""
+    n = values.size
+    if n < 8:
+        total = 0.0  # numpy starts from -0.0 and adds in order: the same for these sums of powers
+        for i in range(n):
+            total += values[i]
+        return total
+    partial = values[:8].copy()
+    i = 8
+    while i + 8 <= n:
+        for j in range(8):
+            partial[j] += values[i + j]
+        i += 8
+    total = ((partial[0] + partial[1]) + (partial[2] + partial[3])) + ((partial[4] + partial[5])
+                                                                       + (partial[6] + partial[7]))
+    while i < n:
+        total += values[i]
+        i += 1
+    return total
+
+
+@numba.njit(cache=True, nogil=True)
+def _colour(conflict: np.ndarray, power_mw: np.ndarray, usable: np.ndarray, previous: np.ndarray,
+            has_previous: bool) -> np.ndarray:
     """One world's greedy colouring (steps 2-3 of the module docstring)."""
-    n_uavs = conflict.shape[0]
-    degree = conflict.sum(axis=1)
-    order = np.lexsort((np.arange(n_uavs), -degree))
+    n_uavs, n_usable = conflict.shape[0], usable.size
+    degree = np.zeros(n_uavs, np.int64)
+    for k in range(n_uavs):
+        for j in range(n_uavs):
+            degree[k] += conflict[k, j]
+    order = np.argsort(-degree, kind="mergesort")  # stable: ties by the lower index
     plan = np.full(n_uavs, -1, np.int64)
+    busy = np.zeros(n_usable, np.bool_)
     for k in order:
-        taken = conflict[k] & (plan >= 0)
-        busy = {int(c) for c in plan[taken]}
-        if previous is not None and int(previous[k]) in usable and int(previous[k]) not in busy:
-            plan[k] = previous[k]
+        busy[:] = False
+        for j in range(n_uavs):
+            if conflict[k, j] and plan[j] >= 0:
+                for u in range(n_usable):
+                    if usable[u] == plan[j]:
+                        busy[u] = True
+        if has_previous:
+            for u in range(n_usable):
+                if usable[u] == previous[k] and not busy[u]:
+                    plan[k] = previous[k]
+            if plan[k] >= 0:
+                continue
+        for u in range(n_usable):
+            if not busy[u]:
+                plan[k] = usable[u]
+                break
+        if plan[k] >= 0:
             continue
-        free = [c for c in usable if c not in busy]
-        if free:
-            plan[k] = free[0]
-            continue
-        loads = [float(power_mw[k][taken & (plan == c)].sum()) for c in usable]
-        plan[k] = usable[int(np.argmin(loads))]
+        best, best_load = 0, np.inf
+        for u in range(n_usable):
+            on_channel = np.empty(n_uavs)
+            m = 0
+            for j in range(n_uavs):
+                if conflict[k, j] and plan[j] == usable[u]:
+                    on_channel[m] = power_mw[k, j]
+                    m += 1
+            load = _numpy_sum(on_channel[:m])
+            if load < best_load:
+                best, best_load = u, load
+        plan[k] = usable[best]
     return plan
+
+
+@numba.njit(cache=True, nogil=True)
+def _plan_worlds(conflict: np.ndarray, power_mw: np.ndarray, usable: np.ndarray, previous: np.ndarray,
+                 has_previous: bool) -> np.ndarray:
+    """Steps 1-3 of the module docstring for every world: ``(B, K)`` channels."""
+    plans = np.empty(conflict.shape[:2], np.int64)
+    for c in range(conflict.shape[0]):
+        if has_previous and _valid(previous[c], conflict[c], usable):
+            plans[c] = previous[c]
+        else:
+            plans[c] = _colour(conflict[c], power_mw[c], usable, previous[c], has_previous)
+    return plans
 
 
 def plan_channels(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.ndarray | None = None,
@@ -94,11 +166,8 @@ def plan_channels(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.ndarr
             raise ValueError(f"previous must have shape {worlds.shape[1:2]} or {worlds.shape[:2]}, "
                              f"got {before.shape}")
         before = np.broadcast_to(before, worlds.shape[:2])
-    plans = np.empty(worlds.shape[:2], np.int64)
-    for c in range(len(worlds)):
-        old = None if before is None else before[c]
-        if old is not None and plan_is_valid(old, conflict[c], usable):
-            plans[c] = old
-        else:
-            plans[c] = _colour(conflict[c], power_mw[c], usable, old)
+    has_previous = before is not None
+    previous_plan = np.ascontiguousarray(np.zeros(worlds.shape[:2], np.int64) if before is None else before)
+    plans = _plan_worlds(np.ascontiguousarray(conflict), np.ascontiguousarray(power_mw),
+                         np.asarray(usable, dtype=np.int64), previous_plan, has_previous)
     return plans[0] if single else plans

@@ -19,7 +19,7 @@ Formulas (docs/radio.md):
 - MCS: the highest ``m`` with ``SINR >= min_sinr_db[m]`` (-1 below MCS 0: no usable rate); PHY rate
   ``rate_20mhz_1ss_mbps[m] * data tones(width) / 234 * streams * 13.6 / (12.8 + guard interval in us)``.
 
-The received power of every (user, UAV) pair (N x K x B at every step) is whole-array numpy, in milliwatts:
+The received power of every (user, UAV) pair (N x K x B at every step) is one compiled pass, in milliwatts:
 ``10^((EIRP - FSPL(1 m) - excess) / 10) / d^2``, the same formula. SINR and MCS are computed where they are
 used, in :mod:`uav_swarm.world.wifi.coverage`.
 
@@ -54,8 +54,6 @@ __all__ = ["SPEED_OF_LIGHT_M_S", "station_power_mw", "ap_pair_power_dbm", "noise
 SPEED_OF_LIGHT_M_S = 299_792_458.0
 MIN_DISTANCE_M = 1.0
 """Distances below 1 m count as 1 m (the far-field formulas mean nothing closer)."""
-BLOCK_USERS = 1024
-"""Users per block of :func:`station_power_mw`."""
 
 
 def _fspl_1m_db(frequency_hz: float) -> float:
@@ -68,8 +66,8 @@ def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.nda
     """``(N, K)`` power (mW) each user receives from each UAV's AP of its own world (air to ground).
 
     Computed as ``10^((EIRP - FSPL(1 m) - excess) / 10) / max(d^2, 1)``, the formula above in milliwatts,
-    world by world in blocks of at most :data:`BLOCK_USERS` users (small temporaries stay in cache: many
-    worlds at once cost no more per user than one).
+    for the users of all worlds in one compiled pass (a pair's power does not depend on the others: one
+    world alone gets the same numbers as in a batch).
 
     Args:
         users_m: (N, 2) user positions, metres, stacked world by world.
@@ -78,46 +76,39 @@ def station_power_mw(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.nda
         heights_m: (B, K) each UAV's height above the users, metres.
         config: The 802.11 settings.
     """
-    if uavs_m.shape[0] == 1 and len(users_m) <= BLOCK_USERS:
-        return _block_power_mw(users_m, uavs_m[0], heights_m[0], config)
-    power_mw = np.empty((len(users_m), uavs_m.shape[1]))
-    bounds = np.append(np.flatnonzero(np.diff(copy_index, prepend=-1)), len(users_m)).tolist()  # worlds' rows
-    for first, end in zip(bounds[:-1], bounds[1:], strict=True):
-        c = int(copy_index[first])
-        for start in range(first, end, BLOCK_USERS):
-            rows = slice(start, min(start + BLOCK_USERS, end))
-            power_mw[rows] = _block_power_mw(users_m[rows], uavs_m[c], heights_m[c], config)
-    return power_mw
-
-
-def _block_power_mw(users_m: np.ndarray, uavs_m: np.ndarray, heights_m: np.ndarray, config: Ieee80211Config
-                    ) -> np.ndarray:
-    """(n, K) powers of users of one world from its (K, 2) UAVs at (K,) heights.
-
-    The formula with its constants folded (few whole-array passes): ``P_LoS = 1 / (1 + exp(ln a + a b - b
-    theta))`` and ``P = exp(ln10 / 10 (EIRP - FSPL(1 m) - eta_NLoS + (eta_NLoS - eta_LoS) P_LoS)) / d^2``.
-    """
     a, b, eta_los_db, eta_nlos_db = config.environment_parameters
     eirp_dbm = config.tx_power_dbm + config.ap_antenna_gain_dbi + config.station_antenna_gain_dbi
     to_neper = math.log(10.0) / 10.0
-    dx = uavs_m[:, 0] - users_m[:, 0:1]
-    dy = uavs_m[:, 1] - users_m[:, 1:2]
-    horizontal_sq = dx * dx
-    horizontal_sq += dy * dy
-    distance_sq = horizontal_sq + heights_m * heights_m
-    np.maximum(distance_sq, MIN_DISTANCE_M * MIN_DISTANCE_M, out=distance_sq)
-    np.sqrt(horizontal_sq, out=horizontal_sq)
-    exponent = np.arctan2(np.broadcast_to(heights_m, horizontal_sq.shape), horizontal_sq)  # elevation, rad
-    exponent *= -b * 180.0 / math.pi
-    exponent += math.log(a) + a * b
-    np.exp(exponent, out=exponent)
-    exponent += 1.0
-    np.reciprocal(exponent, out=exponent)  # P_LoS
-    exponent *= (eta_nlos_db - eta_los_db) * to_neper
-    exponent += (eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9) - eta_nlos_db) * to_neper
-    np.exp(exponent, out=exponent)
-    exponent /= distance_sq
-    return exponent
+    return _station_power_kernel(
+        np.ascontiguousarray(users_m, dtype=np.float64), np.ascontiguousarray(copy_index, dtype=np.int64),
+        np.ascontiguousarray(uavs_m, dtype=np.float64), np.ascontiguousarray(heights_m, dtype=np.float64),
+        -b * 180.0 / math.pi, math.log(a) + a * b, (eta_nlos_db - eta_los_db) * to_neper,
+        (eirp_dbm - _fspl_1m_db(config.frequency_ghz * 1e9) - eta_nlos_db) * to_neper)
+
+
+@numba.njit(cache=True, nogil=True)
+def _station_power_kernel(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
+                          heights_m: np.ndarray, per_radian: float, offset: float, los_gain: float,
+                          at_1m: float) -> np.ndarray:
+    """(N, K) powers, the formula with its constants folded.
+
+    ``P_LoS = 1 / (1 + exp(ln a + a b - b theta))`` and
+    ``P = exp(ln10 / 10 (EIRP - FSPL(1 m) - eta_NLoS + (eta_NLoS - eta_LoS) P_LoS)) / max(d^2, 1)``.
+    """
+    n_users, n_uavs = users_m.shape[0], uavs_m.shape[1]
+    power_mw = np.empty((n_users, n_uavs))
+    for n in range(n_users):
+        c = copy_index[n]
+        for k in range(n_uavs):
+            dx = uavs_m[c, k, 0] - users_m[n, 0]
+            dy = uavs_m[c, k, 1] - users_m[n, 1]
+            horizontal_sq = dx * dx + dy * dy
+            height = heights_m[c, k]
+            distance_sq = max(horizontal_sq + height * height, MIN_DISTANCE_M * MIN_DISTANCE_M)
+            elevation = math.atan2(height, math.sqrt(horizontal_sq))  # rad
+            los = 1.0 / (math.exp(elevation * per_radian + offset) + 1.0)
+            power_mw[n, k] = math.exp(los * los_gain + at_1m) / distance_sq
+    return power_mw
 
 
 def ap_pair_power_dbm(uavs_m: np.ndarray, altitudes_m: np.ndarray, config: Ieee80211Config) -> np.ndarray:

@@ -6,6 +6,9 @@
 - :mod:`~uav_swarm.runs.outputs.ros2.node`: the node that publishes them and takes operator targets.
 
 Only ``messages`` and ``node`` import ``rclpy`` (the ``ros2`` extra); they are imported when a run asks.
+
+May import: ``typed_config``, ``bridge``, ``uav_swarm.world``, ``uav_swarm.missions``,
+``uav_swarm.runs.steering``.
 """
 
 from __future__ import annotations
