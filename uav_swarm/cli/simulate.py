@@ -136,8 +136,14 @@ def telemetry_endpoint(config: RunConfig, config_path: Path | None) -> RunConfig
 
 
 def format_summary(summary: dict[str, Any]) -> str:
-    """The summary as a small text table (one row per planner, then the ratios)."""
+    """The summary as a small text table (one row per planner, then the ratios).
+
+    The planners in name order and each 802.11 line's users in band order, so that the summary a run
+    returns and the same summary read back from ``summary.json`` (written with sorted keys) print the same.
+    """
     from uav_swarm.runs.outputs.radio_report import admission_line
+
+    summary = {**summary, "planners": dict(sorted(summary["planners"].items()))}
 
     header = (f"{'planner':<8} {'QoS S1 mean':>11} {'min':>6} {'QoS S2 mean':>11} {'min':>6} "
               f"{'Mbps mean':>9} {'plan ms p50':>11} {'p95':>8}")
@@ -226,7 +232,11 @@ def wrote_line(files: list[str], out: Path) -> str:
 def _wifi_line(kind: str, wifi: dict[str, Any]) -> str:
     """One planner's 802.11 figures: SINR, MCS shares, final channels, co-channel sharing."""
     sinr = "n/a" if wifi["median_sinr_db"] is None else f"{wifi['median_sinr_db']:.1f} dB"
-    shares = ", ".join(f"{name} {share:.0%}" for name, share in wifi["mcs_shares"].items())
+    from uav_swarm.runs.outputs.radio_report import MCS_BANDS
+
+    order = {name: rank for rank, (name, _, _) in enumerate(MCS_BANDS)}
+    bands = sorted(wifi["mcs_shares"].items(), key=lambda item: order.get(item[0], len(order)))
+    shares = ", ".join(f"{name} {share:.0%}" for name, share in bands)
     pairs = "; ".join(f"{p['uavs'][0]}-{p['uavs'][1]} {p['seconds']:.1f} s" for p in wifi["co_channel_pairs"])
     return (f"{kind} 802.11: median SINR {sinr}; users {shares}; channels {wifi['channels_final']} "
             f"({wifi['channel_changes']} changes); co-channel pairs sharing airtime: "
@@ -247,21 +257,25 @@ def _separation_line(kind: str, figures: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Validate the configuration, run the job, print the summary table."""
-    length = f"{args.duration_s:g} s" if args.duration_s is not None else "the configured time"
-    print(f"uav-swarm simulate: loading the planners, then flying {length} of crowd time (180 s by default: "
-          "minutes) into " f"{args.out}; Ctrl-C keeps the part flown", file=sys.stderr, flush=True)
+    """Validate the configuration, run the job, print the summary table.
+
+    The line saying what it waits for comes once the configuration is valid (bad input gets its one line
+    alone), before the heavy imports of the run itself.
+    """
     from bridge.errors import BridgeError
     from bridge.telemetry.config import TelemetryConnectionError
     from learning.checkpoint import CheckpointError
     from typed_config import ConfigError
     from uav_swarm.runs.outputs.live_view import live_view_option
-    from uav_swarm.runs.simulate import simulate
     from uav_swarm.runs.simulate_config import load_simulate_config
 
     try:
         live = live_view_option(args.live, args.live_wait_s, args.speedup)
         config = telemetry_endpoint(load_simulate_config(args.config, _overrides(args)), args.config)
+        print(f"uav-swarm simulate: loading the planners, then flying {config.duration_s:g} s of crowd time "
+              f"(minutes) into {args.out}; Ctrl-C keeps the part flown", file=sys.stderr, flush=True)
+        from uav_swarm.runs.simulate import simulate
+
         result = simulate(config, args.out, progress=not args.quiet, record=args.record, live=live)
     except (ConfigError, CheckpointError) as exc:
         print(f"uav-swarm simulate: {exc}", file=sys.stderr)
