@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import json
 import math
-import time
 
 import pytest
 from lossy_relay import free_udp_port
-from peer_fleet import bridge_toml, close_all, swift
+from peer_fleet import bridge_toml, close_all, swift, wait_until
 from peer_tracks import closest_approach
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -54,7 +53,7 @@ def test_the_return_path_is_set_and_read_back_before_arming_on_both_autopilots(t
     assert vehicles[0].param("RTL_CONE_SLOPE") == 3.0 and vehicles[1].param("RTL_CONE_ANG") == 45.0
     try:
         assert main(_argv(tmp_path, urls)) == 0
-        assert _wait(lambda: not any(v.armed for v in vehicles), 90.0)  # home and landed
+        assert wait_until(lambda: not any(v.armed for v in vehicles), 90.0)  # home and landed
     finally:
         close_all(vehicles)
     ardupilot, px4 = vehicles
@@ -94,15 +93,6 @@ def test_a_failsafe_that_cannot_be_pinned_refuses_arming_naming_the_parameter(tm
         close_all(vehicles)
 
 
-def _wait(condition, timeout_s: float) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.05)
-    return condition()
-
-
 def _climb(vehicle, alt_m: float) -> tuple[float, float]:
     """(left the ground, reached ``alt_m`` - 1 m) of its first climb, from its own track."""
     up = next(t for t, _, _, z in vehicle.track if z > 0.05)
@@ -118,7 +108,7 @@ def test_homes_closer_than_the_launch_spacing_climb_one_at_a_time_and_closer_tha
     vehicles, urls = _fleet(["ardupilot"] * 3, [launch_home(i, 6.0) for i in range(3)])
     try:
         assert main([*_argv(tmp_path, urls), "--duration-s", "40"]) == 0
-        assert _wait(lambda: not any(v.armed for v in vehicles), 90.0)
+        assert wait_until(lambda: not any(v.armed for v in vehicles), 90.0)
         approach = closest_approach(vehicles)
         climbs = [_climb(v, 10.0) for v in vehicles]
     finally:

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from fly_measures import live_rows
 from lossy_relay import free_udp_port
-from peer_fleet import bridge_toml, close_all, swift
+from peer_fleet import bridge_toml, close_all, swift, wait_until
 from peer_tracks import FixedTargets, closest_approach
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -54,15 +54,6 @@ def _fleet(kind: str, homes: list, failsafe: bool = True, **options) -> tuple[li
 
 
 
-def _wait(condition, timeout_s: float) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.05)
-    return condition()
-
-
 def _in_rtl(vehicle) -> bool:
     return (px4_mode(vehicle.custom_mode) == PX4_RTL if isinstance(vehicle, Px4Copter)
             else vehicle.custom_mode == 6)
@@ -90,7 +81,7 @@ def test_crossing_targets_keep_the_minimum_from_take_off_to_landing(tmp_path, ki
         "guard": {"accel_m_s2": 10.0}})  # the swift peers brake at 10 m/s^2 and report it
     try:
         result = fly(config, tmp_path / "out", planner=FixedTargets(targets))
-        assert _wait(lambda: not any(v.armed for v in vehicles), 60.0)  # both home and landed
+        assert wait_until(lambda: not any(v.armed for v in vehicles), 60.0)  # both home and landed
         approach = closest_approach(vehicles)
     finally:
         close_all(vehicles)
@@ -142,7 +133,7 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
             return all(v.armed and v.enu[2] > 9.0 and v.reposition_target is not None and mode == want
                        for v, mode, want in zip(vehicles, modes, guided, strict=True))
 
-        flew = _wait(lambda: flying() or process.poll() is not None, 180.0) and process.poll() is None
+        flew = wait_until(lambda: flying() or process.poll() is not None, 180.0) and process.poll() is None
         said = process.communicate(timeout=10)[1][-2000:] if process.poll() is not None else "not flying"
         assert flew, said
         time.sleep(2.0)  # in flight, targets being flown
@@ -151,8 +142,8 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
         process.wait(timeout=10)
         timeout_param = "COM_DL_LOSS_T" if kind == "px4" else "FS_GCS_TIMEOUT"
         timeouts_s = [v.param(timeout_param) for v in vehicles]
-        assert _wait(lambda: all(v.failsafes for v in vehicles), max(timeouts_s) + 10.0)
-        assert _wait(lambda: not any(v.armed for v in vehicles), 90.0)  # all home and landed
+        assert wait_until(lambda: all(v.failsafes for v in vehicles), max(timeouts_s) + 10.0)
+        assert wait_until(lambda: not any(v.armed for v in vehicles), 90.0)  # all home and landed
         approach = closest_approach(vehicles)
     finally:
         if process.poll() is None:
