@@ -60,8 +60,9 @@ def test_simulate_and_fly_refuse_before_the_planner_is_built(no_rclpy, tmp_path,
     import uav_swarm.runs.simulate
 
     built: list[str] = []
-    for module in (uav_swarm.runs.simulate, uav_swarm.runs.fly):  # the network's load, the engines' timing
-        monkeypatch.setattr(module, "make_planner", lambda kind, *a, **k: built.append(kind))
+    # the network's load, the engines' timing
+    monkeypatch.setattr(uav_swarm.runs.simulate, "make_planners", lambda kinds, *a, **k: built.extend(kinds))
+    monkeypatch.setattr(uav_swarm.runs.fly, "make_planner", lambda kind, *a, **k: built.append(kind))
     assert main(["simulate", "--ros2", "--out", str(tmp_path / "sim"), "--quiet"]) == 2
     bridge = tmp_path / "bridge.toml"
     bridge.write_text('[[vehicles]]\nsystem_id = 1\nurl = "udpout:127.0.0.1:9"\n')

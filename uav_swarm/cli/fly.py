@@ -137,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         f"the vehicles of {args.bridge_config or 'the bridge config of --config'}")
     wait = f"{args.wait_ready_s:g} s" if args.wait_ready_s is not None else "60 s by default"
     print(f"uav-swarm fly: loading the planner, then flying {fleet} (waiting up to --wait-ready-s, {wait}, "
-          f"for each); outputs into {args.out}; Ctrl-C ends the flight safely", file=sys.stderr, flush=True)
+          f"for each); outputs into {args.out}; Ctrl-C ends the flight safely", flush=True)
     from typed_config import ConfigError
     from uav_swarm.runs.fly_config import load_fly_config
     from uav_swarm.runs.outputs.live_view import live_view_option

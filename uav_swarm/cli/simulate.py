@@ -273,7 +273,7 @@ def run(args: argparse.Namespace) -> int:
         live = live_view_option(args.live, args.live_wait_s, args.speedup)
         config = telemetry_endpoint(load_simulate_config(args.config, _overrides(args)), args.config)
         print(f"uav-swarm simulate: loading the planners, then flying {config.duration_s:g} s of crowd time "
-              f"(minutes) into {args.out}; Ctrl-C keeps the part flown", file=sys.stderr, flush=True)
+              f"(minutes) into {args.out}; Ctrl-C keeps the part flown", flush=True)
         from uav_swarm.runs.simulate import simulate
 
         result = simulate(config, args.out, progress=not args.quiet, record=args.record, live=live)

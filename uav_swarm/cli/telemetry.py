@@ -122,10 +122,6 @@ def run(args: argparse.Namespace) -> int:
     bound = " or ".join(filter(None, (args.duration_s and f"for {args.duration_s:g} s",
                                       args.count and f"until {args.count} messages"))) or "until Ctrl-C"
     where = ", ".join(config.connect or config.listen)
-    print(f"uav-swarm telemetry {args.action}: listening for swarm {config.swarm!r} on {where} (Zenoh) "
-          f"{bound}; nothing shows until a run publishes: start uav-swarm simulate or uav-swarm fly (another "
-          "terminal)",
-          file=sys.stderr, flush=True)
     with ExitStack() as stack:
         try:
             ros = _ros_node(args, config.swarm, stack) if args.action == "ros2" else None
@@ -133,6 +129,9 @@ def run(args: argparse.Namespace) -> int:
         except (TelemetryConnectionError, ConfigError) as exc:
             print(f"uav-swarm telemetry: {exc}", file=sys.stderr)
             return 2
+        print(f"uav-swarm telemetry {args.action}: listening for swarm {config.swarm!r} on {where} (Zenoh) "
+              f"{bound}; nothing shows until a run publishes: start uav-swarm simulate or uav-swarm fly "
+              "(another terminal)", file=sys.stderr, flush=True)
         if ros is not None:
             count = _republish(subscriber, ros, args)
             print(f"republished {count} messages on ROS 2 under {ros.namespace}", file=sys.stderr)
