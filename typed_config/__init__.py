@@ -7,7 +7,9 @@ Every concern (radio, crowd, environment, task, bridge, ...) declares one frozen
 dataclass deriving from :class:`Config`, next to its code. Fields declare their
 allowed range with :func:`param`; construction validates types and ranges, and
 loading from a mapping rejects unknown keys. Errors are :class:`ConfigError`
-with a message naming the field and the allowed range.
+with a message naming the field and the allowed range; an unknown key at any depth
+(:class:`UnknownKeyError`) is named by its full dotted key (``task.radio.ieee80211.chanels``),
+with the closest valid key and the keys its table allows.
 
 Examples:
     >>> from dataclasses import dataclass
@@ -19,7 +21,7 @@ Examples:
     >>> Radio.from_dict({"rang_m": 25})  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    typed_config.ConfigError: Radio: unknown key(s) ['rang_m'] (did you mean 'range_m'?); allowed keys ...
+    typed_config.UnknownKeyError: Radio: unknown key(s) ['rang_m'] (did you mean 'range_m'?); allowed keys ...
     >>> Radio.from_dict({"range_m": -1})
     Traceback (most recent call last):
     ...
@@ -35,17 +37,114 @@ import difflib
 import tomllib
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
 
-__all__ = ["Config", "ConfigError", "param", "load_toml", "load_with_overrides", "read_toml"]
+__all__ = ["Config", "ConfigError", "UnknownKeyError", "param", "load_toml", "load_with_overrides",
+           "read_toml", "unknown_keys_text"]
 
 C = TypeVar("C", bound="Config")
 
 
 class ConfigError(ValueError):
     """A configuration value is unknown, of the wrong type, or out of range."""
+
+
+class UnknownKeyError(ConfigError):
+    """Unknown keys in one table of a config, named from the outermost table that was read.
+
+    Attributes:
+        table_cls: The config class of the table that holds the unknown keys.
+        unknown: The unknown keys, sorted.
+        table: The path of that table from the root (``("task", "radio")``; ``"[0]"`` for a list item).
+        root_cls: The config class read at the root.
+        where: What the root is called: its class name, ``"[section]"`` (a TOML table) or another label.
+        file: The file read at the root, named in front of the message (no class name then), or None.
+    """
+
+    def __init__(self, table_cls: type[Config], unknown: list[str], table: tuple[str, ...],
+                 root_cls: type[Config], where: str, file: str | Path | None = None) -> None:
+        self.table_cls, self.unknown, self.table = table_cls, unknown, table
+        self.root_cls, self.where, self.file = root_cls, where, file
+        super().__init__(self._message())
+
+    def rooted(self, root_cls: type[Config], where: str, inside: tuple[str, ...] = (),
+               file: str | Path | None = None) -> UnknownKeyError:
+        """The same keys named from a table further out (``inside``: the path from there to the old root)."""
+        return UnknownKeyError(self.table_cls, self.unknown, inside + self.table, root_cls, where, file)
+
+    def _message(self) -> str:
+        section = self.where[1:-1] if self.where.startswith("[") and self.where.endswith("]") else None
+        at_class = self.where == self.root_cls.__name__
+        prefix: tuple[str, ...] = () if at_class else (section or self.where,)
+        label = f"{self.file}: " if self.file is not None else (f"{self.where}: " if at_class else "")
+        allowed = _field_names(self.table_cls)
+        close = {key: _dotted(prefix + match) for key in self.unknown
+                 if (match := self._closest(key, allowed)) is not None}
+        return label + unknown_keys_text(_dotted(prefix + self.table), self.unknown, allowed, close)
+
+    def _closest(self, key: str, allowed: list[str]) -> tuple[str, ...] | None:
+        """The closest key of the same table, else of any table under the root (a key in the wrong table)."""
+        if match := difflib.get_close_matches(key, allowed, n=1):
+            return self.table + (match[0],)
+        everywhere = {_dotted(path): path for path in _key_paths(self.root_cls)}
+        scored = sorted((difflib.SequenceMatcher(None, key, path[-1]).ratio(), dotted)
+                        for dotted, path in everywhere.items())
+        best = [dotted for ratio, dotted in scored if ratio >= 0.8]
+        return everywhere[best[-1]] if best else None
+
+
+def unknown_keys_text(table: str, unknown: Sequence[str], allowed: Sequence[str],
+                      close: Mapping[str, str] | None = None) -> str:
+    """One line naming unknown keys by their full dotted key, the closest valid keys and the table's keys.
+
+    Args:
+        table: The dotted key of the table that holds them (``""``: the top level of the file).
+        unknown: The unknown keys of that table.
+        allowed: The keys that table takes.
+        close: The closest valid key (full dotted key) of each unknown key; default: the closest allowed one.
+
+    Examples:
+        >>> print(unknown_keys_text("task.radio", ["chanels"], ["channels", "environment"]))
+        ... # doctest: +NORMALIZE_WHITESPACE
+        unknown key(s) ['task.radio.chanels'] (did you mean 'task.radio.channels'?);
+        allowed keys in [task.radio] are ['channels', 'environment']
+    """
+    def full(key: str) -> str:
+        return _dotted((table, key)) if table else key
+
+    unknown = sorted(unknown)
+    if close is None:
+        close = {key: full(match[0]) for key in unknown
+                 if (match := difflib.get_close_matches(key, allowed, n=1))}
+    hints = [repr(close[key]) if len(unknown) == 1 else f"{close[key]!r} for {full(key)!r}"
+             for key in unknown if key in close]
+    hint = f" (did you mean {', '.join(hints)}?)" if hints else ""
+    where = f" in [{table}]" if table else ""
+    return f"unknown key(s) {[full(key) for key in unknown]}{hint}; allowed keys{where} are {sorted(allowed)}"
+
+
+def _field_names(cls: type[Config]) -> list[str]:
+    return [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+
+
+def _dotted(path: tuple[str, ...]) -> str:
+    """``("groups", "[0]", "size")`` as ``groups[0].size``."""
+    return "".join(part if part.startswith("[") else f".{part}" for part in path if part).lstrip(".")
+
+
+def _key_paths(cls: type[Config], inside: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
+    """Every key a config class takes, tables included, as paths from it (tables of one config class only)."""
+    paths = []
+    hints = get_type_hints(cls)
+    for name in _field_names(cls):
+        paths.append(inside + (name,))
+        tables = [tp for tp in (hints[name], *get_args(hints[name]))
+                  if isinstance(tp, type) and issubclass(tp, Config)]
+        for table in tables[:1]:
+            paths.extend(_key_paths(table, inside + (name,)))
+    return paths
 
 
 def param(
@@ -98,15 +197,17 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
         options = get_args(tp)
         if value is None and type(None) in options:
             return None
-        errors = []
+        errors: list[ConfigError] = []
         for option in options:
             if option is type(None):
                 continue
             try:
                 return _coerce(value, option, where)
             except ConfigError as exc:
-                errors.append(str(exc))
-        raise ConfigError(errors[0] if len(errors) == 1 else f"{where} = {value!r}: {'; '.join(errors)}")
+                errors.append(exc)
+        if len(errors) == 1:
+            raise errors[0]
+        raise ConfigError(f"{where} = {value!r}: {'; '.join(map(str, errors))}")
     if origin is Literal:
         allowed = get_args(tp)
         if value not in allowed:
@@ -117,10 +218,16 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
             raise ConfigError(f"{where} = {value!r} must be a list")
         args = get_args(tp)
         if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_coerce(v, args[0], f"{where}[{i}]") for i, v in enumerate(value))
-        if len(args) != len(value):
+            args = (args[0],) * len(value)
+        elif len(args) != len(value):
             raise ConfigError(f"{where} = {value!r} must have exactly {len(args)} items")
-        return tuple(_coerce(v, a, f"{where}[{i}]") for i, (v, a) in enumerate(zip(value, args, strict=True)))
+        items = []
+        for i, (v, a) in enumerate(zip(value, args, strict=True)):
+            try:
+                items.append(_coerce(v, a, f"{where}[{i}]"))
+            except UnknownKeyError as exc:
+                raise exc.rooted(exc.root_cls, exc.where, (f"[{i}]",)) from None
+        return tuple(items)
     if isinstance(tp, type) and issubclass(tp, Config):
         if isinstance(value, tp):
             return value
@@ -158,7 +265,10 @@ class Config:
         name = type(self).__name__
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
             where = f"{name}.{f.name}"
-            value = _coerce(getattr(self, f.name), hints[f.name], where)
+            try:
+                value = _coerce(getattr(self, f.name), hints[f.name], where)
+            except UnknownKeyError as exc:  # a table of this field: named from here
+                raise exc.rooted(type(self), name, (f.name,)) from None
             object.__setattr__(self, f.name, value)
             if isinstance(value, (int, float)) and not isinstance(value, bool):
                 if value != value:  # NaN
@@ -180,17 +290,13 @@ class Config:
             where: Prefix for error messages (defaults to the class name).
         """
         where = where or cls.__name__
-        known = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
-        unknown = sorted(set(data) - known)
+        unknown = sorted(set(data) - set(_field_names(cls)))
         if unknown:
-            close = {key: match[0] for key in unknown
-                     if (match := difflib.get_close_matches(key, known, n=1))}
-            hints = [repr(match) if len(unknown) == 1 else f"{match!r} for {key!r}"
-                     for key, match in close.items()]
-            hint = f" (did you mean {', '.join(hints)}?)" if hints else ""
-            raise ConfigError(f"{where}: unknown key(s) {unknown}{hint}; allowed keys are {sorted(known)}")
+            raise UnknownKeyError(cls, unknown, (), cls, where)
         try:
             return cls(**dict(data))
+        except UnknownKeyError as exc:  # in a table: its full key, from this root
+            raise exc.rooted(cls, where) from None
         except ConfigError as exc:
             message = str(exc)
             if where != cls.__name__ and message.startswith(cls.__name__ + "."):
@@ -260,6 +366,8 @@ def load_toml(cls: type[C], path: str | Path, *, section: str | None = None) -> 
         where = f"[{section}]"
     try:
         return cls.from_dict(data, where=where)
+    except UnknownKeyError as exc:
+        raise exc.rooted(exc.root_cls, exc.where, file=path) from None
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
 
@@ -281,5 +389,7 @@ def load_with_overrides(
         data[key] = {**data[key], **value} if nested else value
     try:
         return cls.from_dict(data)
+    except UnknownKeyError as exc:
+        raise (exc.rooted(exc.root_cls, exc.where, file=path) if path is not None else exc) from None
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}" if path is not None else str(exc)) from None

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -138,3 +139,48 @@ def test_a_mission_file_that_is_no_plan_names_the_file(tmp_path, monkeypatch, ca
     assert main(["mission", "export", "--config", BRIDGE, "--plans", str(plans), "--out", "out"]) == 2
     assert f"--plans {plans}: vehicle 1" in capsys.readouterr().err
     assert sorted(os.listdir(tmp_path)) == ["plans.json"]
+
+
+def _with_typo(shipped: str, table: str, line: str) -> str:
+    """A shipped config with one more line at the start of one of its tables (its header may be commented)."""
+    text = (ROOT / shipped).read_text(encoding="utf-8")
+    header = re.compile(rf"^{re.escape(table)}[ \t]*(#.*)?$", re.MULTILINE)
+    assert header.search(text), f"{shipped} has no {table}"
+    return header.sub(lambda found: f"{found[0]}\n{line}", text, count=1)
+
+
+SIMULATE = "configs/simulate/wifi-s2-80211.toml"
+# (argv before --config FILE, the file's text, the full key named, the key suggested, the table's own keys)
+TYPOS = [
+    (["simulate", "--out", "out"], _with_typo(SIMULATE, "[task.radio.ieee80211]", "chanels = [36]"),
+     "task.radio.ieee80211.chanels", "task.radio.ieee80211.channels", "in [task.radio.ieee80211]"),
+    (["simulate", "--out", "out"], _with_typo(SIMULATE, "[task]", "duraton_s = 3"),  # in the wrong table
+     "task.duraton_s", "duration_s", "in [task]"),
+    (["simulate", "--out", "out"], "duraton_s = 3\n", "duraton_s", "duration_s", "are ['bridge_config'"),
+    (["fly", "--bridge-config", BRIDGE, "--out", "out"], "[flight]\nend_actoin = 'land'\n",
+     "flight.end_actoin", "flight.end_action", "in [flight]"),
+    (["telemetry", "watch"], "[telemetry]\nscouting = true\n", "telemetry.scouting",
+     "telemetry.multicast_scouting", "in [telemetry]"),
+    (["evaluate", "--task", "wifi-s1", "--checkpoint", S1, *GEN], "[task.radio]\nprpagation = 'paper'\n",
+     "task.radio.prpagation", "task.radio.propagation", "in [task.radio]"),
+    (["mission", "export", "--target", "1:4,2", "--out", "out"],
+     _with_typo("configs/bridge/px4_sitl_10.toml", "[geofence]", "alt_max = 50"), "geofence.alt_max",
+     "geofence.alt_max_m", "in [geofence]"),
+]
+
+@pytest.mark.parametrize(("argv", "text", "key", "suggestion", "table"), TYPOS,
+                         ids=[f"{argv[0]} {key}" for argv, _, key, _, _ in TYPOS])
+def test_a_mistyped_config_key_at_any_depth_is_named_by_its_full_key(argv, text, key, suggestion, table,
+                                                                      tmp_path, monkeypatch, capsys):
+    config = tmp_path / "config" / "mine.toml"
+    config.parent.mkdir()
+    config.write_text(text, encoding="utf-8")
+    (tmp_path / "run").mkdir()
+    monkeypatch.chdir(tmp_path / "run")
+    assert main([*argv, "--config", str(config)]) == 2
+    captured = capsys.readouterr()
+    (line,) = captured.err.strip().splitlines()
+    assert line.startswith(f"uav-swarm {argv[0]}") and f" {config}: " in line, line
+    assert f"unknown key(s) [{key!r}] (did you mean {suggestion!r}?); allowed keys {table}" in line, line
+    assert "Config" not in line, line  # the file's keys, not the classes that read them
+    assert os.listdir(tmp_path / "run") == [], "something was written"

@@ -40,7 +40,7 @@ def test_the_users_values_apply_over_the_point_and_the_source_names_them():
 
 
 @pytest.mark.parametrize(("table", "match"), [
-    ({"threshold": 0.2}, r"\[peaks\].*unknown key.*threshold"),
+    ({"threshold": 0.2}, r"unknown key\(s\) \['peaks\.threshold'\] \(did you mean 'peaks\.threshold_rel'"),
     ({"min_distance_px": 0}, r"\[peaks\].*min_distance_px = 0 is out of range"),
     ({"threshold_rel": 2.0}, r"\[peaks\].*threshold_rel = 2.0 is out of range"),
 ])

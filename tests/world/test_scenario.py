@@ -182,13 +182,13 @@ def test_toml_round_values(tmp_path):
 @pytest.mark.parametrize(
     "old, new, pattern",
     [
-        ("size = 7", "sise = 7", r"groups\[0\].*unknown key.*sise"),
+        ("size = 7", "sise = 7", r"\['groups\[0\]\.sise'\] \(did you mean 'groups\[0\]\.size'"),
         ("size = 7", "size = 0", r"groups\[0\]\.size"),
         ('name = "b"\n', "", r"waypoints\[1\].*missing.*name"),
         ("radius_m = 2.0\n\n[[groups]]", "radius_m = -1.0\n\n[[groups]]", r"waypoints\[1\]\.radius_m"),
         ('route = ["a", "b"]', 'route = ["a", "c"]', r"groups\[0\]\.route.*'c'"),
         ("x_m = 30.0", "x_m = 49.0", r"groups\[0\] spawn rectangle"),
-        ("width_m = 50.0", "width = 50.0", r"unknown key.*width"),
+        ("width_m = 50.0", "width = 50.0", r"unknown key\(s\) \['width'\] \(did you mean 'width_m'"),
         ("obstacles = [[10, 0, 10, 20]]", "obstacles = [[10, 0, 10]]", "obstacles"),
         ("height_m = 40", "height_m = [", "invalid TOML"),
     ],

@@ -102,6 +102,7 @@ def _toml_table(path: Path, section: str) -> dict[str, Any]:
 def _config(args: argparse.Namespace) -> Any:
     """The subscriber's TelemetryConfig: watcher defaults, then the keys the TOML table sets, then flags."""
     from bridge.telemetry.config import DEFAULT_ENDPOINT, TelemetryConfig
+    from typed_config import UnknownKeyError
 
     data: dict[str, Any] = {"listen": [], "connect": [DEFAULT_ENDPOINT]}
     if args.config is not None:
@@ -109,7 +110,10 @@ def _config(args: argparse.Namespace) -> Any:
     flags = {"swarm": args.swarm, "mode": args.mode, "connect": args.connect, "listen": args.listen,
              "multicast_scouting": args.multicast_scouting or None}
     data.update({key: value for key, value in flags.items() if value is not None})
-    return TelemetryConfig.from_dict(data)
+    try:
+        return TelemetryConfig.from_dict(data)
+    except UnknownKeyError as exc:  # only the file's table has keys of its own
+        raise exc.rooted(exc.root_cls, "[telemetry]", file=args.config) from None
 
 
 def run(args: argparse.Namespace) -> int:

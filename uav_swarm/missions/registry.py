@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from learning.task import PlacementCheck, Refiner, Task
-from typed_config import Config, ConfigError, read_toml
+from typed_config import Config, ConfigError, read_toml, unknown_keys_text
 
 if TYPE_CHECKING:  # torch-importing modules are loaded only by load_settings
     from learning.model import ModelConfig
@@ -185,7 +185,7 @@ def _read_tables(config_path: str | Path | None) -> dict[str, Any]:
     data = read_toml(path)
     unknown = sorted(set(data) - set(_SECTIONS))
     if unknown:
-        raise ConfigError(f"{path}: unknown table(s) {unknown}; allowed tables are {list(_SECTIONS)}")
+        raise ConfigError(f"{path}: {unknown_keys_text('', unknown, list(_SECTIONS))}")
     return data
 
 

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from typed_config import Config, ConfigError
+from typed_config import Config, ConfigError, unknown_keys_text
 from uav_swarm.world.scenario import AgentGroup, Scenario, ScenarioError, Waypoint
 
 __all__ = ["load_scenario"]
@@ -52,11 +52,10 @@ def _tables(cls: type[Config], data: dict[str, Any], key: str, path: Path) -> tu
     for i, item in enumerate(items):
         missing = [name for name in required if name not in item]
         unknown = sorted(set(item) - set(required))
-        if missing or unknown:
-            problems = ([f"unknown key(s) {unknown}"] if unknown else []) + (
-                [f"missing key(s) {missing}"] if missing else []
-            )
-            raise ScenarioError(f"{path}: {key}[{i}]: {'; '.join(problems)}; the keys are {required}")
+        if unknown:
+            raise ScenarioError(f"{path}: {unknown_keys_text(f'{key}[{i}]', unknown, required)}")
+        if missing:
+            raise ScenarioError(f"{path}: {key}[{i}]: missing key(s) {missing}; the keys are {required}")
         try:
             parsed.append(cls.from_dict(item, where=f"{key}[{i}]"))
         except ConfigError as exc:
@@ -86,7 +85,7 @@ def load_scenario(path: str | Path) -> Scenario:
     allowed = {"width_m", "height_m", "obstacles", "waypoints", "groups"}
     unknown = sorted(set(data) - allowed)
     if unknown:
-        raise ScenarioError(f"{path}: unknown key(s) {unknown}; allowed keys are {sorted(allowed)}")
+        raise ScenarioError(f"{path}: {unknown_keys_text('', unknown, sorted(allowed))}")
     missing = sorted({"width_m", "height_m"} - set(data))
     if missing:
         raise ScenarioError(f"{path}: missing key(s) {missing}")
