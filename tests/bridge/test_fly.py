@@ -283,7 +283,7 @@ def test_bad_configuration_exits_2_before_anything_is_sent(tmp_path, capsys):
         err = capsys.readouterr().err
         assert "the crowd area's corner" in err and "GeofenceError" not in err
         assert main(["fly", "--out", str(tmp_path / "out")]) == 2
-        assert "bridge_config is empty" in capsys.readouterr().err
+        assert "no vehicles to fly" in capsys.readouterr().err
         assert main(["fly", "--bridge-config", str(toml), "--speedup", "0", "--no-telemetry"]) == 2
         assert "speedup" in capsys.readouterr().err
         assert main(["fly", "--bridge-config", str(toml), "--wait-ready-s", "0", "--no-telemetry"]) == 2

@@ -152,3 +152,22 @@ def test_fly_with_its_live_view_port_taken_sends_nothing_to_a_vehicle(tmp_path, 
             vehicle.recv(1024)
     assert "the live view cannot listen there" in capsys.readouterr().err.strip().splitlines()[-1]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("config", [None, "n_uavs = 2\n"], ids=["no-arguments", "config-without-vehicles"])
+def test_fly_naming_no_vehicles_is_refused_in_one_line_naming_what_to_start(config, tmp_path, monkeypatch,
+                                                                            capsys):
+    """A usage error: no line about waiting first, one line that names --simulated and uav-swarm vehicles."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["fly"]
+    if config is not None:
+        (tmp_path / "fly.toml").write_text(config)
+        argv += ["--config", "fly.toml"]
+    assert main(argv) == 2
+    printed = capsys.readouterr()
+    assert printed.out == ""  # no "loading the planner ... waiting up to" line
+    (line,) = printed.err.strip().splitlines()
+    assert line.startswith("uav-swarm fly: no vehicles to fly"), line
+    assert "--simulated ardupilot|px4" in line and "uav-swarm vehicles --autopilot ardupilot" in line, line
+    assert "out/vehicles/bridge.toml" in line and ("fly.toml sets no bridge_config" in line) == bool(config)
+    assert sorted(p.name for p in tmp_path.iterdir()) == (["fly.toml"] if config else [])

@@ -131,8 +131,35 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
     return overrides
 
 
+NO_VEHICLES = ("no vehicles to fly{why}: give --simulated ardupilot|px4 to fly a fleet started here, or "
+               "--bridge-config FILE for vehicles already running (SITL, real autopilots, or uav-swarm "
+               "vehicles --autopilot ardupilot --out out/vehicles in another terminal, which writes "
+               "out/vehicles/bridge.toml)")
+"""The refusal of a flight that names no vehicles, ``why`` filled in."""
+
+
+def _no_vehicles(args: argparse.Namespace) -> str | None:
+    """The refusal when neither the flags nor --config name vehicles (read before any heavy import)."""
+    if args.simulated or args.bridge_config:
+        return None
+    if args.config is None:
+        return NO_VEHICLES.format(why="")
+    from typed_config import ConfigError, read_toml
+
+    try:
+        if read_toml(args.config).get("bridge_config"):
+            return None
+    except ConfigError as exc:
+        return str(exc)
+    return NO_VEHICLES.format(why=f" ({args.config} sets no bridge_config)")
+
+
 def run(args: argparse.Namespace) -> int:
     """Validate (and start the simulated fleet), then fly."""
+    refusal = _no_vehicles(args)
+    if refusal is not None:  # a usage error: before the first line, in one line
+        print(f"uav-swarm fly: {refusal}", file=sys.stderr)
+        return 2
     fleet = f"a simulated {args.simulated} fleet started here" if args.simulated else (
         f"the vehicles of {args.bridge_config or 'the bridge config of --config'}")
     wait = f"{args.wait_ready_s:g} s" if args.wait_ready_s is not None else "60 s by default"
