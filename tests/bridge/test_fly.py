@@ -6,11 +6,13 @@ telemetry goes through a real Zenoh session to a subscriber connected over ``tcp
 
 from __future__ import annotations
 
+import base64
 import json
 import logging
 import threading
 import time
 
+import numpy as np
 import pytest
 from lossy_relay import free_tcp_port, free_udp_port
 from peer_fleet import bridge_toml, close_all, swift
@@ -384,6 +386,22 @@ def test_a_recorded_flight_reads_back_equal_to_its_track_and_qos(tmp_path, capsy
     for topic, name in schemas.items():  # Foxglove's types as Foxglove publishes them
         if name.startswith("foxglove."):
             assert all(conform(message, name) == [] for _, message in topics[topic]), topic
+    # the 802.11 radio (fly's default), as simulate records it: each UAV's channel and whom it serves
+    usable = RadioConfig(propagation="802.11").ieee80211.usable_channels
+    channel_of = {(ns, s["uav_id"]): s.get("wifi_channel") for u in (0, 1)
+                  for ns, s in topics[f"/uav/{u}/state"]}
+    assert set(channel_of.values()) <= set(usable)  # every state has its channel
+    clouds = dict(topics["/pedestrians"])
+    for ns, update in topics["/scene"][1:]:
+        entities = {e["id"]: e for e in update["entities"]}
+        assert entities["coverage"].get("cylinders", []) == []  # no disc under 802.11
+        assert [f["name"] for f in clouds[ns]["fields"]] == ["x", "y", "z", "covered", "uav"]
+        points = np.frombuffer(base64.b64decode(clouds[ns]["data"]), "<f4").reshape(-1, 5)
+        uav = points[:, 4]
+        assert ((uav >= 0) == (points[:, 3] == 1)).all()  # a covered user is served by a UAV, named
+        labels = [t["text"] for t in entities["channels"]["texts"]]
+        assert labels == [f"UAV {u}, ch {channel_of[(ns, u)]}, {int((uav == u).sum())} users" for u in (0, 1)]
+        assert len(entities["service"].get("lines", [])) == len({int(u) for u in uav} - {-1})
 
 
 def test_the_802_11_radio_judges_a_flight_at_the_vehicles_heights_on_planned_channels(tmp_path):

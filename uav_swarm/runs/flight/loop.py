@@ -26,6 +26,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING, Any
 
+import msgspec
 import numpy as np
 
 from uav_swarm.planning.planner import Planner
@@ -143,10 +144,14 @@ class Flight(FlightEnd):
 
             pairs = None if channels is None or heights is None else \
                 int(sharing_pairs(uavs, channels, radio, heights).sum())
+            # 802.11: each UAV's channel, airtime and stations; the users' median SINR, co-channel pairs
+            wifi_uavs, wifi_qos = telemetry_fields(cov, pairs)
             qos = Qos(stamp_s=time.time(), seq=seq, source="vehicle", qos_s1=rows[-1][0], qos_s2=rows[-1][1],
-                      mean_throughput_mbps=rows[-1][2], n_users=int(users.shape[0]),
-                      **telemetry_fields(cov, pairs)[1])  # 802.11: median SINR, co-channel pairs
-            self._record_step(qos, users, cov.covered, seq)
+                      mean_throughput_mbps=rows[-1][2], n_users=int(users.shape[0]), **wifi_qos)
+            rows_ids = np.asarray(ids, np.int64)  # the association's rows are the live vehicles': their ids
+            served_by = np.where(cov.association >= 0, rows_ids[np.maximum(cov.association, 0)], -1) \
+                if len(ids) else np.full(len(cov.association), -1)
+            self._record_step(qos, users, cov, seq, dict(zip(ids, wifi_uavs, strict=True)), served_by)
         for vehicle in self.vehicles:
             state = self._state(vehicle)
             if state is None or state.x_m is None:
@@ -157,14 +162,22 @@ class Flight(FlightEnd):
                           "target_x_m": target[0], "target_y_m": target[1], "target_z_m": target[2],
                           "wifi_channel": self._channels.get(vehicle.uav_id)})
 
-    def _record_step(self, qos: Any, users: np.ndarray, covered: np.ndarray, seq: int) -> None:
-        """Record each heard vehicle's state (with or without a position fix), the scene and the QoS."""
+    def _record_step(self, qos: Any, users: np.ndarray, cov: Any, seq: int, wifi: dict[int, dict[str, Any]],
+                     served_by: np.ndarray) -> None:
+        """Record each heard vehicle's state (with or without a position fix), the scene and the QoS.
+
+        ``wifi``: the 802.11 fields of each live vehicle's state by UAV id (its channel, airtime and
+        stations; empty under the paper's radio); ``served_by``: each user's UAV id (-1: none). With them
+        the recording and ROS 2 show each UAV's channel and whom it serves, as ``simulate``'s do.
+        """
         from bridge.telemetry.schema import state_from_vehicle
 
         heard = [(v, self._state(v)) for v in self.vehicles]
         states = [state_from_vehicle(state, seq, uav_id=v.uav_id, target_enu_m=v.target_m)
                   for v, state in heard if state is not None]
-        self.outputs.step(self._clock_s, [s for s in states if s is not None], qos, users, covered)
+        states = [msgspec.structs.replace(s, **wifi.get(s.uav_id, {})) for s in states if s is not None]
+        self.outputs.step(self._clock_s, states, qos, users, cov.covered, association=served_by,
+                          throughput_mbps=cov.throughput_mbps)
 
     def _loop(self) -> tuple[QosTrace, list[dict[str, Any]]]:
         cfg = self.config

@@ -51,6 +51,8 @@ from foxglove.messages import (
     Vector3,
 )
 
+from uav_swarm.runs.outputs.radio_report import Service, service_label, service_rgb
+
 __all__ = ["MAP_FRAME", "uav_frame", "stamp", "pose", "static_scene", "swarm_scene", "crowd_cloud",
            "frame_transforms", "poses_in_frame", "location_fix"]
 
@@ -58,8 +60,6 @@ MAP_FRAME = "map"
 """The run's local East-North-Up frame."""
 
 Vec3 = tuple[float, float, float]
-Service = tuple[int, int | None, np.ndarray | None]
-"""A UAV's service under the 802.11 radio: its id, its channel and the users it serves (None: unknown)."""
 
 _UAV, _TARGET = Color(r=0.10, g=0.35, b=0.85, a=1.0), Color(r=0.90, g=0.45, b=0.05, a=1.0)
 _DISC = Color(r=0.10, g=0.35, b=0.85, a=0.15)
@@ -165,10 +165,7 @@ def swarm_scene(time_s: float, placed: Sequence[tuple[Vec3, Vec3 | None]], cover
 
 def _service_colour(uav_id: int, alpha: float = 1.0) -> Color:
     """UAV ``uav_id``'s colour in the pictures of an 802.11 run."""
-    from uav_swarm.runs.outputs.radio_report import SERVICE_COLOURS
-
-    code = SERVICE_COLOURS[uav_id % len(SERVICE_COLOURS)].lstrip("#")
-    r, g, b = (int(code[i:i + 2], 16) / 255.0 for i in (0, 2, 4))
+    r, g, b = service_rgb(uav_id)
     return Color(r=r, g=g, b=b, a=alpha)
 
 
@@ -178,11 +175,9 @@ def _service(t: Timestamp, positions: Sequence[Vec3], service: Sequence[Service]
     for (x, y, z), (uav_id, channel, users_m) in zip(positions, service, strict=True):
         colour = _service_colour(uav_id)
         users = np.zeros((0, 2)) if users_m is None else np.asarray(users_m, np.float64).reshape(-1, 2)
-        on = "" if channel is None else f", ch {channel}"
-        count = "" if users_m is None else f", {len(users)} users"
         labels.append(TextPrimitive(pose=pose(x, y, z + _LABEL_ABOVE_M), billboard=True,
                                     font_size=_LABEL_SIZE_PX, scale_invariant=True, color=colour,
-                                    text=f"UAV {uav_id}{on}{count}"))
+                                    text=service_label(uav_id, channel, users_m)))
         if len(users):
             ends = [_point(x, y, z) if i % 2 == 0 else _point(users[i // 2, 0], users[i // 2, 1], 0.0)
                     for i in range(2 * len(users))]

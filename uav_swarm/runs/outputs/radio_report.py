@@ -34,6 +34,7 @@ Examples:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -45,7 +46,7 @@ from uav_swarm.world.wifi.coverage import channel_conflicts
 
 __all__ = ["MCS_BANDS", "SERVICE_CLASSES", "SERVICE_COLOURS", "RadioTrace", "RadioLog", "mcs_band_shares",
            "median_sinr_db", "service_class_shares", "sharing_pairs", "radio_summary", "radio_line",
-           "admission_line", "telemetry_fields"]
+           "admission_line", "telemetry_fields", "Service", "uav_service", "service_label", "service_rgb"]
 
 MCS_BANDS: tuple[tuple[str, int, int], ...] = (("not served", -1, -1), ("MCS 0-3", 0, 3), ("MCS 4-7", 4, 7),
                                                 ("MCS 8-11", 8, 11))
@@ -57,6 +58,52 @@ SERVICE_CLASSES: tuple[str, ...] = ("out of range", "refused", "below the rate b
 SERVICE_COLOURS: tuple[str, ...] = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
                                     "#e377c2", "#bcbd22", "#17becf", "#393b79")
 """The colour of UAV ``k`` and of the users it serves in the pictures of an 802.11 run (``k % 10``)."""
+
+Service = tuple[int, int | None, np.ndarray | None]
+"""A UAV's service under the 802.11 radio: its id, its channel and the ``(M, 2)`` users it serves (None:
+unknown)."""
+
+
+def uav_service(states: Sequence[Any], pedestrians_m: np.ndarray, covered: np.ndarray,
+                association: np.ndarray | None) -> list[Service] | None:
+    """Each UAV's channel and the users it serves, as a recording and ROS 2 draw them (``simulate``, ``fly``).
+
+    Args:
+        states: The UAVs drawn (telemetry ``UavState``; under the 802.11 radio each carries ``wifi_channel``).
+        pedestrians_m: ``(N, 2)`` the users.
+        covered: ``(N,)`` True for a user a UAV serves.
+        association: ``(N,)`` each user's UAV id (-1: none), or None when not known (no users drawn then).
+
+    Returns:
+        One :data:`Service` per state, in their order; None under the paper's radio (no state has a channel).
+
+    Examples:
+        >>> from types import SimpleNamespace as State
+        >>> users = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
+        >>> service = uav_service([State(uav_id=0, wifi_channel=36), State(uav_id=1, wifi_channel=40)],
+        ...                       users, np.array([True, True, False]), np.array([1, 1, 0]))
+        >>> [service_label(*uav) for uav in service]
+        ['UAV 0, ch 36, 0 users', 'UAV 1, ch 40, 2 users']
+    """
+    if not any(s.wifi_channel is not None for s in states):
+        return None
+    users = np.asarray(pedestrians_m, np.float64).reshape(-1, 2)
+    uav_of = None if association is None else np.where(np.asarray(covered, bool), association, -1)
+    return [(s.uav_id, s.wifi_channel, None if uav_of is None else users[uav_of == s.uav_id]) for s in states]
+
+
+def service_label(uav_id: int, channel: int | None, users_m: np.ndarray | None) -> str:
+    """A UAV's label in a recording and in ROS 2: ``UAV 3, ch 40, 52 users`` (the parts known)."""
+    on = "" if channel is None else f", ch {channel}"
+    count = "" if users_m is None else f", {len(users_m)} users"
+    return f"UAV {uav_id}{on}{count}"
+
+
+def service_rgb(uav_id: int) -> tuple[float, float, float]:
+    """UAV ``uav_id``'s colour (:data:`SERVICE_COLOURS`) as red, green and blue in [0, 1]."""
+    code = SERVICE_COLOURS[uav_id % len(SERVICE_COLOURS)].lstrip("#")
+    red, green, blue = (int(code[i:i + 2], 16) / 255.0 for i in (0, 2, 4))
+    return red, green, blue
 
 
 def mcs_band_shares(mcs: np.ndarray) -> np.ndarray:

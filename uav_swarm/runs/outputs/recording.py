@@ -75,6 +75,7 @@ from typed_config import ConfigError
 from typed_config.files import atomic_path
 from uav_swarm.runs.outputs import foxglove_scene as fox
 from uav_swarm.runs.outputs.live_view import LiveListener, LiveView
+from uav_swarm.runs.outputs.radio_report import uav_service
 
 if TYPE_CHECKING:
     from bridge.geo import Home
@@ -294,13 +295,8 @@ class RunRecorder:
                   lambda: fox.frame_transforms(time_s, {uav_id: p for uav_id, (p, _) in placed.items()}))
         drawn = [s for s in states if s.position_enu_m is not None]
         held = [bool(s.separation_held) for s in drawn]
-        service, served_by = None, None  # under the 802.11 radio: each UAV's channel and whom it serves
-        if any(s.wifi_channel is not None for s in drawn):
-            served_by = association
-            users = np.asarray(pedestrians_m)
-            uav_of = None if association is None else np.where(np.asarray(covered, bool), association, -1)
-            service = [(s.uav_id, s.wifi_channel, None if uav_of is None else users[uav_of == s.uav_id])
-                       for s in drawn]
+        service = uav_service(drawn, pedestrians_m, covered, association)  # 802.11: channel, whom it serves
+        served_by = None if service is None else association
         self._log(_SCENE, _scene_channel, time_s,
                   lambda: fox.swarm_scene(time_s, list(placed.values()), self.scene.coverage_radius_m,
                                           self.scene.min_separation_m, held, service))

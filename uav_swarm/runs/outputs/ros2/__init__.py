@@ -8,7 +8,8 @@
 Only ``messages`` and ``node`` import ``rclpy`` (the ``ros2`` extra); they are imported when a run asks.
 
 May import: ``typed_config``, ``bridge``, ``uav_swarm.world``, ``uav_swarm.missions``,
-``uav_swarm.runs.steering``.
+``uav_swarm.runs.steering``, ``uav_swarm.runs.outputs.radio_report`` (each UAV's channel, users and colour,
+drawn as a recording draws them).
 """
 
 from __future__ import annotations

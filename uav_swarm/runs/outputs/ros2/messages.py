@@ -27,6 +27,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from bridge.telemetry.schema import Plan, Qos
+from uav_swarm.runs.outputs.radio_report import Service, service_label, service_rgb
 
 __all__ = ["MAP_FRAME", "stamp", "pose_stamped", "nav_sat_fix", "swarm_poses", "plan_poses", "plan_info",
            "qos_status", "radio_per_uav", "operator_status", "static_scene", "swarm_markers", "crowd_cloud",
@@ -44,6 +45,7 @@ _CROWD_FIELDS = [PointField(name=name, offset=4 * i, datatype=PointField.FLOAT32
                  for i, name in enumerate(("x", "y", "z", "served"))]
 _OUTLINE = ColorRGBA(r=0.2, g=0.2, b=0.2, a=1.0)
 _OBSTACLE = ColorRGBA(r=0.8, g=0.1, b=0.1, a=1.0)
+_LABEL_M, _LABEL_ABOVE_M = 2.0, 4.0  # the height of a UAV's text and how far above the UAV it stands
 
 
 def uav_frame(uav_id: int) -> str:
@@ -181,21 +183,46 @@ def crowd_cloud(at: Time, pedestrians_m: np.ndarray, covered: np.ndarray) -> Poi
                        is_dense=True)
 
 
-def swarm_markers(at: Time, uavs_m: dict[int, Vec3], coverage_radius_m: float, min_separation_m: float
-                  ) -> MarkerArray:
+def _service_colour(uav_id: int, alpha: float = 1.0) -> ColorRGBA:
+    r, g, b = service_rgb(uav_id)
+    return ColorRGBA(r=r, g=g, b=b, a=alpha)
+
+
+def swarm_markers(at: Time, uavs_m: dict[int, Vec3], coverage_radius_m: float, min_separation_m: float,
+                  service: Sequence[Service] | None = None) -> MarkerArray:
     """The swarm now: a ``DELETEALL``, then each UAV, its coverage and its separation circle.
 
     Namespaces: ``uavs`` (a sphere per UAV, id = UAV id), ``coverage`` (the disc a UAV serves, on the
     ground), ``separation`` (a disc of radius ``min_separation_m / 2`` at the UAV: two discs overlap when
     the pair is too close).
+
+    With ``service`` (the 802.11 radio, :func:`~uav_swarm.runs.outputs.radio_report.uav_service`) there is no
+    coverage disc: each UAV takes its colour (``SERVICE_COLOURS``), a text above it names it and its channel
+    (``channels``: ``UAV 3, ch 40, 52 users``) and a line of its colour joins it to every user it serves
+    (``service``), as in a recording.
     """
     markers = [Marker(header=_header(at), action=Marker.DELETEALL)]
     diameter_m, separation_m = 2.0 * coverage_radius_m, max(min_separation_m, 1e-3)
+    served = {uav_id: (channel, users) for uav_id, channel, users in service or ()}
     for uav_id, (x, y, z) in sorted(uavs_m.items()):
-        markers += [_marker(at, "uavs", uav_id, Marker.SPHERE, _UAV, (1.0, 1.0, 1.0), (x, y, z)),
-                    _marker(at, "coverage", uav_id, Marker.CYLINDER, _COVERAGE,
-                            (diameter_m, diameter_m, _FLAT_M), (x, y, 0.0)),
+        colour = _UAV if service is None else _service_colour(uav_id)
+        markers += [_marker(at, "uavs", uav_id, Marker.SPHERE, colour, (1.0, 1.0, 1.0), (x, y, z)),
                     _marker(at, "separation", uav_id, Marker.CYLINDER, _SEPARATION,
                             (separation_m, separation_m, _FLAT_M), (x, y, z))]
+        if service is None:
+            markers.append(_marker(at, "coverage", uav_id, Marker.CYLINDER, _COVERAGE,
+                                   (diameter_m, diameter_m, _FLAT_M), (x, y, 0.0)))
+            continue
+        channel, users = served.get(uav_id, (None, None))
+        label = _marker(at, "channels", uav_id, Marker.TEXT_VIEW_FACING, colour, (0.0, 0.0, _LABEL_M),
+                        (x, y, z + _LABEL_ABOVE_M))
+        label.text = service_label(uav_id, channel, users)
+        markers.append(label)
+        if users is not None and len(users):
+            lines = _marker(at, "service", uav_id, Marker.LINE_LIST, _service_colour(uav_id, 0.5),
+                            (0.15, 0.0, 0.0))
+            lines.points = [Point(x=float(px), y=float(py), z=float(pz)) for ux, uy in users
+                            for px, py, pz in ((x, y, z), (ux, uy, 0.0))]
+            markers.append(lines)
     return MarkerArray(markers=markers)
 

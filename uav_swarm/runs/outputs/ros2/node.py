@@ -50,6 +50,7 @@ from visualization_msgs.msg import MarkerArray
 
 import uav_swarm.runs.outputs.ros2.messages as msg
 from bridge.telemetry.schema import Plan, Qos, UavState
+from uav_swarm.runs.outputs.radio_report import uav_service
 from uav_swarm.runs.outputs.ros2.config import Ros2Config, ros2_environment
 
 if TYPE_CHECKING:
@@ -304,8 +305,11 @@ class RunNode:
             radio.publish(msg.radio_per_uav(at, users.tolist(), mbps.tolist()))
         markers, crowd = self._pub["markers"], self._pub["crowd"]
         if (self._subscribed("markers") or self._subscribed("crowd")) and self._markers_due():
-            uavs = {s.uav_id: s.position_enu_m for s in states if s.position_enu_m is not None}
-            markers.publish(msg.swarm_markers(at, uavs, self.coverage_radius_m, self.min_separation_m))
+            drawn = [s for s in states if s.position_enu_m is not None]
+            uavs = {s.uav_id: s.position_enu_m for s in drawn}
+            service = uav_service(drawn, pedestrians_m, covered, association)  # 802.11: channels, users
+            markers.publish(msg.swarm_markers(at, uavs, self.coverage_radius_m, self.min_separation_m,
+                                              service))
             crowd.publish(msg.crowd_cloud(at, pedestrians_m, covered))
 
     def _subscribed(self, topic: str) -> bool:
