@@ -173,9 +173,9 @@ class Flight(FlightEnd):
         from bridge.telemetry.schema import state_from_vehicle
 
         heard = [(v, self._state(v)) for v in self.vehicles]
-        states = [state_from_vehicle(state, seq, uav_id=v.uav_id, target_enu_m=v.target_m)
-                  for v, state in heard if state is not None]
-        states = [msgspec.structs.replace(s, **wifi.get(s.uav_id, {})) for s in states if s is not None]
+        made = [state_from_vehicle(state, seq, uav_id=v.uav_id, target_enu_m=v.target_m)
+                for v, state in heard if state is not None]
+        states = [msgspec.structs.replace(s, **wifi.get(s.uav_id, {})) for s in made if s is not None]
         self.outputs.step(self._clock_s, states, qos, users, cov.covered, association=served_by,
                           throughput_mbps=cov.throughput_mbps)
 

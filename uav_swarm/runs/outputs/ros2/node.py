@@ -306,7 +306,7 @@ class RunNode:
         markers, crowd = self._pub["markers"], self._pub["crowd"]
         if (self._subscribed("markers") or self._subscribed("crowd")) and self._markers_due():
             drawn = [s for s in states if s.position_enu_m is not None]
-            uavs = {s.uav_id: s.position_enu_m for s in drawn}
+            uavs = {s.uav_id: s.position_enu_m for s in drawn if s.position_enu_m is not None}
             service = uav_service(drawn, pedestrians_m, covered, association)  # 802.11: channels, users
             markers.publish(msg.swarm_markers(at, uavs, self.coverage_radius_m, self.min_separation_m,
                                               service))
