@@ -101,6 +101,13 @@ class PlanResult:
     option: str = "snapshot"
     engine: str | None = None
 
+    @property
+    def serving(self) -> np.ndarray:
+        """``(n,)`` True where the plan gives the UAV users: it flies to a proposal or keeps following its
+        own. The others are spares (parked or holding); under the 802.11 radio their access points stay off.
+        """
+        return (np.asarray(self.candidate_index) >= 0) | np.asarray(self.kept, dtype=bool)
+
 
 @runtime_checkable
 class Planner(Protocol):

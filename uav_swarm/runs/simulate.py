@@ -178,9 +178,11 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                     moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
                     changes.append(int(np.count_nonzero(moved)))
                 targets = result.targets_m
-                if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes
-                    channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels)
+                if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes;
+                    serving = result.serving  # a UAV the plan gives no users keeps its AP off
+                    channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels, serving)
                     env.set_channel_plan(channels)
+                    env.set_access_points(serving)
                 plans.append(targets.copy())
                 latencies.append(result.latency_ms)
                 if steering is not None:
