@@ -165,8 +165,8 @@ class Reference:
                      for n in n_all]
         for n in sorted(n_all, key=lambda n: (-strongest[n], n)):  # incumbents: in range, their rate held
             k = previous[n]
-            if k >= 0 and in_range[n][k] and self.rate_holds(k, stations[k], {s: rate[s][k] for s in stations[k]},
-                                                             rate[n][k], useful):
+            held = {s: rate[s][k] for s in stations[k]} if k >= 0 else {}
+            if k >= 0 and in_range[n][k] and self.rate_holds(k, stations[k], held, rate[n][k], useful):
                 association[n] = k
                 stations[k].append(n)
         for n in sorted(n_all, key=lambda n: (-strongest[n], n)):

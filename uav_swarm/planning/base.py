@@ -103,8 +103,9 @@ class PlanResult:
 
     @property
     def serving(self) -> np.ndarray:
-        """``(n,)`` True where the plan gives the UAV users: it flies to a proposal or keeps following its
-        own. The others are spares (parked or holding); under the 802.11 radio their access points stay off.
+        """``(n,)`` True where the plan gives the UAV users (a proposal, or its own users followed).
+
+        The others are spares (parked or holding); under the 802.11 radio their access points stay off.
         """
         return (np.asarray(self.candidate_index) >= 0) | np.asarray(self.kept, dtype=bool)
 

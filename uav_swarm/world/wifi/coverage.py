@@ -61,7 +61,8 @@ from uav_swarm.world.wifi.phy import (
 )
 from uav_swarm.world.wifi.tables import WifiTables, load_wifi_tables
 
-__all__ = ["WifiLinks", "wifi_links", "uav_channels", "uav_altitudes_m", "access_points_on", "channel_conflicts"]
+__all__ = ["WifiLinks", "wifi_links", "uav_channels", "uav_altitudes_m", "access_points_on",
+           "channel_conflicts"]
 
 _NO_SIGNAL = 1e-30
 """The linear SINR reported where a user hears no AP at all (every AP off): -300 dB."""
