@@ -107,7 +107,8 @@ def test_the_motion_planner_takes_the_decisions_of_the_per_instant_horizon(monke
 
     batched = flown()
 
-    def reference(peds, vels, uavs, options, velocities, radio, strategy, horizon_s, samples, speed, accel):
+    def reference(peds, vels, uavs, options, velocities, radio, strategy, horizon_s, samples, speed, accel,
+                  serving=None):
         uav = UAVConfig(max_speed_m_s=speed, max_accel_m_s2=accel)
         return [per_instant(peds, vels, uavs, o, v, radio, strategy, horizon_s, samples, uav)
                 for o, v in zip(options, velocities, strict=True)]

@@ -20,10 +20,10 @@ from conftest import SMALL_PAPER_TASK, SMALL_WIFI_TASK
 from typed_config import ConfigError
 from uav_swarm.cli.simulate import format_summary
 from uav_swarm.env.parallel import parallel_env
-from uav_swarm.runs.outputs.radio_report import MCS_BANDS, SERVICE_CLASSES, mcs_band_shares
+from uav_swarm.runs.outputs.radio_report import MCS_BANDS, SERVICE_CLASSES, mcs_band_shares, sharing_pairs
 from uav_swarm.runs.simulate import sequence_crowds, simulate
 from uav_swarm.runs.simulate_config import SimulateConfig
-from uav_swarm.world.comms import Association
+from uav_swarm.world.comms import Association, RadioConfig
 from uav_swarm.world.wifi.channels import plan_channels
 from uav_swarm.world.wifi.phy import ap_pair_power_dbm
 
@@ -183,9 +183,18 @@ def test_one_channel_puts_every_pair_that_hears_each_other_on_shared_airtime(tmp
     assert np.all(run.radio.channels == 36)
     wifi = result.summary["planners"]["expert"]["wifi_80211"]
     assert wifi["channels_used"] == [36] and wifi["channel_changes"] == 0
-    # 20 dBm APs 10 m up hear each other far beyond a 200 m area: every pair takes turns, every step
-    assert len(wifi["co_channel_pairs"]) == N_UAVS * (N_UAVS - 1) // 2
+    # 20 dBm APs 10 m up hear each other far beyond a 200 m area: every pair of APs on takes turns, every
+    # step; a UAV the plan gives no users keeps its AP off and shares with none
     assert all(p["seconds"] == pytest.approx(0.5) and p["channels"] == [36] for p in wifi["co_channel_pairs"])
+    rng = np.random.default_rng(0)
+    uavs = rng.uniform(0.0, 200.0, (N_UAVS, 2))
+    radio = RadioConfig.from_dict(task["radio"])
+    heights = np.full(N_UAVS, 10.0)
+    every = sharing_pairs(uavs, np.full(N_UAVS, 36), radio, heights)
+    assert int(every.sum()) == N_UAVS * (N_UAVS - 1) // 2
+    on = np.arange(N_UAVS) != 2
+    some = sharing_pairs(uavs, np.full(N_UAVS, 36), radio, heights, on)
+    assert int(some.sum()) == (N_UAVS - 1) * (N_UAVS - 2) // 2 and not some[2].any() and not some[:, 2].any()
 
 
 def test_the_paper_radio_reports_no_802_11_figures(tmp_path):

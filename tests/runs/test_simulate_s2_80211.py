@@ -57,3 +57,39 @@ def test_a_short_run_names_the_network_and_says_why_s2_is_lower(tmp_path, capsys
     line = next(row for row in printed.splitlines() if "against the 5 Mbps bar" in row)
     assert f"{shares['refused']:.0%} in range but refused on rate" in line
     assert "strategy 2 refuses users that strategy 1 would serve" in line
+
+
+class _SpareLeavingPlanner:
+    """Four UAVs: the first three fly to fixed points over the crowd, the fourth is given no users."""
+
+    name = "spare-leaving"
+    n_uavs = 4
+
+    def plan(self, pedestrians_m, uavs_m, velocities_m_s=None):
+        import numpy as np
+
+        from uav_swarm.planning.base import PlanResult
+
+        targets = np.array([[60.0, 60.0], [100.0, 100.0], [140.0, 140.0], [100.0, 40.0]])
+        return PlanResult(targets_m=targets, peaks_m=targets[:3], utility=None,
+                          candidate_index=np.array([0, 1, 2, -1]), kept=np.zeros(4, bool), latency_ms=0.0)
+
+    def reset(self):
+        pass
+
+
+def test_a_uav_the_plan_gives_no_users_keeps_its_access_point_off():
+    """The spare serves nobody and shares airtime with nobody; the UAVs that serve keep their users."""
+    import numpy as np
+
+    from uav_swarm.runs.simulate import run_sequence
+
+    config = load_simulate_config(CONFIG).replace(n_uavs=4, duration_s=3.0, gif=False,
+                                                  publish_telemetry=False, static_reference=False)
+    run = run_sequence(config, _SpareLeavingPlanner(), "expert")
+    trace = run.radio
+    assert trace is not None and trace.stations.shape[1] == 4
+    assert np.all(trace.stations[:, 3] == 0)  # off: nobody joins it
+    assert np.all(trace.airtime[:, 3] == 0.0)
+    assert not trace.sharing[:, 3, :].any() and not trace.sharing[:, :, 3].any()
+    assert trace.stations[-1, :3].sum() > 0  # the others serve

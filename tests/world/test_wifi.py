@@ -324,3 +324,28 @@ def test_tables_of_the_first_schema_are_refused_with_what_to_add(tmp_path):
     broken.write_text(re.sub(r"^cw_min = .*$", "cw_min = 0", text, count=1, flags=re.MULTILINE))
     with pytest.raises(ConfigError, match=r"\[contention\] cw_min = 0 is out of range"):
         load_wifi_tables(str(broken))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_an_access_point_that_is_off_is_as_if_its_uav_were_not_there(seed):
+    """Users, rates and the channel plan of the UAVs left on equal those of a world without the others."""
+    from uav_swarm.world.wifi.channels import plan_channels
+
+    rng = np.random.default_rng(seed)
+    radio = RadioConfig(propagation="802.11", altitude_m=10.0, min_user_rate_mbps=5.0)
+    radio = radio.replace(ieee80211=radio.ieee80211.replace(rate_admission=bool(seed % 2)))
+    users = rng.uniform(0.0, 200.0, (150, 2))
+    uavs = rng.uniform(0.0, 200.0, (1, 10, 2))
+    on = rng.random(10) < 0.6
+    on[0] = True
+    plan = plan_channels(uavs, radio, enabled=on)
+    both = plan_channels(uavs[:, on], radio)
+    np.testing.assert_array_equal(plan[:, on], both)
+    copy = np.zeros(len(users), np.int64)
+    masked = wifi_links(users, copy, uavs, radio, channels=plan, enabled=on)
+    alone = wifi_links(users, copy, uavs[:, on], radio, channels=both)
+    ids = np.flatnonzero(on)
+    assert masked.association.tolist() == [-1 if k < 0 else int(ids[k]) for k in alone.association]
+    np.testing.assert_allclose(masked.throughput_mbps, alone.throughput_mbps, rtol=1e-12)
+    assert masked.qos_s2 == alone.qos_s2 and masked.qos_s1 == alone.qos_s1
+    assert np.all(masked.users_per_uav[0][~on] == 0)

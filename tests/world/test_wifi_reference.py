@@ -140,6 +140,9 @@ class Reference:
     def admits(self, k, stations, rate_k, new_rate, airtime):
         if self.limit is not None and len(stations) >= self.limit:
             return False
+        return self.rate_holds(k, stations, rate_k, new_rate, airtime)
+
+    def rate_holds(self, k, stations, rate_k, new_rate, airtime):
         if not self.wifi.rate_admission:
             return True
         rates = [rate_k[s] for s in stations] + [new_rate]
@@ -158,13 +161,14 @@ class Reference:
         in_range = [[rate[n][k] > 0 for k in k_all] for n in n_all]
         association = [-1] * len(self.users)
         stations = {k: [] for k in k_all}
-        for n in n_all:
-            k = previous[n]
-            if k >= 0 and in_range[n][k]:
-                association[n] = k
-                stations[k].append(n)
         strongest = [max([self.p_user[n][k] for k in k_all if in_range[n][k]], default=-math.inf)
                      for n in n_all]
+        for n in sorted(n_all, key=lambda n: (-strongest[n], n)):  # incumbents: in range, their rate held
+            k = previous[n]
+            held = {s: rate[s][k] for s in stations[k]} if k >= 0 else {}
+            if k >= 0 and in_range[n][k] and self.rate_holds(k, stations[k], held, rate[n][k], useful):
+                association[n] = k
+                stations[k].append(n)
         for n in sorted(n_all, key=lambda n: (-strongest[n], n)):
             if association[n] >= 0:
                 continue

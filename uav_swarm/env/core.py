@@ -46,7 +46,7 @@ from uav_swarm.world.separation import (
 from uav_swarm.world.step_guard import guard_commands
 from uav_swarm.world.uav import fly_step, waypoint_velocity
 from uav_swarm.world.wifi.channels import plan_channels
-from uav_swarm.world.wifi.coverage import uav_channels
+from uav_swarm.world.wifi.coverage import access_points_on, uav_channels
 
 __all__ = ["SwarmCore"]
 
@@ -95,6 +95,8 @@ class SwarmCore:
         self._radio_altitudes_m = self.altitudes_m if (cfg.use_3d_distance and layered) or wifi else None
         self.channel_plan: np.ndarray | None = None
         """(B, K) each UAV's channel (802.11 model): :meth:`set_channel_plan`'s, else the environment's."""
+        self.access_points_on: np.ndarray | None = None
+        """(B, K) bool, the UAVs whose access point is on (802.11 model); None: all."""
         self._plans_channels = wifi
         """Whether the environment plans the channels itself (802.11, no plan given)."""
         self._guard_altitudes_m = self.altitudes_m if layered else None
@@ -204,6 +206,21 @@ class SwarmCore:
         if channels is not None:
             self.channel_plan = uav_channels(channels, self.num_worlds, self.config.n_uavs, self.radio).copy()
 
+    def set_access_points(self, enabled: np.ndarray | None) -> None:
+        """Which UAVs' access points are on from the next step on (802.11 radio).
+
+        ``enabled``: (K,) or (B, K) bool; an AP that is off transmits nothing (a UAV the plan gives no
+        users to keeps its AP off, so that it takes no airtime from the APs that serve). None: every AP on
+        (the default).
+
+        Raises:
+            ValueError: The paper's radio, or a shape that is neither.
+        """
+        if enabled is not None and self.radio.propagation != "802.11":
+            raise ValueError("access points apply only with RadioConfig.propagation = '802.11'")
+        self.access_points_on = None if enabled is None else \
+            access_points_on(enabled, self.num_worlds, self.config.n_uavs).copy()
+
     def step(self, values: np.ndarray, given: np.ndarray | None = None, active: np.ndarray | None = None
              ) -> None:
         """Apply one action per UAV and advance the crowds and the UAVs of the active worlds by ``dt_s``.
@@ -271,9 +288,10 @@ class SwarmCore:
         self._padded_share_map[:, half:half + h, half:half + w] = self.share_map
         if self._plans_channels:  # a channel per UAV for where it is, few changes (docs/radio.md, section 7)
             self.channel_plan = plan_channels(self.positions_m, self.radio, self.altitudes_m,
-                                              self.channel_plan)
+                                              self.channel_plan, self.access_points_on)
         self.coverage: CoverageBatch = coverage_batch(peds, copy, self.positions_m, self.radio, self._links,
-                                                      self._radio_altitudes_m, self.channel_plan)
+                                                      self._radio_altitudes_m, self.channel_plan,
+                                                      self.access_points_on)
         distances_m = pair_distances_m(self.positions_m, self._guard_altitudes_m)
         self.separation = separation_penalty(self.positions_m, cfg.uav.min_separation_m,
                                              distances_m=distances_m)

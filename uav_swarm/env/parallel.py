@@ -307,6 +307,17 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
         """
         self._core.set_channel_plan(channels)
 
+    def set_access_points(self, enabled: np.ndarray | None) -> None:
+        """Which UAVs' access points are on from the next step on (``propagation = "802.11"``).
+
+        ``enabled``: (K,) bool; an AP that is off transmits nothing, so it takes no airtime from the others
+        (``simulate`` turns off the AP of a UAV its plan gives no users). None: every AP on, the default.
+
+        Raises:
+            ValueError: The paper's radio, or a shape the environment does not take.
+        """
+        self._core.set_access_points(enabled)
+
     @property
     def uav_altitudes_m(self) -> np.ndarray:
         """(K,) UAV flight altitudes in metres (``uav.alt_m`` plus ``uav.layer_step_m`` per index)."""

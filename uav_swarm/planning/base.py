@@ -101,6 +101,14 @@ class PlanResult:
     option: str = "snapshot"
     engine: str | None = None
 
+    @property
+    def serving(self) -> np.ndarray:
+        """``(n,)`` True where the plan gives the UAV users (a proposal, or its own users followed).
+
+        The others are spares (parked or holding); under the 802.11 radio their access points stay off.
+        """
+        return (np.asarray(self.candidate_index) >= 0) | np.asarray(self.kept, dtype=bool)
+
 
 @runtime_checkable
 class Planner(Protocol):

@@ -28,6 +28,8 @@ import numba
 import numpy as np
 
 from uav_swarm.world.comms import RadioConfig, evaluate_coverage
+from uav_swarm.world.wifi.channels import plan_channels
+from uav_swarm.world.wifi.coverage import wifi_links
 
 __all__ = ["coverage_qos_batch", "horizon_qos", "travelled_m", "warm_up"]
 
@@ -67,14 +69,18 @@ def _nearest(users: np.ndarray, uavs: np.ndarray, altitude_sq: float) -> tuple[n
     return nearest, best
 
 
-def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
+                       enabled: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """QoS S1 and S2 of ``B`` worlds, each equal to :func:`~uav_swarm.world.comms.evaluate_coverage`'s.
+
+    Under the 802.11 radio each world is judged with its own channel plan
+    (:func:`~uav_swarm.world.wifi.channels.plan_channels`), every UAV at ``config.altitude_m``.
 
     Args:
         users_m: ``(B, N, 2)`` user positions of each world, metres.
         uavs_m: ``(B, K, 2)`` UAV positions of each world, metres.
         config: The radio model.
+        enabled: 802.11 only: ``(B, K)`` bool, the UAVs whose access point is on; None: all.
 
     Returns:
         ``(qos_s1, qos_s2)``, each ``(B,)`` float64 (0.0 for worlds without users or UAVs).
@@ -90,6 +96,15 @@ def coverage_qos_batch(users_m: np.ndarray, uavs_m: np.ndarray, config: RadioCon
                          f"and {uavs.shape}")
     n_worlds, n_users, _ = users.shape
     n_uavs = uavs.shape[1]
+    if config.propagation == "802.11":
+        if n_users == 0 or n_uavs == 0:
+            return np.zeros(n_worlds), np.zeros(n_worlds)
+        plans = plan_channels(uavs, config, enabled=enabled)
+        links = wifi_links(users.reshape(-1, 2), np.repeat(np.arange(n_worlds), n_users), uavs, config,
+                           channels=plans, enabled=enabled)
+        return np.asarray(links.qos_s1, np.float64), np.asarray(links.qos_s2, np.float64)
+    if enabled is not None:
+        raise ValueError("access points apply only with RadioConfig.propagation = '802.11'")
     if config.max_stations is not None:  # admission control: the snapshot function
         pairs = [evaluate_coverage(u, k, config) for u, k in zip(users, uavs, strict=True)]
         return (np.array([c.qos_s1 for c in pairs], dtype=np.float64),
@@ -116,7 +131,8 @@ def warm_up() -> None:
 
 def horizon_qos(peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, options: Sequence[np.ndarray],
                 target_velocities: Sequence[np.ndarray], radio: RadioConfig, strategy: int, horizon_s: float,
-                samples: int, max_speed_m_s: float, max_accel_m_s2: float) -> list[float]:
+                samples: int, max_speed_m_s: float, max_accel_m_s2: float,
+                serving: Sequence[np.ndarray] | None = None) -> list[float]:
     """Each option's QoS averaged over ``samples`` instants of the horizon, in one radio-model pass.
 
     At instant ``t`` the crowd is at ``peds + vels * t``; each UAV flies from ``uavs`` straight
@@ -135,6 +151,8 @@ def horizon_qos(peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, options: S
         samples: Instants averaged, the last at ``horizon_s``.
         max_speed_m_s: The UAVs' speed limit.
         max_accel_m_s2: The UAVs' acceleration limit.
+        serving: 802.11 only: each option's ``(n,)`` bool, the UAVs it gives users (the others' access
+            points are off); None: every AP on.
 
     Returns:
         One averaged QoS per option (0.0 for every option without pedestrians).
@@ -154,7 +172,8 @@ def horizon_qos(peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, options: S
     crowd = peds[None] + vels[None] * times[:, None, None]  # (S, N, 2)
     n_options = len(options)
     users = np.broadcast_to(crowd[None], (n_options, *crowd.shape)).reshape(-1, *peds.shape)
-    s1, s2 = coverage_qos_batch(users, flown.reshape(-1, *uavs.shape), radio)
+    enabled = None if serving is None else np.repeat(np.stack(serving).astype(bool), samples, axis=0)
+    s1, s2 = coverage_qos_batch(users, flown.reshape(-1, *uavs.shape), radio, enabled)
     qos = (s1 if strategy == 1 else s2).reshape(n_options, samples)
     out = []
     for row in qos:  # summed instant by instant, as the per-instant loop did

@@ -268,17 +268,23 @@ class MotionPlanning:
             targets[moving] = self._aimed(proposals, peds, vels)[index[moving]]
         return targets, index
 
-    def horizon_qos(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, targets: np.ndarray) -> float:
-        """The strategy's QoS averaged over the horizon (module docstring, step 4)."""
-        return self._judge(peds, vels, uavs, [targets])[0]
+    def horizon_qos(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, targets: np.ndarray,
+                    serving: np.ndarray | None = None) -> float:
+        """The strategy's QoS averaged over the horizon (module docstring, step 4).
 
-    def _judge(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, options: list[np.ndarray]
-               ) -> list[float]:
+        ``serving``: (n,) the UAVs the targets give users (802.11: the others' access points are off).
+        """
+        return self._judge(peds, vels, uavs, [targets], None if serving is None else [serving])[0]
+
+    def _judge(self, peds: np.ndarray, vels: np.ndarray, uavs: np.ndarray, options: list[np.ndarray],
+               serving: list[np.ndarray] | None = None) -> list[float]:
         """Every option's horizon QoS, all options and instants in one radio-model pass."""
         cfg = self.config
         velocities = [self._users_velocity(targets, peds, vels) for targets in options]
+        if self.radio.propagation != "802.11":
+            serving = None
         return horizon_qos(peds, vels, uavs, options, velocities, self.radio, self.strategy, cfg.horizon_s,
-                           cfg.samples, self.uav.max_speed_m_s, self.uav.max_accel_m_s2)
+                           cfg.samples, self.uav.max_speed_m_s, self.uav.max_accel_m_s2, serving)
 
     def _remember(self, peds: np.ndarray, vels: np.ndarray, targets: np.ndarray) -> None:
         """Each UAV's users at its new target (on the crowd ``lead_s`` ahead) and its offset from them."""
@@ -316,12 +322,13 @@ class MotionPlanning:
             none = np.zeros(self.n_uavs, dtype=bool)
             fresh, fresh_index = self._option(uavs, peds, vels, followed, none, proposals)
             fresh, fresh_shift = self._finish(fresh, fresh_index, none, predicted)
-            qos, fresh_qos = self._judge(peds, vels, uavs, [targets, fresh])  # both options, one pass
+            qos, fresh_qos = self._judge(peds, vels, uavs, [targets, fresh],  # both options, one pass
+                                         [kept | (index >= 0), fresh_index >= 0])
             if fresh_qos > qos + self.config.switch_margin:
                 targets, index, kept, option, qos = fresh, fresh_index, none, "fresh", fresh_qos
                 shift = fresh_shift
         else:
-            qos = self.horizon_qos(peds, vels, uavs, targets)
+            qos = self.horizon_qos(peds, vels, uavs, targets, kept | (index >= 0))
         self._remember(peds, vels, targets)
         return MotionPlan(targets, kept.copy(), index, option, qos, shift)
 

@@ -159,6 +159,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
     frames: list[Frame] = []
     targets = np.asarray(env.uav_positions_m).copy()
     channels: np.ndarray | None = None
+    serving: np.ndarray | None = None  # 802.11: the UAVs whose access point is on (the plan's)
     plans: list[np.ndarray] = []
     samples: list[tuple[float, np.ndarray, np.ndarray]] = []
     sample_every = max(1, round(sample_every_s / env.dt_s)) if sample_every_s else 0
@@ -178,9 +179,11 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                     moved = np.linalg.norm(result.targets_m - targets, axis=1) > config.planning.min_gap_m
                     changes.append(int(np.count_nonzero(moved)))
                 targets = result.targets_m
-                if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes
-                    channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels)
+                if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes;
+                    serving = result.serving  # a UAV the plan gives no users keeps its AP off
+                    channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels, serving)
                     env.set_channel_plan(channels)
+                    env.set_access_points(serving)
                 plans.append(targets.copy())
                 latencies.append(result.latency_ms)
                 if steering is not None:
@@ -207,7 +210,7 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                 qos_s2_paper[step] = evaluate_coverage(env.pedestrian_positions_m, env.uav_positions_m,
                                                        paper_radio).qos_s2
             if radio_log is not None:  # channels, SINR/MCS, airtime, co-channel sharing (runs.radio_report)
-                radio_log.observe(cov, env.uav_positions_m)
+                radio_log.observe(cov, env.uav_positions_m, serving)
             if outputs.active and step % config.telemetry_every == 0:
                 states, qos = _telemetry(env, flown, watch.altitudes_m, step, guard, radio_log)
                 outputs.step((step + 1) * env.dt_s, states, qos, env.pedestrian_positions_m, cov.covered,

@@ -107,8 +107,8 @@ def nearest_uav(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
 
 def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
                    associations: Sequence[Association] | None = None,
-                   altitudes_m: np.ndarray | None = None, channels: np.ndarray | None = None
-                   ) -> CoverageBatch:
+                   altitudes_m: np.ndarray | None = None, channels: np.ndarray | None = None,
+                   enabled: np.ndarray | None = None) -> CoverageBatch:
     """Associate the users of B worlds with their own world's UAVs and share each UAV's capacity.
 
     Args:
@@ -120,6 +120,7 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
             its incumbents between calls); None computes the paper's model afresh.
         altitudes_m: (K,) height of each UAV above the users (802.11: or (B, K)); None: ``config.altitude_m``.
         channels: 802.11 only: (K,) or (B, K) channel number of each UAV; None: all on the first usable one.
+        enabled: 802.11 only: (K,) or (B, K) bool, the UAVs whose access point is on; None: all.
 
     Returns:
         The :class:`CoverageBatch`.
@@ -128,9 +129,9 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
         ValueError: A station limit without one association per world, ``channels`` with the paper's model.
     """
     if config.propagation == "802.11":
-        return _wifi_batch(users_m, copy_index, uavs_m, config, associations, altitudes_m, channels)
-    if channels is not None:
-        raise ValueError("channels apply only with RadioConfig.propagation = '802.11'")
+        return _wifi_batch(users_m, copy_index, uavs_m, config, associations, altitudes_m, channels, enabled)
+    if channels is not None or enabled is not None:
+        raise ValueError("channels and access points apply only with RadioConfig.propagation = '802.11'")
     n_copies, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
     if n_copies == 1:
         offsets = np.array([0, len(users_m)])
@@ -180,7 +181,7 @@ def _stacked(parts: list[Coverage], offsets: np.ndarray, n_users: np.ndarray, n_
 
 def _wifi_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
                 associations: Sequence[Association] | None, altitudes_m: np.ndarray | None,
-                channels: np.ndarray | None) -> CoverageBatch:
+                channels: np.ndarray | None, enabled: np.ndarray | None = None) -> CoverageBatch:
     """The 802.11 model of all worlds at once; ``associations`` (one per world) hold the incumbents."""
     n_copies, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
     offsets = np.searchsorted(copy_index, np.arange(n_copies + 1)) if n_copies > 1 else [0, len(users_m)]
@@ -191,7 +192,7 @@ def _wifi_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
         rows = np.arange(n_uavs)
         previous = np.concatenate([link.incumbents(rows, int(offsets[c + 1] - offsets[c]))
                                    for c, link in enumerate(associations)])
-    links = wifi_links(users_m, copy_index, uavs_m, config, altitudes_m, channels, previous)
+    links = wifi_links(users_m, copy_index, uavs_m, config, altitudes_m, channels, previous, enabled)
     if associations is not None:
         for c, link in enumerate(associations):
             link.remember(links.association[offsets[c]:offsets[c + 1]])

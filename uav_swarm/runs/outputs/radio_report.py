@@ -140,11 +140,17 @@ def median_sinr_db(sinr_db: np.ndarray) -> float:
     return float(np.median(sinr_db)) if len(sinr_db) else float("nan")
 
 
-def sharing_pairs(uavs_m: np.ndarray, channels: np.ndarray, radio: RadioConfig, altitudes_m: np.ndarray
-                  ) -> np.ndarray:
-    """(K, K) bool, upper triangle: UAVs ``i < j`` on one channel that hear each other (sharing airtime)."""
+def sharing_pairs(uavs_m: np.ndarray, channels: np.ndarray, radio: RadioConfig, altitudes_m: np.ndarray,
+                  enabled: np.ndarray | None = None) -> np.ndarray:
+    """(K, K) bool, upper triangle: UAVs ``i < j`` on one channel that hear each other (sharing airtime).
+
+    ``enabled``: (K,) bool, the UAVs whose access point is on (an AP that is off shares with none).
+    """
     _, conflict = channel_conflicts(np.asarray(uavs_m, np.float64)[None], radio, altitudes_m)
     same = channels[:, None] == channels[None, :]
+    if enabled is not None:
+        on = np.asarray(enabled, dtype=bool)
+        same = same & on[:, None] & on[None, :]
     return np.triu(conflict[0] & same, k=1)
 
 
@@ -185,8 +191,11 @@ class RadioLog:
     _rows: list[tuple[np.ndarray, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
         default_factory=list)
 
-    def observe(self, coverage: Coverage, uavs_m: np.ndarray) -> None:
-        """One step's coverage (802.11: with SINR, MCS, airtime and channels) and the UAVs' positions."""
+    def observe(self, coverage: Coverage, uavs_m: np.ndarray, enabled: np.ndarray | None = None) -> None:
+        """One step's coverage (802.11: with SINR, MCS, airtime and channels) and the UAVs' positions.
+
+        ``enabled``: (K,) bool, the UAVs whose access point is on; None: all.
+        """
         if coverage.sinr_db is None or coverage.mcs is None or coverage.airtime is None \
                 or coverage.channel is None:
             raise ValueError(f"the coverage of {coverage.model!r} has no 802.11 figures")
@@ -195,7 +204,7 @@ class RadioLog:
                                        self.radio.min_user_rate_mbps)
         self._rows.append((channels, median_sinr_db(coverage.sinr_db), mcs_band_shares(coverage.mcs),
                            np.array(coverage.airtime, np.float64),
-                           sharing_pairs(uavs_m, channels, self.radio, self.altitudes_m), service,
+                           sharing_pairs(uavs_m, channels, self.radio, self.altitudes_m, enabled), service,
                            np.array(coverage.users_per_uav, np.int64)))
 
     @property

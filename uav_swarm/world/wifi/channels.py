@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from uav_swarm.world.radio_config import RadioConfig
-from uav_swarm.world.wifi.coverage import channel_conflicts
+from uav_swarm.world.wifi.coverage import access_points_on, channel_conflicts
 from uav_swarm.world.wifi.phy import dbm_to_mw
 
 __all__ = ["plan_channels", "plan_is_valid"]
@@ -139,7 +139,7 @@ def _plan_worlds(conflict: np.ndarray, power_mw: np.ndarray, usable: np.ndarray,
 
 
 def plan_channels(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.ndarray | None = None,
-                  previous: np.ndarray | None = None) -> np.ndarray:
+                  previous: np.ndarray | None = None, enabled: np.ndarray | None = None) -> np.ndarray:
     """A channel for each UAV of each world (module docstring).
 
     Args:
@@ -147,6 +147,8 @@ def plan_channels(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.ndarr
         config: The radio model; its ``ieee80211.usable_channels`` are the colours.
         altitudes_m: (K,) or (B, K) each UAV's altitude; None: ``config.altitude_m``.
         previous: (K,) or (B, K) the plan in force, kept where it stays valid; None: none.
+        enabled: (K,) or (B, K) bool, the UAVs whose access point is on; an AP that is off conflicts with
+            none (it keeps a channel for when it is on again). None: every AP on.
 
     Returns:
         (K,) or (B, K) int channel numbers, the shape of ``uavs_m`` without its last axis.
@@ -158,6 +160,9 @@ def plan_channels(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.ndarr
     single = uavs.ndim == 2
     worlds = uavs[None] if single else uavs
     power_dbm, conflict = channel_conflicts(worlds, config, altitudes_m)
+    if enabled is not None:
+        on = access_points_on(enabled, *worlds.shape[:2])
+        conflict = conflict & on[:, :, None] & on[:, None, :]
     power_mw = dbm_to_mw(power_dbm)
     usable = config.ieee80211.usable_channels
     before = None if previous is None else np.asarray(previous, dtype=np.int64)

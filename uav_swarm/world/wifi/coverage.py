@@ -61,7 +61,11 @@ from uav_swarm.world.wifi.phy import (
 )
 from uav_swarm.world.wifi.tables import WifiTables, load_wifi_tables
 
-__all__ = ["WifiLinks", "wifi_links", "uav_channels", "uav_altitudes_m", "channel_conflicts"]
+__all__ = ["WifiLinks", "wifi_links", "uav_channels", "uav_altitudes_m", "access_points_on",
+           "channel_conflicts"]
+
+_NO_SIGNAL = 1e-30
+"""The linear SINR reported where a user hears no AP at all (every AP off): -300 dB."""
 
 
 @dataclass(frozen=True)
@@ -127,6 +131,18 @@ def uav_channels(channels: np.ndarray | None, n_worlds: int, n_uavs: int, config
         raise ValueError(f"channels {wrong} are not usable: allowed {usable.tolist()} "
                          "(RadioConfig.ieee80211)")
     return plan if plan.ndim == 2 else np.broadcast_to(plan, (n_worlds, n_uavs))
+
+
+def access_points_on(enabled: np.ndarray, n_worlds: int, n_uavs: int) -> np.ndarray:
+    """``(B, K)`` bool: which UAVs' access points are on, from ``enabled`` ((K,) or (B, K)).
+
+    Raises:
+        ValueError: A shape that is neither.
+    """
+    on = np.asarray(enabled, dtype=bool)
+    if on.shape not in ((n_uavs,), (n_worlds, n_uavs)):
+        raise ValueError(f"enabled must have shape ({n_uavs},) or ({n_worlds}, {n_uavs}), got {on.shape}")
+    return np.broadcast_to(on, (n_worlds, n_uavs))
 
 
 def uav_altitudes_m(altitudes_m: np.ndarray | None, n_worlds: int, n_uavs: int, config: RadioConfig
@@ -230,12 +246,22 @@ def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, c
             best = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / top_rate_mbps)
         closed[c, k] = full or (rate_admission and best < min_rate_mbps)
 
-    for n in range(n_users):
+    def admits(c: int, k: int, rate: float) -> bool:
+        if not rate_admission:
+            return True
+        if airtime_fair:
+            share = airtime[c, k] * efficiency * min(slowest[c, k], rate) / (count[c, k] + 1)
+        else:
+            share = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / rate)
+        return share >= min_rate_mbps
+
+    for n in user_order:  # incumbents first, strongest first; with rate admission, while their rate holds
         k = previous[n]
         if 0 <= k < n_uavs and in_range[n, k]:
             c = copy_index[n]
             rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
-            join(n, c, k, rate)
+            if admits(c, k, rate):
+                join(n, c, k, rate)
     tried = np.zeros(n_uavs, np.bool_)
     for n in user_order:
         c = copy_index[n]
@@ -252,13 +278,8 @@ def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, c
                 break
             tried[k] = True
             rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
-            if rate_admission:
-                if airtime_fair:
-                    share = airtime[c, k] * efficiency * min(slowest[c, k], rate) / (count[c, k] + 1)
-                else:
-                    share = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / rate)
-                if share < min_rate_mbps:
-                    continue
+            if not admits(c, k, rate):
+                continue
             join(n, c, k, rate)
             break
     return association, count
@@ -382,7 +403,7 @@ def _constants(wifi: Ieee80211Config) -> tuple[WifiTables, float, np.ndarray, np
 
 def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
                altitudes_m: np.ndarray | None = None, channels: np.ndarray | None = None,
-               previous: np.ndarray | None = None) -> WifiLinks:
+               previous: np.ndarray | None = None, enabled: np.ndarray | None = None) -> WifiLinks:
     """The 802.11 model (module docstring) for the users of B worlds.
 
     Args:
@@ -393,6 +414,8 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
         altitudes_m: (K,) or (B, K) height of each UAV above the users; None: ``config.altitude_m``.
         channels: (K,) or (B, K) channel number of each UAV; None: all on the first usable channel.
         previous: (N,) each user's UAV at the last update (incumbents), -1 for none; None: no incumbents.
+        enabled: (K,) or (B, K) bool, the UAVs whose access point is on; an AP that is off transmits nothing
+            (no user hears it, no AP senses it). None: every AP on.
 
     Raises:
         ValueError: A shape or a channel the model does not take (the message names it).
@@ -414,7 +437,12 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
     n_users = np.diff(offsets)
     # 1-2. Powers, (N, K) user from AP in mW; the carrier-sense graph.
     power_mw = station_power_mw(users_m, copy_index, uavs_m, heights, wifi)
-    graph = carrier_sense_graph(ap_pair_power_dbm(uavs_m, heights, wifi), plan, wifi.cca_threshold_dbm)
+    ap_power_dbm = ap_pair_power_dbm(uavs_m, heights, wifi)
+    if enabled is not None:
+        on = access_points_on(enabled, n_worlds, n_uavs)
+        power_mw = np.where(on[copy_index], power_mw, 0.0)
+        ap_power_dbm = np.where(on[:, :, None] & on[:, None, :], ap_power_dbm, -np.inf)
+    graph = carrier_sense_graph(ap_power_dbm, plan, wifi.cca_threshold_dbm)
     # 3-5. Passes and association.
     (association, in_range, sinr, mcs, rate, throughput, stations, airtime, collision_free, per_ap, covered,
      fast, total) = _links(
@@ -425,7 +453,8 @@ def wifi_links(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, 
         before)
     denominator = np.maximum(n_users, 1)
     return WifiLinks(
-        association=association, covered=mcs >= 0, in_range=in_range, sinr_db=10.0 * np.log10(sinr), mcs=mcs,
+        association=association, covered=mcs >= 0, in_range=in_range,
+        sinr_db=10.0 * np.log10(np.maximum(sinr, _NO_SIGNAL)), mcs=mcs,
         rate_mbps=rate, throughput_mbps=throughput, offsets=offsets, n_users=n_users, users_per_uav=stations,
         airtime=airtime, collision_free=collision_free, channel=plan, throughput_per_user_mbps=per_ap,
         covered_users=covered, qos_s1=covered / denominator, qos_s2=fast / denominator,
