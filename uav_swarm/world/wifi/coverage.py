@@ -200,13 +200,30 @@ def _pair_rate_mbps(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c
 
 
 @numba.njit(cache=True, nogil=True)
-def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, copy_index: np.ndarray,
+def _newcomers(association: np.ndarray, strongest: np.ndarray, copy_index: np.ndarray) -> np.ndarray:
+    """The users without an AP yet with one in range, strongest first world by world (ties: lower row).
+
+    A stable sort of each world's newcomers: the order of a stable sort of all its users, the others left out.
+    """
+    rows = np.flatnonzero((association < 0) & (strongest > 0.0))
+    first = 0
+    for i in range(1, rows.size + 1):
+        if i == rows.size or copy_index[rows[i]] != copy_index[rows[first]]:
+            world = rows[first:i]
+            rows[first:i] = world[np.argsort(-strongest[world], kind="mergesort")]
+            first = i
+    return rows
+
+
+@numba.njit(cache=True, nogil=True)
+def _admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, copy_index: np.ndarray,
            weights: np.ndarray, hidden: np.ndarray, noise_mw: float, thresholds: np.ndarray,
            ladder_mbps: np.ndarray, airtime: np.ndarray, efficiency: float, min_rate_mbps: float,
            airtime_fair: bool, rate_admission: bool, station_limit: int, previous: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray]:
     """Step 4: incumbents, then newcomers, at the pass-1 airtime and rates; ``airtime`` (B, K); limit 0: none.
 
+    ``strongest``: (N,) each user's strongest received power among its APs in range (0: none in range).
     An AP is *closed* once no newcomer could pass its test (even at the top rate): skipping it changes
     nothing.
     """
@@ -237,10 +254,8 @@ def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, c
             rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
             join(n, c, k, rate)
     tried = np.zeros(n_uavs, np.bool_)
-    for n in user_order:
+    for n in _newcomers(association, strongest, copy_index):
         c = copy_index[n]
-        if association[n] >= 0:
-            continue
         tried[:] = False
         while True:  # the strongest AP in range not tried yet (ties: the lower index)
             k = -1
@@ -293,22 +308,19 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
     hidden = weights.sum(axis=2).sum(axis=1) > 0.0  # (B,) worlds with hidden interferers
     in_range = np.zeros((n_users, n_uavs), np.bool_)  # the pass-1 SINR reaches MCS 0
     strongest = np.zeros(n_users)  # the strongest received power among the APs in range
+    reach_mw = thresholds[0] * noise_mw  # below it no AP is in range, whatever the interference
     for n in range(n_users):
         c = copy_index[n]
         for k in range(n_uavs):
+            if power_mw[n, k] < reach_mw:
+                continue
             disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
             if power_mw[n, k] >= thresholds[0] * disturbance_mw:
                 in_range[n, k] = True
                 strongest[n] = max(strongest[n], power_mw[n, k])
-    # 4. Association: strongest users first (a stable sort: the lower row first on ties), world by world
-    # (worlds do not interact; each world's rows stay together in memory).
-    user_order = np.empty(n_users, np.int64)
-    first = 0
-    for n in range(1, n_users + 1):
-        if n == n_users or copy_index[n] != copy_index[first]:
-            user_order[first:n] = first + np.argsort(-strongest[first:n], kind="mergesort")
-            first = n
-    association, stations = _admit(user_order, power_mw, in_range, copy_index, weights, hidden, noise_mw,
+    # 4. Association: incumbents, then the others strongest first (a stable sort: the lower row first on
+    # ties), world by world (worlds do not interact; each world's rows stay together in memory).
+    association, stations = _admit(strongest, power_mw, in_range, copy_index, weights, hidden, noise_mw,
                                    thresholds, ladder_mbps, airtime * collision_free, efficiency,
                                    min_rate_mbps, airtime_fair, rate_admission, station_limit, previous)
     # 5. Pass 2: the APs with stations.
