@@ -169,7 +169,7 @@ def channel_conflicts(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.n
     return power_dbm, carrier_sense_graph(power_dbm, same, config.ieee80211.cca_threshold_dbm)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _mcs(sinr: float, thresholds: np.ndarray) -> int:
     """The highest MCS whose (linear, non-decreasing) threshold ``sinr`` reaches, -1 below MCS 0."""
     best = -1
@@ -180,7 +180,7 @@ def _mcs(sinr: float, thresholds: np.ndarray) -> int:
     return best
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _disturbance_mw(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, noise_mw: float
                     ) -> float:
     """Noise plus the weighted hidden interferers at user ``n`` (world ``c``) for AP ``k`` (mW)."""
@@ -191,7 +191,7 @@ def _disturbance_mw(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c
     return total
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _pair_rate_mbps(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, hidden: np.ndarray,
                     noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray) -> float:
     """PHY rate of user ``n`` (world ``c``) at AP ``k`` from its SINR (0 below MCS 0)."""
@@ -199,7 +199,7 @@ def _pair_rate_mbps(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c
     return ladder_mbps[_mcs(power_mw[n, k] / disturbance_mw, thresholds) + 1]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _newcomers(association: np.ndarray, strongest: np.ndarray, copy_index: np.ndarray) -> np.ndarray:
     """The users without an AP yet with one in range, strongest first world by world (ties: lower row).
 
@@ -215,7 +215,7 @@ def _newcomers(association: np.ndarray, strongest: np.ndarray, copy_index: np.nd
     return rows
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, copy_index: np.ndarray,
            weights: np.ndarray, hidden: np.ndarray, noise_mw: float, thresholds: np.ndarray,
            ladder_mbps: np.ndarray, airtime: np.ndarray, efficiency: float, min_rate_mbps: float,
@@ -235,24 +235,19 @@ def _admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, co
     inverse_sum = np.zeros(airtime.shape)
     closed = np.zeros(airtime.shape, np.bool_)
 
-    def join(n: int, c: int, k: int, rate: float) -> None:
-        association[n] = k
-        count[c, k] += 1
-        slowest[c, k] = min(slowest[c, k], rate)
-        inverse_sum[c, k] += 1.0 / rate
-        full = station_limit > 0 and count[c, k] >= station_limit
-        if airtime_fair:
-            best = airtime[c, k] * efficiency * min(slowest[c, k], top_rate_mbps) / (count[c, k] + 1)
-        else:
-            best = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / top_rate_mbps)
-        closed[c, k] = full or (rate_admission and best < min_rate_mbps)
-
-    for n in range(n_users):
+    for n in range(n_users):  # the incumbents first: no AP is closed to them
         k = previous[n]
         if 0 <= k < n_uavs and in_range[n, k]:
             c = copy_index[n]
             rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
-            join(n, c, k, rate)
+            association[n] = k
+            count[c, k] += 1
+            slowest[c, k] = min(slowest[c, k], rate)
+            inverse_sum[c, k] += 1.0 / rate
+    rule = (efficiency, top_rate_mbps, min_rate_mbps, airtime_fair, rate_admission, station_limit)
+    for c in range(airtime.shape[0]):
+        for k in range(n_uavs):
+            closed[c, k] = _closed(count[c, k], slowest[c, k], inverse_sum[c, k], airtime[c, k], rule)
     tried = np.zeros(n_uavs, np.bool_)
     for n in _newcomers(association, strongest, copy_index):
         c = copy_index[n]
@@ -274,12 +269,33 @@ def _admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, co
                     share = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / rate)
                 if share < min_rate_mbps:
                     continue
-            join(n, c, k, rate)
+            association[n] = k
+            count[c, k] += 1
+            slowest[c, k] = min(slowest[c, k], rate)
+            inverse_sum[c, k] += 1.0 / rate
+            closed[c, k] = _closed(count[c, k], slowest[c, k], inverse_sum[c, k], airtime[c, k], rule)
             break
     return association, count
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _closed(stations: int, slowest_mbps: float, inverse_sum: float, airtime: float,
+            rule: tuple[float, float, float, bool, bool, int]) -> bool:
+    """No newcomer could join an AP with these stations, even at the top rate.
+
+    ``rule``: MAC efficiency, top rate, minimum rate, airtime fairness, admission on rate, station limit.
+    """
+    efficiency, top_rate_mbps, min_rate_mbps, airtime_fair, rate_admission, station_limit = rule
+    if station_limit > 0 and stations >= station_limit:
+        return True
+    if airtime_fair:
+        best = airtime * efficiency * min(slowest_mbps, top_rate_mbps) / (stations + 1)
+    else:
+        best = airtime * efficiency / (inverse_sum + 1.0 / top_rate_mbps)
+    return rate_admission and best < min_rate_mbps
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, channels: np.ndarray,
            noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray, rho: float, weighting: float,
            collisions: tuple[int, int, float], efficiency: float, min_rate_mbps: float, airtime_fair: bool,

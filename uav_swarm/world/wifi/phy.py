@@ -131,7 +131,7 @@ def _gain_at_1m(elevation: float, per_radian: float, offset: float, los_gain: fl
     return math.exp(los * los_gain + at_1m)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _station_power_kernel(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
                           heights_m: np.ndarray, table: np.ndarray, per_radian: float, offset: float,
                           los_gain: float, at_1m: float) -> np.ndarray:
