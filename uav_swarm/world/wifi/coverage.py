@@ -312,28 +312,33 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
     cw_min, stages, collision_ratio = collisions
     n_users, n_uavs = power_mw.shape
     n_worlds = graph.shape[0]
-    # 3. Pass 1: the APs some user reaches with an SNR of MCS 0 are active.
+    # 3. Pass 1: the APs some user reaches with an SNR of MCS 0 are active. Without hidden interferers a
+    # user is in range of the APs it reaches so (its SINR is its SNR); the other worlds' users are tested
+    # again once the interferers are known.
     active = np.zeros((n_worlds, n_uavs), np.bool_)
-    for n in range(n_users):
-        for k in range(n_uavs):
-            if power_mw[n, k] >= noise_mw * thresholds[0]:
-                active[copy_index[n], k] = True
-    airtime, contenders = contention(graph, active, rho)
-    collision_free = collision_success_shares(contenders, cw_min, stages, collision_ratio)
-    weights = hidden_interferers(graph, channels, active, airtime, weighting)
-    hidden = weights.sum(axis=2).sum(axis=1) > 0.0  # (B,) worlds with hidden interferers
     in_range = np.zeros((n_users, n_uavs), np.bool_)  # the pass-1 SINR reaches MCS 0
     strongest = np.zeros(n_users)  # the strongest received power among the APs in range
     reach_mw = thresholds[0] * noise_mw  # below it no AP is in range, whatever the interference
     for n in range(n_users):
-        c = copy_index[n]
         for k in range(n_uavs):
-            if power_mw[n, k] < reach_mw:
-                continue
-            disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
-            if power_mw[n, k] >= thresholds[0] * disturbance_mw:
-                in_range[n, k] = True
+            if power_mw[n, k] >= reach_mw:
+                active[copy_index[n], k] = in_range[n, k] = True
                 strongest[n] = max(strongest[n], power_mw[n, k])
+    airtime, contenders = contention(graph, active, rho)
+    collision_free = collision_success_shares(contenders, cw_min, stages, collision_ratio)
+    weights = hidden_interferers(graph, channels, active, airtime, weighting)
+    hidden = weights.sum(axis=2).sum(axis=1) > 0.0  # (B,) worlds with hidden interferers
+    for n in range(n_users):
+        c = copy_index[n]
+        if not hidden[c] or strongest[n] == 0.0:
+            continue
+        strongest[n] = 0.0
+        for k in range(n_uavs):
+            if in_range[n, k]:
+                in_range[n, k] = power_mw[n, k] >= thresholds[0] * _disturbance_mw(power_mw, n, k, weights, c,
+                                                                                     noise_mw)
+                if in_range[n, k]:
+                    strongest[n] = max(strongest[n], power_mw[n, k])
     # 4. Association: incumbents, then the others strongest first (a stable sort: the lower row first on
     # ties), world by world (worlds do not interact; each world's rows stay together in memory).
     association, stations = _admit(strongest, power_mw, in_range, copy_index, weights, hidden, noise_mw,
