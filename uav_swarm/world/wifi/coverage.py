@@ -169,7 +169,7 @@ def channel_conflicts(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.n
     return power_dbm, carrier_sense_graph(power_dbm, same, config.ieee80211.cca_threshold_dbm)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _mcs(sinr: float, thresholds: np.ndarray) -> int:
     """The highest MCS whose (linear, non-decreasing) threshold ``sinr`` reaches, -1 below MCS 0."""
     best = -1
@@ -180,7 +180,7 @@ def _mcs(sinr: float, thresholds: np.ndarray) -> int:
     return best
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _disturbance_mw(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, noise_mw: float
                     ) -> float:
     """Noise plus the weighted hidden interferers at user ``n`` (world ``c``) for AP ``k`` (mW)."""
@@ -191,7 +191,7 @@ def _disturbance_mw(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c
     return total
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _pair_rate_mbps(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, hidden: np.ndarray,
                     noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray) -> float:
     """PHY rate of user ``n`` (world ``c``) at AP ``k`` from its SINR (0 below MCS 0)."""
@@ -278,7 +278,7 @@ def _admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, co
     return association, count
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _closed(stations: int, slowest_mbps: float, inverse_sum: float, airtime: float,
             rule: tuple[float, float, float, bool, bool, int]) -> bool:
     """No newcomer could join an AP with these stations, even at the top rate.
