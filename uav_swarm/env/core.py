@@ -31,7 +31,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from uav_swarm.env.config import EnvConfig
 from uav_swarm.env.observe import Layout, info_arrays, observe, team_reward
 from uav_swarm.world.comms import Association
-from uav_swarm.world.comms_batch import CoverageBatch, coverage_batch
+from uav_swarm.world.comms_batch import CoverageBatch, StackedIncumbents, coverage_batch
 from uav_swarm.world.crowd import CrowdSim
 from uav_swarm.world.crowd_batch import BatchedCrowd
 from uav_swarm.world.raster import density_maps
@@ -105,8 +105,8 @@ class SwarmCore:
                                                   cfg.n_uavs)
         self._stacked = stacked_crowd
         # Admission control and the 802.11 model keep per-world incumbents; the paper's model is memoryless.
-        self._links: list[Association] | None = [Association(self.radio) for _ in range(b)] \
-            if self.radio.max_stations is not None or wifi else None
+        self._links: list[Association] | StackedIncumbents | None = StackedIncumbents(b) if wifi else \
+            [Association(self.radio) for _ in range(b)] if self.radio.max_stations is not None else None
         (h, w), p = cfg.density_shape, cfg.patch_px
         self._padded_share_map = np.zeros((b, h + p - 1, w + p - 1), dtype=np.float32)  # zero border
         self._patch_windows = sliding_window_view(self._padded_share_map, (p, p), axis=(1, 2))
@@ -185,8 +185,10 @@ class SwarmCore:
         self.targets_m[worlds] = self.positions_m[worlds]
         self.cycle[worlds] = 0
         self.held[worlds] = False
-        for c in worlds:
-            if self._links is not None:
+        if isinstance(self._links, StackedIncumbents):
+            self._links.reset(worlds)
+        elif self._links is not None:
+            for c in worlds:
                 self._links[c].reset()
         self._update_view()
 

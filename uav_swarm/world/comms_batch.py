@@ -7,7 +7,9 @@ associates it alone (the paper's model: every user in range joins its nearest UA
 index, the squared distances computed operation for operation as there), or, under admission control,
 by one :class:`~uav_swarm.world.comms.Association` per world, whose incumbents are kept step to step.
 With ``RadioConfig.propagation = "802.11"`` all worlds go through the 802.11 model at once
-(:func:`~uav_swarm.world.wifi.coverage.wifi_links`), the associations holding each world's incumbents.
+(:func:`~uav_swarm.world.wifi.coverage.wifi_links`), the associations holding each world's incumbents:
+one :class:`~uav_swarm.world.comms.Association` per world, or, for worlds whose UAV rows never change (the
+environment's), one :class:`StackedIncumbents` for all of them.
 
 Examples:
     >>> import numpy as np
@@ -30,7 +32,7 @@ import numpy as np
 from uav_swarm.world.comms import Association, Coverage, RadioConfig, coverage_of, coverage_of_links
 from uav_swarm.world.wifi.coverage import WifiLinks, wifi_links
 
-__all__ = ["CoverageBatch", "coverage_batch", "nearest_uav"]
+__all__ = ["CoverageBatch", "StackedIncumbents", "coverage_batch", "nearest_uav"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +77,44 @@ class CoverageBatch:
                            self.config)
 
 
+class StackedIncumbents:
+    """The 802.11 incumbents of B worlds whose UAV rows never change, stacked as their users are.
+
+    What one :class:`~uav_swarm.world.comms.Association` per world keeps when its UAV ids are the rows,
+    without a Python call per world: each user's UAV at the last update; none (-1) for the users of a world
+    reset since, or whose number of users changed.
+
+    Args:
+        n_worlds: B.
+    """
+
+    def __init__(self, n_worlds: int) -> None:
+        self._association: np.ndarray | None = None
+        self._offsets = np.zeros(n_worlds + 1, np.int64)
+        self._fresh = np.ones(n_worlds, bool)
+
+    def reset(self, worlds: np.ndarray | Sequence[int]) -> None:
+        """Forget the incumbents of ``worlds`` (indices; a new episode)."""
+        self._fresh[np.asarray(worlds, np.int64)] = True
+
+    def previous(self, offsets: np.ndarray) -> np.ndarray:
+        """(N,) each user's UAV at the last update, -1 for none; ``offsets``: (B + 1,) as the users'."""
+        last, before = self._association, self._offsets
+        if last is None or self._fresh.all():
+            return np.full(int(offsets[-1]), -1, np.int64)
+        if not self._fresh.any() and np.array_equal(offsets, before):
+            return last
+        sizes, sizes_before = np.diff(offsets), np.diff(before)
+        return np.concatenate([
+            last[before[c]:before[c + 1]] if not self._fresh[c] and sizes[c] == sizes_before[c]
+            else np.full(sizes[c], -1, np.int64) for c in range(len(sizes))])
+
+    def remember(self, association: np.ndarray, offsets: np.ndarray) -> None:
+        """Keep this update's ``association`` (N,) of the worlds' users ``offsets`` (B + 1,)."""
+        self._association, self._offsets = association, np.asarray(offsets, np.int64)
+        self._fresh[:] = False
+
+
 @numba.njit(cache=True, nogil=True)
 def nearest_uav(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, altitudes_sq_m2: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -106,7 +146,7 @@ def nearest_uav(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
 
 
 def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
-                   associations: Sequence[Association] | None = None,
+                   associations: Sequence[Association] | StackedIncumbents | None = None,
                    altitudes_m: np.ndarray | None = None, channels: np.ndarray | None = None,
                    enabled: np.ndarray | None = None) -> CoverageBatch:
     """Associate the users of B worlds with their own world's UAVs and share each UAV's capacity.
@@ -117,7 +157,8 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
         uavs_m: (B, K, 2) UAV positions, metres.
         config: The radio model; with a station limit, ``associations`` must be given.
         associations: One :class:`~uav_swarm.world.comms.Association` per world (admission control keeps
-            its incumbents between calls); None computes the paper's model afresh.
+            its incumbents between calls), or under the 802.11 model one :class:`StackedIncumbents` for all
+            worlds; None computes the model afresh.
         altitudes_m: (K,) height of each UAV above the users (802.11: or (B, K)); None: ``config.altitude_m``.
         channels: 802.11 only: (K,) or (B, K) channel number of each UAV; None: all on the first usable one.
         enabled: 802.11 only: (K,) or (B, K) bool, the UAVs whose access point is on; None: all.
@@ -139,7 +180,7 @@ def coverage_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarr
         offsets = np.searchsorted(copy_index, np.arange(n_copies + 1))
     n_users = np.diff(offsets)
     if config.max_stations is not None:
-        if associations is None or len(associations) != n_copies:
+        if not isinstance(associations, Sequence) or len(associations) != n_copies:
             raise ValueError(f"admission control needs one Association per world ({n_copies})")
         parts = [link.update(users_m[offsets[c]:offsets[c + 1]], uavs_m[c], altitudes_m=altitudes_m)
                  for c, link in enumerate(associations)]
@@ -180,12 +221,19 @@ def _stacked(parts: list[Coverage], offsets: np.ndarray, n_users: np.ndarray, n_
 
 
 def _wifi_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray, config: RadioConfig,
-                associations: Sequence[Association] | None, altitudes_m: np.ndarray | None,
-                channels: np.ndarray | None, enabled: np.ndarray | None = None) -> CoverageBatch:
-    """The 802.11 model of all worlds at once; ``associations`` (one per world) hold the incumbents."""
+                associations: Sequence[Association] | StackedIncumbents | None,
+                altitudes_m: np.ndarray | None, channels: np.ndarray | None,
+                enabled: np.ndarray | None = None) -> CoverageBatch:
+    """The 802.11 model of all worlds at once; ``associations`` hold the incumbents."""
     n_copies, n_uavs = uavs_m.shape[0], uavs_m.shape[1]
-    offsets = np.searchsorted(copy_index, np.arange(n_copies + 1)) if n_copies > 1 else [0, len(users_m)]
+    offsets = np.searchsorted(copy_index, np.arange(n_copies + 1)) if n_copies > 1 \
+        else np.array([0, len(users_m)])
     previous = None
+    if isinstance(associations, StackedIncumbents):
+        links = wifi_links(users_m, copy_index, uavs_m, config, altitudes_m, channels,
+                           associations.previous(offsets), enabled)
+        associations.remember(links.association, offsets)
+        return _of_links(links, config)
     if associations is not None:
         if len(associations) != n_copies:
             raise ValueError(f"the 802.11 model needs one Association per world ({n_copies}) or none")
@@ -196,6 +244,11 @@ def _wifi_batch(users_m: np.ndarray, copy_index: np.ndarray, uavs_m: np.ndarray,
     if associations is not None:
         for c, link in enumerate(associations):
             link.remember(links.association[offsets[c]:offsets[c + 1]])
+    return _of_links(links, config)
+
+
+def _of_links(links: WifiLinks, config: RadioConfig) -> CoverageBatch:
+    """The :class:`CoverageBatch` of what the 802.11 model computed."""
     return CoverageBatch(
         association=links.association, in_range=links.in_range, offsets=links.offsets,
         users_per_uav=links.users_per_uav, throughput_per_user_mbps=links.throughput_per_user_mbps,

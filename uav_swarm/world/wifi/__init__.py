@@ -5,6 +5,7 @@
 - :mod:`~uav_swarm.world.wifi.phy`: path loss, received power, SINR and rates.
 - :mod:`~uav_swarm.world.wifi.airtime`: carrier sense, airtime sharing and collisions.
 - :mod:`~uav_swarm.world.wifi.channels`: the channel plan.
+- :mod:`~uav_swarm.world.wifi.stations`: which AP each user joins (incumbents, then the others).
 - :mod:`~uav_swarm.world.wifi.coverage`: association and coverage of users under this model.
 
 May import: ``typed_config``, ``uav_swarm.world``.

@@ -71,9 +71,11 @@ def carrier_sense_graph(ap_power_dbm: np.ndarray, channels: np.ndarray, cca_thre
 def contention(graph: np.ndarray, active: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray]:
     """``(B, K)`` airtime of each AP (:func:`csma_airtime`) and ``(B, K)`` its contenders (module docstring).
 
-    Compiled, without the size check (callable from compiled code). Each world's subsets of active APs are
-    built up from their lowest member: ``S`` is independent when ``S`` without its lowest member ``k`` is and
-    no other member of ``S`` is a neighbour of ``k``; its weight is ``rho`` times that subset's. An AP that
+    Compiled, without the size check (callable from compiled code). An active AP that hears no other active
+    AP (nor is heard) gets ``rho / (1 + rho)``, its own factor of the product form; the subsets of the
+    others are built up from their lowest member: ``S`` is independent when ``S`` without its lowest member
+    ``k`` is and no other member of ``S`` is a neighbour of ``k``; its weight is ``rho`` times that subset's
+    (the factors of the lone APs cancel out of every airtime and contender count). An AP that
     hears another gets its contenders from sums of these weights over the subsets of the APs it does not
     hear (a walk over the submasks: one term for an AP of a clique). Inactive APs: airtime 0, 1 contender.
     """
@@ -81,12 +83,20 @@ def contention(graph: np.ndarray, active: np.ndarray, rho: float) -> tuple[np.nd
     airtime = np.zeros((n_worlds, n_uavs))
     contenders = np.ones((n_worlds, n_uavs))
     members = np.empty(n_uavs, np.int64)
+    alone = rho / (1.0 + rho)  # an active AP that hears no other active AP: its factor of the product form
     for c in range(n_worlds):
         m = 0
         for k in range(n_uavs):
             if active[c, k]:
-                members[m] = k
-                m += 1
+                linked = False
+                for j in range(n_uavs):
+                    if j != k and active[c, j] and (graph[c, k, j] or graph[c, j, k]):
+                        linked = True
+                if linked:
+                    members[m] = k
+                    m += 1
+                else:
+                    airtime[c, k] = alone
         if m == 0:
             continue
         neighbours = np.zeros(m, np.int64)  # bit masks over the active APs' local indices

@@ -12,10 +12,11 @@ Order of computation (each step uses only the ones before; docs/radio.md gives e
    with its contenders take (Bianchi), SINR with the active hidden co-channel APs and PHY rate of every
    (user, AP) pair follow. A user is *in range* of an
    AP when that SINR reaches MCS 0.
-4. **Association.** Incumbents (``previous``) stay while in range of their AP. The other users, strongest
-   received power first (ties: lower row), try their APs in range from the strongest (ties: lower index);
-   an AP admits a user when it has room under the station limit and, with ``rate_admission``, when every
-   station of the AP, the user included, keeps ``min_user_rate_mbps`` at the pass-1 airtime and rates.
+4. **Association.** Incumbents (``previous``) stay while in range of their AP (with ``rate_admission``:
+   strongest first, each while its rate holds, the AP's test below passing with it). The other users,
+   strongest received power first (ties: lower row), try their APs in range from the strongest (ties: lower
+   index); an AP admits a user when it has room under the station limit and, with ``rate_admission``, when
+   every station of the AP, the user included, keeps ``min_user_rate_mbps`` at the pass-1 airtime and rates.
 5. **Pass 2, what the stations get.** The active APs are now those with stations; airtime and SINR are
    computed again with them. Each station's MCS and rate come from its SINR at its AP; a station whose
    SINR falls below MCS 0 gets nothing and takes no share. The AP's airtime times its collision-free share,
@@ -59,6 +60,7 @@ from uav_swarm.world.wifi.phy import (
     rate_ladder_mbps,
     station_power_mw,
 )
+from uav_swarm.world.wifi.stations import admit, disturbance_mw, mcs_of
 from uav_swarm.world.wifi.tables import WifiTables, load_wifi_tables
 
 __all__ = ["WifiLinks", "wifi_links", "uav_channels", "uav_altitudes_m", "access_points_on",
@@ -185,107 +187,7 @@ def channel_conflicts(uavs_m: np.ndarray, config: RadioConfig, altitudes_m: np.n
     return power_dbm, carrier_sense_graph(power_dbm, same, config.ieee80211.cca_threshold_dbm)
 
 
-@numba.njit(cache=True, nogil=True)
-def _mcs(sinr: float, thresholds: np.ndarray) -> int:
-    """The highest MCS whose (linear, non-decreasing) threshold ``sinr`` reaches, -1 below MCS 0."""
-    best = -1
-    for m in range(thresholds.size):
-        if sinr < thresholds[m]:
-            break
-        best = m
-    return best
-
-
-@numba.njit(cache=True, nogil=True)
-def _disturbance_mw(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, noise_mw: float
-                    ) -> float:
-    """Noise plus the weighted hidden interferers at user ``n`` (world ``c``) for AP ``k`` (mW)."""
-    total = noise_mw
-    for j in range(power_mw.shape[1]):
-        if weights[c, k, j] > 0.0:
-            total += weights[c, k, j] * power_mw[n, j]
-    return total
-
-
-@numba.njit(cache=True, nogil=True)
-def _pair_rate_mbps(power_mw: np.ndarray, n: int, k: int, weights: np.ndarray, c: int, hidden: np.ndarray,
-                    noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray) -> float:
-    """PHY rate of user ``n`` (world ``c``) at AP ``k`` from its SINR (0 below MCS 0)."""
-    disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
-    return ladder_mbps[_mcs(power_mw[n, k] / disturbance_mw, thresholds) + 1]
-
-
-@numba.njit(cache=True, nogil=True)
-def _admit(user_order: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, copy_index: np.ndarray,
-           weights: np.ndarray, hidden: np.ndarray, noise_mw: float, thresholds: np.ndarray,
-           ladder_mbps: np.ndarray, airtime: np.ndarray, efficiency: float, min_rate_mbps: float,
-           airtime_fair: bool, rate_admission: bool, station_limit: int, previous: np.ndarray
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """Step 4: incumbents, then newcomers, at the pass-1 airtime and rates; ``airtime`` (B, K); limit 0: none.
-
-    An AP is *closed* once no newcomer could pass its test (even at the top rate): skipping it changes
-    nothing.
-    """
-    n_users, n_uavs = in_range.shape
-    top_rate_mbps = ladder_mbps[-1]
-    association = np.full(n_users, -1, np.int64)
-    count = np.zeros(airtime.shape, np.int64)
-    slowest = np.full(airtime.shape, np.inf)
-    inverse_sum = np.zeros(airtime.shape)
-    closed = np.zeros(airtime.shape, np.bool_)
-
-    def join(n: int, c: int, k: int, rate: float) -> None:
-        association[n] = k
-        count[c, k] += 1
-        slowest[c, k] = min(slowest[c, k], rate)
-        inverse_sum[c, k] += 1.0 / rate
-        full = station_limit > 0 and count[c, k] >= station_limit
-        if airtime_fair:
-            best = airtime[c, k] * efficiency * min(slowest[c, k], top_rate_mbps) / (count[c, k] + 1)
-        else:
-            best = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / top_rate_mbps)
-        closed[c, k] = full or (rate_admission and best < min_rate_mbps)
-
-    def admits(c: int, k: int, rate: float) -> bool:
-        if not rate_admission:
-            return True
-        if airtime_fair:
-            share = airtime[c, k] * efficiency * min(slowest[c, k], rate) / (count[c, k] + 1)
-        else:
-            share = airtime[c, k] * efficiency / (inverse_sum[c, k] + 1.0 / rate)
-        return share >= min_rate_mbps
-
-    for n in user_order:  # incumbents first, strongest first; with rate admission, while their rate holds
-        k = previous[n]
-        if 0 <= k < n_uavs and in_range[n, k]:
-            c = copy_index[n]
-            rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
-            if admits(c, k, rate):
-                join(n, c, k, rate)
-    tried = np.zeros(n_uavs, np.bool_)
-    for n in user_order:
-        c = copy_index[n]
-        if association[n] >= 0:
-            continue
-        tried[:] = False
-        while True:  # the strongest AP in range not tried yet (ties: the lower index)
-            k = -1
-            for j in range(n_uavs):
-                if not tried[j] and not closed[c, j] and in_range[n, j] \
-                        and (k < 0 or power_mw[n, j] > power_mw[n, k]):
-                    k = j
-            if k < 0:
-                break
-            tried[k] = True
-            rate = _pair_rate_mbps(power_mw, n, k, weights, c, hidden, noise_mw, thresholds, ladder_mbps)
-            if not admits(c, k, rate):
-                continue
-            join(n, c, k, rate)
-            break
-    return association, count
-
-
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, channels: np.ndarray,
            noise_mw: float, thresholds: np.ndarray, ladder_mbps: np.ndarray, rho: float, weighting: float,
            collisions: tuple[int, int, float], efficiency: float, min_rate_mbps: float, airtime_fair: bool,
@@ -302,34 +204,36 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
     cw_min, stages, collision_ratio = collisions
     n_users, n_uavs = power_mw.shape
     n_worlds = graph.shape[0]
-    # 3. Pass 1: the APs some user reaches with an SNR of MCS 0 are active.
+    # 3. Pass 1: the APs some user reaches with an SNR of MCS 0 are active. Without hidden interferers a
+    # user is in range of the APs it reaches so (its SINR is its SNR); the other worlds' users are tested
+    # again once the interferers are known.
     active = np.zeros((n_worlds, n_uavs), np.bool_)
+    in_range = np.zeros((n_users, n_uavs), np.bool_)  # the pass-1 SINR reaches MCS 0
+    strongest = np.zeros(n_users)  # the strongest received power among the APs in range
+    reach_mw = thresholds[0] * noise_mw  # below it no AP is in range, whatever the interference
     for n in range(n_users):
         for k in range(n_uavs):
-            if power_mw[n, k] >= noise_mw * thresholds[0]:
-                active[copy_index[n], k] = True
+            if power_mw[n, k] >= reach_mw:
+                active[copy_index[n], k] = in_range[n, k] = True
+                strongest[n] = max(strongest[n], power_mw[n, k])
     airtime, contenders = contention(graph, active, rho)
     collision_free = collision_success_shares(contenders, cw_min, stages, collision_ratio)
     weights = hidden_interferers(graph, channels, active, airtime, weighting)
     hidden = weights.sum(axis=2).sum(axis=1) > 0.0  # (B,) worlds with hidden interferers
-    in_range = np.zeros((n_users, n_uavs), np.bool_)  # the pass-1 SINR reaches MCS 0
-    strongest = np.zeros(n_users)  # the strongest received power among the APs in range
     for n in range(n_users):
         c = copy_index[n]
+        if not hidden[c] or strongest[n] == 0.0:
+            continue
+        strongest[n] = 0.0
         for k in range(n_uavs):
-            disturbance_mw = _disturbance_mw(power_mw, n, k, weights, c, noise_mw) if hidden[c] else noise_mw
-            if power_mw[n, k] >= thresholds[0] * disturbance_mw:
-                in_range[n, k] = True
-                strongest[n] = max(strongest[n], power_mw[n, k])
-    # 4. Association: strongest users first (a stable sort: the lower row first on ties), world by world
-    # (worlds do not interact; each world's rows stay together in memory).
-    user_order = np.empty(n_users, np.int64)
-    first = 0
-    for n in range(1, n_users + 1):
-        if n == n_users or copy_index[n] != copy_index[first]:
-            user_order[first:n] = first + np.argsort(-strongest[first:n], kind="mergesort")
-            first = n
-    association, stations = _admit(user_order, power_mw, in_range, copy_index, weights, hidden, noise_mw,
+            if in_range[n, k]:
+                in_range[n, k] = power_mw[n, k] >= thresholds[0] * disturbance_mw(power_mw, n, k, weights, c,
+                                                                                     noise_mw)
+                if in_range[n, k]:
+                    strongest[n] = max(strongest[n], power_mw[n, k])
+    # 4. Association: incumbents, then the others strongest first (a stable sort: the lower row first on
+    # ties), world by world (worlds do not interact; each world's rows stay together in memory).
+    association, stations = admit(strongest, power_mw, in_range, copy_index, weights, hidden, noise_mw,
                                    thresholds, ladder_mbps, airtime * collision_free, efficiency,
                                    min_rate_mbps, airtime_fair, rate_admission, station_limit, previous)
     # 5. Pass 2: the APs with stations.
@@ -352,9 +256,9 @@ def _links(power_mw: np.ndarray, copy_index: np.ndarray, graph: np.ndarray, chan
                     k = j
         if n_uavs == 0:
             continue
-        sinr[n] = power_mw[n, k] / _disturbance_mw(power_mw, n, k, weights, c, noise_mw)
+        sinr[n] = power_mw[n, k] / disturbance_mw(power_mw, n, k, weights, c, noise_mw)
         if association[n] >= 0:
-            mcs[n] = _mcs(sinr[n], thresholds)
+            mcs[n] = mcs_of(sinr[n], thresholds)
             if mcs[n] >= 0:
                 sharing[c, k] += 1
                 inverse_sum[c, k] += 1.0 / ladder_mbps[mcs[n] + 1]
