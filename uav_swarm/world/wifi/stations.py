@@ -89,7 +89,9 @@ def admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, cop
         incumbent[n] = 0 <= k < n_uavs and in_range[n, k]
     # The incumbents first, whatever the station limit; with admission on rate, strongest first and each
     # only while its rate holds (the AP's test passes with it), else it is a newcomer again.
-    order = _strongest_first(incumbent, strongest, copy_index) if rate_admission else np.flatnonzero(incumbent)
+    order = np.flatnonzero(incumbent)
+    if rate_admission:
+        order = _strongest_first(incumbent, strongest, copy_index)
     for n in order:
         k = previous[n]
         c = copy_index[n]
