@@ -221,3 +221,24 @@ def test_the_swing_to_one_side_of_a_line_through_the_target_is_bounded():
             bound, swing = measure, max(swing, y)
         swings.append(swing)
     assert max(swings) > 5.0  # the turns swing wide: the bound is not vacuous here
+
+
+def test_a_per_axis_autopilot_stays_within_its_per_axis_energy_radius():
+    """(B1x) on the PX4-like model: turned at speed, sent a point, never beyond ``Bounds.radius_m`` of it."""
+    from bridge.simulated.jerk_limited import JerkLimits, PX4LikeCopter
+    from uav_swarm.world.guard import Bounds
+
+    rng = np.random.default_rng(9)
+    for _ in range(40):
+        speed, accel, jerk = rng.uniform(5.0, 20.0), rng.uniform(2.0, 5.0), rng.uniform(2.0, 10.0)
+        copter = PX4LikeCopter(np.array([0.0, 0.0, 30.0]), AutopilotLimits(speed, accel, 3.0, 1.5), Realism(),
+                               rng, JerkLimits(jerk, jerk))
+        heading = rng.uniform(0.0, 2.0 * math.pi)
+        copter.send(0.0, np.array([1e4 * math.cos(heading), 1e4 * math.sin(heading), 30.0]))
+        copter.advance(float(rng.uniform(0.0, 8.0)))
+        target = copter.position_m[:2] + rng.uniform(-60.0, 60.0, size=2)
+        copter.send(copter.now_s, np.array([*target, 30.0]))
+        radius = float(Bounds(accel_m_s2=accel, jerk_m_s3=jerk, per_axis=True).radius_m(
+            copter.position_m[:2] - target, copter.velocity_m_s[:2]))
+        farthest = max(float(np.hypot(*(p[:2] - target))) for p, _ in _fly(copter, 40.0, 0.05))
+        assert farthest <= radius + 1e-9

@@ -27,7 +27,11 @@ smaller of those and its ``[guard]`` settings):
      takes at most ``2 a / j`` to turn an acceleration of ``a`` away into braking, over which it flies at
      most ``2 |v| a / j + a^3 / j^2`` beyond the braking distance (its run-on; its speed grows by at
      most ``a^2 / 2j`` meanwhile). PX4 limits its acceleration per axis (up to ``sqrt(2)`` times
-     ``MPC_ACC_HOR`` on a diagonal): (B1) is not proved for it, only judged by the fuzz.
+     ``MPC_ACC_HOR`` on a diagonal), which (B1) does not cover; for it:
+(B1x) Its autopilot flies a point ``c`` wanting a velocity toward ``c`` of at most ``sqrt(2 a d)``, and
+     changes each horizontal component of its velocity toward the wanted one at a limit ``a`` of its
+     own, with the jerk's run-on on each axis (``Bounds.per_axis``; ``fly`` takes it for a vehicle whose
+     limits it read from ``MPC_ACC_HOR``).
 (B2) The true position is within ``e_t`` of the controller's set point (wind, gusts); a measured
      position within ``e_p`` of the truth, a measured velocity within ``e_v``.
 (B3) Commands to a vehicle take effect in the order they are sent: a new point is sent only once the
@@ -50,6 +54,18 @@ So ``dE/dt <= 0``, and the vehicle never gets further than ``E`` from ``c``. (Th
 :class:`~bridge.simulated.dynamics.PointMassCopter` was checked in 1,500 random states: ``E`` never grew.)
 A controller that plans with more acceleration than ``a`` keeps its own, smaller ``E``; one that brakes
 more weakly than it plans is outside (B1).
+
+**Lemma (energy on each axis).** Under (B1x), on each axis ``E_i = |x_i - c_i| + v_i^2 / (2 a)`` never
+grows. *Proof.* The wanted component points at ``c_i`` with a speed of at most
+``sqrt(2 a d) |c_i - x_i| / d <= sqrt(2 a |c_i - x_i|)`` (as ``|c_i - x_i| <= d``). Moving away from
+``c_i``, or toward it slower than wanted, the component gains speed toward ``c_i`` at ``a``: ``E_i`` is
+constant; faster than wanted, it brakes at ``a`` and ``E_i`` falls at ``2 |v_i|``; holding the wanted
+speed, ``d|v_i|/dt`` is at most ``a`` and ``E_i`` does not grow. So the vehicle stays in the box of
+half-widths ``E_x``, ``E_y`` around ``c``, within ``hypot(E_x, E_y)`` of it; a measurement bounds each
+``E_i`` as above with the run-on on each axis, and the errors, vectors, are added once
+(:func:`~uav_swarm.world.guard.reach.axis_energy_radius_m`). That radius is at most ``E``'s but for the
+constant run-on, counted on each axis (``sqrt(2) a^3 / j^2``). A chain's steps add on each axis, at most
+their lengths to the radius (the triangle inequality), so everything below holds with it.
 
 **The certified disc.** Let the vehicle's chain be the points it may fly to: the last one known in effect
 and those sent after it, ``c_0, ..., c_n``. Switching from ``c_i`` to ``c_{i+1}`` raises ``E`` by at most
@@ -110,7 +126,7 @@ exactly, step by step: ``tests/bridge/test_simulated_dynamics.py``):
 Not proved: where a vehicle with ``L != 0`` goes once it passes ``c`` (turned at speed, the simulated
 autopilots loop round the point: the run past it exceeds what braking explains by up to 23 m), the lag of a
 jerk limit (one jerk-limited turned flight in 200 swung 1.1 m beyond the one-sided bound), and the
-per-axis PX4-like model, which is not (B1) (from rest it flies up to 6.3 m off the segment):
+per-axis PX4-like model, under (B1x) only (from rest it flies up to 6.3 m off the segment):
 ``benchmarks/flight/track_swing.py``. Until those are bounded, a moving vehicle's set stays the disc.
 
 **Outside the bounds** nothing is promised; what can be seen is reported and answered
