@@ -40,6 +40,11 @@ class HorizontalLimits:
     jerk_m_s3: float
     source: str
 
+    @property
+    def per_axis(self) -> bool:
+        """Whether its autopilot limits the acceleration on each horizontal axis (PX4's ``MPC_ACC_HOR``)."""
+        return "MPC_ACC_HOR" in self.source
+
     def to_dict(self) -> dict[str, float | str]:
         """For ``summary.json``."""
         return {"speed_m_s": self.speed_m_s, "accel_m_s2": self.accel_m_s2, "jerk_m_s3": self.jerk_m_s3,

@@ -172,3 +172,73 @@ def test_time_does_not_run_backwards():
     copter.advance(2.0)
     with pytest.raises(ValueError, match="before the vehicle's clock"):
         copter.send(1.0, None)
+
+
+def _turned_at_speed(rng: np.random.Generator) -> tuple[PointMassCopter, np.ndarray]:
+    """A vehicle flying in a random direction at some speed, then sent a random point (in effect at once)."""
+    copter = PointMassCopter(np.array([0.0, 0.0, 10.0]), LIMITS, Realism(), rng)
+    heading = rng.uniform(0.0, 2.0 * math.pi)
+    copter.send(0.0, np.array([1e4 * math.cos(heading), 1e4 * math.sin(heading), 10.0]))
+    copter.advance(float(rng.uniform(0.0, 6.0)))
+    target = copter.position_m + np.array([*rng.uniform(-80.0, 80.0, size=2), 0.0])
+    copter.send(copter.now_s, target)
+    return copter, target[:2]
+
+
+def test_angular_momentum_about_the_target_keeps_its_sign_and_never_grows():
+    """The guard's tube lemma: ``L = (x - c) x v`` is multiplied by a factor in [0, 1] at every step."""
+    rng = np.random.default_rng(7)
+    for _ in range(80):
+        copter, target = _turned_at_speed(rng)
+        moments = []
+        for position, velocity in _fly(copter, 30.0, 0.05):
+            offset = position[:2] - target
+            moments.append(float(offset[0] * velocity[1] - offset[1] * velocity[0]))
+        moments = np.array(moments)
+        assert np.all(moments * moments[0] >= -1e-9)  # one sign
+        assert np.all(np.abs(moments[1:]) <= np.abs(moments[:-1]) + 1e-9)  # never grows
+
+
+def test_the_swing_to_one_side_of_a_line_through_the_target_is_bounded():
+    """The guard's one-sided swing: ``y + (V + U) / a * max(0, v_y)`` never grows while ``y >= 0``."""
+    rng = np.random.default_rng(8)
+    a, v_max = LIMITS.max_accel_m_s2, LIMITS.max_speed_m_s
+    swings = []
+    for _ in range(80):
+        copter, target = _turned_at_speed(rng)
+        start, v0 = copter.position_m[:2], copter.velocity_m_s[:2]
+        along = (target - start) / np.hypot(*(target - start))
+        across = np.array([-along[1], along[0]])
+        across = across if v0 @ across >= 0.0 else -across  # the side it swings to
+        gain = (v_max + max(v_max, float(np.hypot(*v0)))) / a
+        bound, swing = gain * float(v0 @ across), 0.0
+        for position, velocity in _fly(copter, 30.0, 0.05):
+            y = float((position[:2] - target) @ across)
+            if y < 0.0:
+                break  # crossed the line (past the target: outside the lemma)
+            measure = y + gain * max(0.0, float(velocity[:2] @ across))
+            assert measure <= bound + 1e-9
+            bound, swing = measure, max(swing, y)
+        swings.append(swing)
+    assert max(swings) > 5.0  # the turns swing wide: the bound is not vacuous here
+
+
+def test_a_per_axis_autopilot_stays_within_its_per_axis_energy_radius():
+    """(B1x) on the PX4-like model: turned at speed, sent a point, never beyond ``Bounds.radius_m`` of it."""
+    from bridge.simulated.jerk_limited import JerkLimits, PX4LikeCopter
+    from uav_swarm.world.guard import Bounds
+
+    rng = np.random.default_rng(9)
+    for _ in range(40):
+        speed, accel, jerk = rng.uniform(5.0, 20.0), rng.uniform(2.0, 5.0), rng.uniform(2.0, 10.0)
+        copter = PX4LikeCopter(np.array([0.0, 0.0, 30.0]), AutopilotLimits(speed, accel, 3.0, 1.5), Realism(),
+                               rng, JerkLimits(jerk, jerk))
+        heading = rng.uniform(0.0, 2.0 * math.pi)
+        copter.send(0.0, np.array([1e4 * math.cos(heading), 1e4 * math.sin(heading), 30.0]))
+        copter.advance(float(rng.uniform(0.0, 8.0)))
+        target = copter.position_m[:2] + rng.uniform(-60.0, 60.0, size=2)
+        copter.send(copter.now_s, np.array([*target, 30.0]))
+        radius = float(Bounds(accel_m_s2=accel, jerk_m_s3=jerk, per_axis=True).radius_m(
+            copter.position_m[:2] - target, copter.velocity_m_s[:2]))
+        farthest = max(float(np.hypot(*(p[:2] - target))) for p, _ in _fly(copter, 40.0, 0.05))
+        assert farthest <= radius + 1e-9

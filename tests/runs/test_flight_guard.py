@@ -32,6 +32,7 @@ def test_each_vehicle_is_planned_with_the_smaller_of_its_own_and_the_stated_limi
     hard = guard.set_limits(1, HorizontalLimits(12.0, 4.0, 4.0, "MPC_XY_VEL_MAX, MPC_ACC_HOR, MPC_JERK_AUTO"))
     assert (soft.accel_m_s2, soft.jerk_m_s3) == (2.5, 5.0)
     assert (hard.accel_m_s2, hard.jerk_m_s3) == (3.0, 4.0)
+    assert not soft.per_axis and hard.per_axis  # PX4 limits each axis: its energy is bounded per axis
     assert guard.set_limits(1, None).jerk_m_s3 == math.inf  # stated: no jerk limit given
 
 

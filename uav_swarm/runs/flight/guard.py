@@ -122,7 +122,8 @@ class FlightGuard:
             jerk = min(jerk, reported.jerk_m_s3)
         return Bounds(accel_m_s2=accel, jerk_m_s3=jerk, position_error_m=cfg.position_error_m,
                       velocity_error_m_s=cfg.velocity_error_m_s, tracking_error_m=cfg.tracking_error_m,
-                      command_delay_s=cfg.command_delay_s, position_age_s=cfg.position_age_s)
+                      command_delay_s=cfg.command_delay_s, position_age_s=cfg.position_age_s,
+                      per_axis=reported is not None and reported.per_axis)
 
     def set_limits(self, row: int, reported: HorizontalLimits | None) -> Bounds:
         """Plan vehicle ``row`` with the smaller of the stated limits and what it reports; its bounds."""
@@ -167,7 +168,7 @@ class FlightGuard:
                 continue
             if not steerable:
                 bounds = self._bounds[row]
-                reach = float(bounds.radius_m(np.zeros(2), np.hypot(vx, vy)))
+                reach = float(bounds.radius_m(np.zeros(2), velocity))
                 fleet.obstacle(row, position, reach, home_m if row in returning else None)
                 continue
             if not fleet.joined(row):  # after its take-off it may still fly to where it took off

@@ -250,7 +250,8 @@ class FleetGuard:
         if hold.measure(position_m, velocity_m_s, stamp_s):
             slow = Bounds(**{**hold.bounds.__dict__, "accel_m_s2": hold.bounds.accel_m_s2 / 2})
             p = np.asarray(position_m, dtype=np.float64)
-            needed = float(slow.radius_m(p - hold.centre_m, np.hypot(*velocity_m_s)))
+            velocity = np.asarray(velocity_m_s, dtype=np.float64)[:2]
+            needed = float(slow.radius_m(p[:2] - hold.centre_m, velocity))
             hold.radius_m = max(hold.radius_m, needed)
             self._outside[i] = p
             self.events.append((now_s, i, "outside_bounds"))
@@ -303,7 +304,7 @@ class FleetGuard:
             hold = self._hold[i]
             bounds = hold.bounds if hold is not None else None
             centres[k + m] = self._homes[i]
-            radii[k + m] = 0.0 if bounds is None else float(bounds.radius_m(np.zeros(2), np.array(0.0)))
+            radii[k + m] = 0.0 if bounds is None else float(bounds.radius_m(np.zeros(2), np.zeros(2)))
         present = np.isfinite(radii) | (radii == np.inf)
         goals = np.full((n, 2), np.nan)
         goals[:k] = np.array(goals_m, dtype=np.float64).reshape(k, 2)

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uav_swarm.world.guard.reach import energy_radius_m
+from uav_swarm.world.guard.reach import axis_energy_radius_m, energy_radius_m
 
 __all__ = ["Bounds", "Commitment"]
 
@@ -57,6 +57,8 @@ class Bounds:
             (wind, gusts).
         command_delay_s: A command takes effect, and its acknowledgement is back, within this.
         position_age_s: A measurement older than this is out of bounds.
+        per_axis: Its autopilot limits the acceleration on each horizontal axis (PX4's ``MPC_ACC_HOR``):
+            its energy is bounded on each axis ((B1x) of :mod:`uav_swarm.world.guard`).
     """
 
     accel_m_s2: float
@@ -66,6 +68,7 @@ class Bounds:
     tracking_error_m: float = 0.0
     command_delay_s: float = 0.5
     position_age_s: float = 1.0
+    per_axis: bool = False
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.accel_m_s2) and self.accel_m_s2 > 0):
@@ -77,11 +80,19 @@ class Bounds:
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise ValueError(f"Bounds.{name} must be >= 0, got {getattr(self, name)!r}")
 
-    def radius_m(self, offset_m: np.ndarray, speed_m_s: np.ndarray) -> np.ndarray:
-        """:func:`~uav_swarm.world.guard.reach.energy_radius_m` under these bounds."""
-        return energy_radius_m(offset_m, speed_m_s, self.accel_m_s2, position_error_m=self.position_error_m,
-                               velocity_error_m_s=self.velocity_error_m_s,
-                               tracking_error_m=self.tracking_error_m, jerk_m_s3=self.jerk_m_s3)
+    def radius_m(self, offset_m: np.ndarray, velocity_m_s: np.ndarray) -> np.ndarray:
+        """Distance from its target it never exceeds again, from a measured offset (..., 2) and velocity (2,).
+
+        :func:`~uav_swarm.world.guard.reach.energy_radius_m` under these bounds, or
+        :func:`~uav_swarm.world.guard.reach.axis_energy_radius_m` for an autopilot limited per axis.
+        """
+        errors = {"position_error_m": self.position_error_m, "velocity_error_m_s": self.velocity_error_m_s,
+                  "tracking_error_m": self.tracking_error_m, "jerk_m_s3": self.jerk_m_s3}
+        velocity = np.asarray(velocity_m_s, dtype=np.float64)
+        if self.per_axis:
+            return axis_energy_radius_m(offset_m, velocity, self.accel_m_s2, **errors)
+        speed = np.hypot(velocity[..., 0], velocity[..., 1])
+        return energy_radius_m(offset_m, speed, self.accel_m_s2, **errors)
 
 
 class Commitment:
@@ -170,7 +181,7 @@ class Commitment:
         ``chain`` (default: today's) ends with the newest point sent.
         """
         points = np.asarray(self.chain if chain is None else chain)
-        radii = self.bounds.radius_m(np.asarray(position_m) - points, np.hypot(*velocity_m_s))
+        radii = self.bounds.radius_m(np.asarray(position_m) - points, np.asarray(velocity_m_s)[:2])
         steps = np.hypot(*np.diff(points, axis=0).T) if len(points) > 1 else np.zeros(0)
         onward = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]])  # chain length from each point on
         return float(np.max(radii + onward))

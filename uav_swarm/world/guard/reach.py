@@ -6,7 +6,8 @@
 - **An autopilot flying to a point, late and measured with errors** (a real vehicle): the energy
   ``E = |x - c| + |v|^2 / (2 a)`` of a vehicle flying to ``c`` never grows (:mod:`uav_swarm.world.guard`
   proves it), so it stays within ``E`` of ``c``: :func:`energy_radius_m` bounds ``E`` from a
-  measurement and its errors.
+  measurement and its errors; :func:`axis_energy_radius_m` does so for an autopilot that limits its
+  acceleration on each axis (PX4), whose energy never grows on each axis.
 """
 
 from __future__ import annotations
@@ -15,8 +16,8 @@ import numpy as np
 
 from uav_swarm.world.uav import UAVConfig
 
-__all__ = ["braking_paths", "energy_radius_m", "path_distances_m", "segment_distances_m",
-           "stopping_distance_m"]
+__all__ = ["axis_energy_radius_m", "braking_paths", "energy_radius_m", "path_distances_m",
+           "segment_distances_m", "stopping_distance_m"]
 
 
 def energy_radius_m(offset_m: np.ndarray, speed_m_s: np.ndarray, accel_m_s2: float, *,
@@ -41,6 +42,30 @@ def energy_radius_m(offset_m: np.ndarray, speed_m_s: np.ndarray, accel_m_s2: flo
     run_on = (2.0 * speed * accel_m_s2 / jerk_m_s3 + accel_m_s2**3 / jerk_m_s3**2) if np.isfinite(jerk_m_s3) \
         else 0.0
     return distance + position_error_m + 2.0 * tracking_error_m + speed**2 / (2.0 * accel_m_s2) + run_on
+
+
+def axis_energy_radius_m(offset_m: np.ndarray, velocity_m_s: np.ndarray, accel_m_s2: float, *,
+                         position_error_m: float = 0.0, velocity_error_m_s: float = 0.0,
+                         tracking_error_m: float = 0.0, jerk_m_s3: float = np.inf) -> np.ndarray:
+    """Distance from its target that an autopilot limited on each axis never exceeds again (true position).
+
+    On each axis ``i`` the 1-D energy ``|x_i - c_i| + u_i^2 / (2 a)`` never grows
+    (:mod:`uav_swarm.world.guard`, (B1x)), with the jerk run-on ``2 u_i a / j + a^3 / j^2`` on each axis
+    (``u_i = |v_i| + e_v``): the vehicle stays in that box around ``c``, within the distance of its
+    corner, ``hypot`` over the axes; the position error and the tracking error, vectors, are added once.
+
+    Examples:
+        >>> float(axis_energy_radius_m(np.array([3.0, 4.0]), np.array([0.0, 0.0]), 5.0))  # at rest: |offset|
+        5.0
+        >>> float(axis_energy_radius_m(np.array([0.0, 0.0]), np.array([10.0, 10.0]), 5.0))  # 10 m per axis
+        14.142135623730951
+    """
+    offset = np.abs(np.asarray(offset_m, dtype=np.float64))
+    speed = np.abs(np.asarray(velocity_m_s, dtype=np.float64)) + velocity_error_m_s
+    run_on = (2.0 * speed * accel_m_s2 / jerk_m_s3 + accel_m_s2**3 / jerk_m_s3**2) if np.isfinite(jerk_m_s3) \
+        else 0.0
+    energy = offset + speed**2 / (2.0 * accel_m_s2) + run_on  # (..., 2): each axis
+    return np.hypot(energy[..., 0], energy[..., 1]) + position_error_m + 2.0 * tracking_error_m
 
 
 def stopping_distance_m(speed_m_s: np.ndarray, max_accel_m_s2: float, dt_s: float) -> np.ndarray:

@@ -152,7 +152,8 @@ def bounds_of(trial: Trial) -> Bounds:
                   position_error_m=noise,
                   velocity_error_m_s=2.0 * tracking / realism.wind_response_s if tracking else 0.0,
                   tracking_error_m=tracking, command_delay_s=trial.latency_s + 2 * DT_S,
-                  position_age_s=trial.age_s + 1.0 / trial.rate_hz + 2 * DT_S)
+                  position_age_s=trial.age_s + 1.0 / trial.rate_hz + 2 * DT_S,
+                  per_axis=trial.autopilot == "px4")
 
 
 def realism_of(trial: Trial) -> Realism:
