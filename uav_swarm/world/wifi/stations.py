@@ -84,9 +84,8 @@ def admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, cop
     closed = np.zeros(airtime.shape, np.bool_)
 
     incumbent = np.zeros(n_users, np.bool_)
-    for n in range(n_users):
-        k = previous[n]
-        incumbent[n] = 0 <= k < n_uavs and in_range[n, k]
+    for row in range(n_users):
+        incumbent[row] = 0 <= previous[row] < n_uavs and in_range[row, previous[row]]
     # The incumbents first, whatever the station limit; with admission on rate, strongest first and each
     # only while its rate holds (the AP's test passes with it), else it is a newcomer again.
     order = np.flatnonzero(incumbent)
