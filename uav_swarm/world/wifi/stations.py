@@ -88,7 +88,7 @@ def admit(strongest: np.ndarray, power_mw: np.ndarray, in_range: np.ndarray, cop
         incumbent[row] = 0 <= previous[row] < n_uavs and in_range[row, previous[row]]
     # The incumbents first, whatever the station limit; with admission on rate, strongest first and each
     # only while its rate holds (the AP's test passes with it), else it is a newcomer again.
-    order = np.flatnonzero(incumbent)
+    order: np.ndarray = np.flatnonzero(incumbent)
     if rate_admission:
         order = _strongest_first(incumbent, strongest, copy_index)
     for n in order:
