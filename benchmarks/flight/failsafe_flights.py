@@ -69,7 +69,7 @@ def random_homes(rng: np.random.Generator, n: int, spacing_m: float,
 
 def _toml(path: Path, urls: list[str]) -> None:
     lines = ["[geofence]", "x_min_m = -50.0", "y_min_m = -50.0", "x_max_m = 300.0", "y_max_m = 300.0",
-             "[protocol]", "handshake_timeout_s = 0.3", "item_timeout_s = 0.1", "max_retries = 3"]
+             "[protocol]", "handshake_timeout_s = 1.0", "item_timeout_s = 0.3", "max_retries = 5"]
     for sid, url in enumerate(urls, start=1):
         lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
     path.write_text("\n".join(lines) + "\n")

@@ -125,7 +125,8 @@ class Px4Copter(ArduCopter):
 
     def _check_failsafe(self) -> None:
         action, silent_s = int(self.param("NAV_DLL_ACT")), self._silent_s()
-        waits_s = _HEARTBEAT_TIMEOUT_S + self.param("COM_DL_LOSS_T") + self.param("COM_FAIL_ACT_T")
+        hold_s = self.param("COM_FAIL_ACT_T") if "COM_FAIL_ACT_T" in self.params else 0.0  # older PX4: none
+        waits_s = _HEARTBEAT_TIMEOUT_S + self.param("COM_DL_LOSS_T") + hold_s
         if (action not in _DLL_MODES or not self.armed or self.mode in (RTL, LAND) or silent_s is None
                 or silent_s < waits_s or self._setpoint()[2] <= 0.0 or self.failsafes):
             return
