@@ -113,7 +113,7 @@ def _timeout_s(v: ArduCopter) -> float:
 
 
 def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, work: Path,
-            scenario: str = "kill", duration_s: float = 30.0) -> dict:
+            scenario: str = "kill", duration_s: float = 30.0, return_timeout_s: float = 120.0) -> dict:
     """One flight with the scenario's fault in cruise; the judge's figures."""
     homes = random_homes(rng, n, spacing_m, side_m=40.0)
     cls, failsafe = (Px4Copter, PX4_FAILSAFE) if autopilot == "px4" else (ArduCopter, ARDUPILOT_FAILSAFE)
@@ -127,10 +127,11 @@ def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, 
         urls.append(gcs_url)
     toml = work / "bridge.toml"
     _toml(toml, urls)
+    (work / "fly.toml").write_text(f"[guard]\nreturn_timeout_s = {return_timeout_s}\n")
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     argv = [sys.executable, "-m", "uav_swarm", "fly", "--bridge-config", str(toml), "--out",
             str(work / "out"), "--duration-s", str(duration_s if scenario == "silent-end" else 600.0),
-            "--no-telemetry", "--wait-ready-s", "60", "--seed",
+            "--no-telemetry", "--config", str(work / "fly.toml"), "--wait-ready-s", "60", "--seed",
             str(int(rng.integers(1000)))]
     process = subprocess.Popen(argv, env=env, cwd=str(REPO), stdout=subprocess.DEVNULL,
                                stderr=subprocess.PIPE, text=True)
@@ -187,6 +188,8 @@ def main() -> None:
     parser.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot")
     parser.add_argument("--scenario", choices=("kill", "cut", "silent-end"), default="kill")
     parser.add_argument("--duration-s", type=float, default=30.0, help="fly's duration (silent-end)")
+    parser.add_argument("--return-timeout-s", type=float, default=120.0,
+                        help="fly's [guard] return_timeout_s (its default 120 s)")
     parser.add_argument("--runs", type=int, default=20)
     parser.add_argument("--n", type=int, default=5)
     parser.add_argument("--seed", type=int, default=62)
@@ -199,14 +202,15 @@ def main() -> None:
     for k in range(args.runs):
         with tempfile.TemporaryDirectory() as tmp:
             run = one_run(args.autopilot, args.n, rng, args.spacing_m, Path(tmp), args.scenario,
-                          args.duration_s)
+                          args.duration_s, args.return_timeout_s)
         run["load"] = os.getloadavg()[0]
         runs.append(run)
         print(json.dumps({"run": k, **run}), flush=True)
     judged = [r for r in runs if "closest_m" in r]
     summary = {"autopilot": args.autopilot, "scenario": args.scenario, "runs": args.runs,
                "judged": len(judged), "seed": args.seed,
-               "n": args.n, "in_time": sum(bool(r["in_time"]) for r in judged),
+               "n": args.n, "return_timeout_s": args.return_timeout_s,
+               "in_time": sum(bool(r["in_time"]) for r in judged),
                "landed": sum(bool(r["all_landed"]) for r in judged),
                "under_minimum": sum(r["closest_m"] < MIN_M for r in judged),
                "closest_m": min((r["closest_m"] for r in judged), default=None),
