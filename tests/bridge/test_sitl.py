@@ -343,7 +343,9 @@ def test_a_head_on_swap_on_real_autopilots_keeps_the_minimum_on_their_reported_p
 
 @pytest.mark.parametrize(("kind", "n", "spacing_m"), [
     pytest.param("ardupilot", 5, 6.0, marks=needs_ardupilot),
-    pytest.param("px4", 3, 6.0, marks=needs_px4),
+    pytest.param("px4", 3, 6.0, marks=[needs_px4, pytest.mark.xfail(
+        reason="homes under the launch spacing: two failsafe landings keep only d - 2 (e_t + e_p), and PX4 "
+               "SIH lands up to 1.3 m from its home (4.43 and 4.68 m measured)", strict=False)]),
     pytest.param("px4", 3, 8.0, marks=needs_px4)])  # the launch spacing (min + margin + 2 (e_t + e_p))
 def test_kill_9_of_fly_sends_every_real_autopilot_home_by_its_own_failsafe(tmp_path, kind, n, spacing_m):
     """Vehicles in cruise on homes ``spacing_m`` apart, ``fly`` killed: each one's HEARTBEAT says RTL within
