@@ -131,7 +131,7 @@ class SimVehicle:
         self._last_done_seq: int | None = None
         self._conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=1)
         send = self._conn.write
-        self._conn.write = lambda buf: None if self.cut else send(buf)  # type: ignore[method-assign]
+        self._conn.write = lambda buf: None if self.cut else send(buf)
         if signing_key is not None:
             self._conn.setup_signing(signing_key, sign_outgoing=True)
         self._stop = threading.Event()
