@@ -34,7 +34,8 @@ return path (pinned        ``RTL_CONE_SLOPE`` 0 (no cone),         ``RTL_CONE_AN
 before arming)             ``RTL_ALT_TYPE`` 0 (above home),        ``RTL_TYPE`` 0 (straight home),
                            ``FS_OPTIONS`` without the bits that    ``RTL_DESCEND_ALT`` at most the return
                            continue a mission, a landing or a      altitude
-                           pilot's mode on a GCS failsafe
+                           pilot's mode on a GCS failsafe          ``COM_FAIL_ACT_T`` 0 (no hold before
+                                                                   the failsafe's action)
 geofence                   ``FENCE_ENABLE`` (0 off)                ``GF_ACTION`` (0 none)
 =========================  =====================================  =========================================
 
@@ -94,6 +95,8 @@ class Conventions:
         failsafe_continue_bits: The bits of it that keep the vehicle flying on instead of returning.
         rtl_descend_param: The altitude it descends to over home before landing ("" if none); kept at most
             the return altitude.
+        failsafe_delay_param: Seconds it holds before a failsafe's action ("" if none); set to 0, so that
+            its return starts at ``failsafe_timeout_param``.
     """
 
     name: str
@@ -120,6 +123,7 @@ class Conventions:
     failsafe_options_param: str = "FS_OPTIONS"
     failsafe_continue_bits: int = 0b11010  # continue in AUTO (2), landing (8), pilot-controlled modes (16)
     rtl_descend_param: str = ""
+    failsafe_delay_param: str = ""
 
     def first_item(self) -> int:
         """The seq of the mission's first real item (1 after ArduPilot's home, else 0)."""
@@ -167,6 +171,7 @@ PX4 = Conventions(
     failsafe_options_param="",
     failsafe_continue_bits=0,
     rtl_descend_param="RTL_DESCEND_ALT",
+    failsafe_delay_param="COM_FAIL_ACT_T",
 )
 """PX4: main and sub modes, item 0 a real item, take-off and reposition altitudes above sea level."""
 

@@ -1,16 +1,24 @@
-"""Are the vehicles' own failsafe flights separated? ``kill -9`` of ``fly`` in cruise, judged by true tracks.
+"""Are the vehicles' own failsafe flights separated? Ground-side faults in cruise, judged by true tracks.
 
 Each run starts ``--n`` simulated vehicles of one autopilot (the packaged fleet's ArduCopter-like or
 PX4-like vehicle, link-loss failsafe set to RTL, swift limits so that a run stays short) on random homes
 (drawn at least ``--spacing-m`` apart in a square), starts ``uav-swarm fly`` on them as its own process
-(seeded), and once every vehicle flies its targets in guided flight waits a random 1-15 s and kills
-``fly`` with SIGKILL: every vehicle loses its ground station at once. The judge is the vehicles' own true
-tracks (:attr:`ArduCopter.track`, one row per telemetry step, 20 Hz, interpolated on a 10 ms clock): each
-vehicle must be in RTL within its link-loss timeout + 5 s, and the closest pair (3-D) from take-off until
-the last has landed must keep ``[uav] min_separation_m`` (5 m).
+(seeded), and once every vehicle flies its targets in guided flight waits a random time and then
+(``--scenario``):
 
-Usage: python benchmarks/flight/failsafe_flights.py --autopilot ardupilot --runs 20 [--seed 62] [--n 5]
-       [--json out.json]
+- ``kill``: kills ``fly`` with SIGKILL (1-15 s after cruise): every vehicle loses its ground station at once;
+- ``cut``: cuts every vehicle's link both ways at once (1-15 s after cruise; ``fly`` goes on running);
+- ``silent-end``: ``fly`` flies ``--duration-s`` and ends (the RTLs it sends, ordered by its return rule),
+  one random vehicle's link cut 1-20 s after cruise, before that end.
+
+The judge is the vehicles' own true tracks (:attr:`ArduCopter.track`, one row per telemetry step, 20 Hz,
+interpolated on a 10 ms clock): each vehicle that lost its link must be in RTL within its link-loss timeout
+(PX4: ``COM_DL_LOSS_T`` + ``COM_FAIL_ACT_T``; its own 2.5 s heartbeat timeout is inside the 5 s) + 5 s, every
+vehicle must land, and the closest pair (3-D) from take-off until the last has landed must keep ``[uav]
+min_separation_m`` (5 m).
+
+Usage: python benchmarks/flight/failsafe_flights.py --autopilot ardupilot --scenario kill --runs 20
+       [--seed 62] [--n 5] [--json out.json]
 """
 
 from __future__ import annotations
@@ -61,7 +69,7 @@ def random_homes(rng: np.random.Generator, n: int, spacing_m: float,
 
 def _toml(path: Path, urls: list[str]) -> None:
     lines = ["[geofence]", "x_min_m = -50.0", "y_min_m = -50.0", "x_max_m = 300.0", "y_max_m = 300.0",
-             "[protocol]", "handshake_timeout_s = 0.3", "item_timeout_s = 0.1", "max_retries = 3"]
+             "[protocol]", "handshake_timeout_s = 1.0", "item_timeout_s = 0.3", "max_retries = 5"]
     for sid, url in enumerate(urls, start=1):
         lines += ["[[vehicles]]", f"system_id = {sid}", f'url = "{url}"']
     path.write_text("\n".join(lines) + "\n")
@@ -97,8 +105,16 @@ def closest_m(vehicles: list[ArduCopter], step_s: float = 0.01) -> tuple[float, 
     return best, pair
 
 
-def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, work: Path) -> dict:
-    """One flight, killed in cruise; the judge's figures."""
+def _timeout_s(v: ArduCopter) -> float:
+    """Its link-loss timeout: from the last heartbeat heard to its failsafe's action."""
+    if isinstance(v, Px4Copter):
+        return v.param("COM_DL_LOSS_T") + v.param("COM_FAIL_ACT_T")  # its 2.5 s heartbeat timeout not added
+    return v.param("FS_GCS_TIMEOUT")
+
+
+def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, work: Path,
+            scenario: str = "kill", duration_s: float = 30.0, return_timeout_s: float = 120.0) -> dict:
+    """One flight with the scenario's fault in cruise; the judge's figures."""
     homes = random_homes(rng, n, spacing_m, side_m=40.0)
     cls, failsafe = (Px4Copter, PX4_FAILSAFE) if autopilot == "px4" else (ArduCopter, ARDUPILOT_FAILSAFE)
     vehicles, urls = [], []
@@ -111,9 +127,11 @@ def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, 
         urls.append(gcs_url)
     toml = work / "bridge.toml"
     _toml(toml, urls)
+    (work / "fly.toml").write_text(f"[guard]\nreturn_timeout_s = {return_timeout_s}\n")
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     argv = [sys.executable, "-m", "uav_swarm", "fly", "--bridge-config", str(toml), "--out",
-            str(work / "out"), "--duration-s", "600", "--no-telemetry", "--wait-ready-s", "60", "--seed",
+            str(work / "out"), "--duration-s", str(duration_s if scenario == "silent-end" else 600.0),
+            "--no-telemetry", "--config", str(work / "fly.toml"), "--wait-ready-s", "60", "--seed",
             str(int(rng.integers(1000)))]
     process = subprocess.Popen(argv, env=env, cwd=str(REPO), stdout=subprocess.DEVNULL,
                                stderr=subprocess.PIPE, text=True)
@@ -129,22 +147,32 @@ def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, 
             said = process.communicate(timeout=10)[1][-600:]
             result["error"] = f"never in cruise ({'fly exited' if exited else 'timeout'}): {said}"
             return result
-        wait_s = float(rng.uniform(1.0, 15.0))
+        wait_s = float(rng.uniform(1.0, 20.0 if scenario == "silent-end" else 15.0))
         time.sleep(wait_s)
-        process.send_signal(signal.SIGKILL)
-        killed_s = time.monotonic()
-        process.wait(timeout=10)
-        result["killed_after_cruise_s"] = round(wait_s, 2)
-        deadline = time.monotonic() + 240.0
+        lost = vehicles
+        if scenario == "kill":
+            process.send_signal(signal.SIGKILL)
+            process.wait(timeout=10)
+        elif scenario == "cut":
+            for v in vehicles:
+                v.cut = True
+        else:
+            lost = [vehicles[int(rng.integers(n))]]
+            lost[0].cut = True
+            result["silent"] = lost[0].system_id
+        fault_s = time.monotonic()
+        result["returning_at_fault"] = sum(_in_rtl(v) for v in vehicles)  # silent-end: must be 0
+        result["fault_after_cruise_s"] = round(wait_s, 2)
+        deadline = time.monotonic() + 300.0
         while any(v.armed for v in vehicles) and time.monotonic() < deadline:
             time.sleep(0.1)
-        timeout_param = "COM_DL_LOSS_T" if autopilot == "px4" else "FS_GCS_TIMEOUT"
-        result["failsafe_after_kill_s"] = [round(v.failsafes[0] - killed_s, 2) if v.failsafes else None
-                                           for v in vehicles]
-        result["in_time"] = all(v.failsafes and v.failsafes[0] - killed_s <= v.param(timeout_param) + 5.0
-                                for v in vehicles)
+        result["failsafe_after_fault_s"] = {v.system_id: round(v.failsafes[0] - fault_s, 2) if v.failsafes
+                                            else None for v in lost}
+        result["in_time"] = all(v.failsafes and v.failsafes[0] - fault_s <= _timeout_s(v) + 5.0 for v in lost)
         result["all_landed"] = not any(v.armed for v in vehicles)
         result["all_rtl"] = all(_in_rtl(v) for v in vehicles)
+        result["last_landed_after_fault_s"] = round(time.monotonic() - fault_s, 1)
+        result["fly_exit"] = process.poll()  # silent-end: None, fly still waits for the silent vehicle
         result["closest_m"], result["pair"] = closest_m(vehicles)
         return result
     finally:
@@ -158,6 +186,10 @@ def one_run(autopilot: str, n: int, rng: np.random.Generator, spacing_m: float, 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot")
+    parser.add_argument("--scenario", choices=("kill", "cut", "silent-end"), default="kill")
+    parser.add_argument("--duration-s", type=float, default=30.0, help="fly's duration (silent-end)")
+    parser.add_argument("--return-timeout-s", type=float, default=120.0,
+                        help="fly's [guard] return_timeout_s (its default 120 s)")
     parser.add_argument("--runs", type=int, default=20)
     parser.add_argument("--n", type=int, default=5)
     parser.add_argument("--seed", type=int, default=62)
@@ -169,13 +201,16 @@ def main() -> None:
     runs = []
     for k in range(args.runs):
         with tempfile.TemporaryDirectory() as tmp:
-            run = one_run(args.autopilot, args.n, rng, args.spacing_m, Path(tmp))
+            run = one_run(args.autopilot, args.n, rng, args.spacing_m, Path(tmp), args.scenario,
+                          args.duration_s, args.return_timeout_s)
         run["load"] = os.getloadavg()[0]
         runs.append(run)
         print(json.dumps({"run": k, **run}), flush=True)
     judged = [r for r in runs if "closest_m" in r]
-    summary = {"autopilot": args.autopilot, "runs": args.runs, "judged": len(judged), "seed": args.seed,
-               "n": args.n, "in_time": sum(bool(r["in_time"]) for r in judged),
+    summary = {"autopilot": args.autopilot, "scenario": args.scenario, "runs": args.runs,
+               "judged": len(judged), "seed": args.seed,
+               "n": args.n, "return_timeout_s": args.return_timeout_s,
+               "in_time": sum(bool(r["in_time"]) for r in judged),
                "landed": sum(bool(r["all_landed"]) for r in judged),
                "under_minimum": sum(r["closest_m"] < MIN_M for r in judged),
                "closest_m": min((r["closest_m"] for r in judged), default=None),

@@ -84,8 +84,14 @@ def decode_param(value: float, param_type: int, *, bytewise: bool) -> float:
 
 
 def _exchange(link: MavlinkLink, system_id: int, name: str, send: Callable[[], None],
-              protocol: ProtocolConfig, what: str) -> MavMessage:
-    """Send with ``send()`` until a PARAM_VALUE of ``name`` arrives; that message."""
+              protocol: ProtocolConfig, what: str,
+              accept: Callable[[MavMessage], bool] | None = None) -> MavMessage:
+    """Send with ``send()`` until a PARAM_VALUE of ``name`` arrives (that ``accept`` takes); that message.
+
+    A PARAM_VALUE that ``accept`` refuses may be a late answer to an earlier request (a retried read
+    answered twice): it is kept and the exchange goes on; after every retry the last one kept is returned.
+    """
+    refused = None
     with link.inbox(system_id) as box:
         for _ in range(protocol.max_retries + 1):
             send()
@@ -96,7 +102,11 @@ def _exchange(link: MavlinkLink, system_id: int, name: str, send: Callable[[], N
                 except queue.Empty:
                     break
                 if msg.get_type() == "PARAM_VALUE" and str(msg.param_id).rstrip("\x00") == name:
-                    return msg
+                    if accept is None or accept(msg):
+                        return msg
+                    refused = msg
+    if refused is not None:
+        return refused
     waited_s = protocol.handshake_timeout_s * (protocol.max_retries + 1)
     raise ParamError(system_id, name, f"no PARAM_VALUE answered {what} in {waited_s:.1f} s, "
                                       f"{protocol.max_retries + 1} tries (a name this autopilot does not "
@@ -123,6 +133,9 @@ def set_param(link: MavlinkLink, system_id: int, name: str, value: float, param_
               protocol: ProtocolConfig | None = None, component_id: int = 1) -> ParamValue:
     """Set one parameter (``PARAM_SET``) and check the value the vehicle answers that it holds.
 
+    An answer with another value is taken as the vehicle's only when no answer with the value set comes
+    within every retry (an earlier read's late answer is not a refusal).
+
     Raises:
         ParamError: No answer after every retry, or the vehicle kept another value.
     """
@@ -132,7 +145,11 @@ def set_param(link: MavlinkLink, system_id: int, name: str, value: float, param_
     def send() -> None:
         link.send(lambda mav: mav.param_set_send(system_id, component_id, name.encode(), wire, param_type))
 
-    msg = _exchange(link, system_id, name, send, protocol, "PARAM_SET")
+    def holds(msg: MavMessage) -> bool:
+        held = decode_param(msg.param_value, msg.param_type, bytewise=bytewise)
+        return math.isclose(held, value, rel_tol=1e-6, abs_tol=1e-6)
+
+    msg = _exchange(link, system_id, name, send, protocol, "PARAM_SET", accept=holds)
     held = decode_param(msg.param_value, msg.param_type, bytewise=bytewise)
     if not math.isclose(held, value, rel_tol=1e-6, abs_tol=1e-6):
         raise ParamError(system_id, name, f"set to {value:g}, the vehicle holds {held:g}")

@@ -20,7 +20,9 @@ until its battery ends. :func:`preflight` reads, with the parameter protocol
   vehicle's return layer), no cone (``RTL_CONE_SLOPE`` / ``RTL_CONE_ANG`` = 0: a cone would lower the
   return near home below the layer), the altitude above home (``RTL_ALT_TYPE`` = 0) and straight home
   (``RTL_TYPE`` = 0), PX4's ``RTL_DESCEND_ALT`` at most the return altitude, and no "continue" bit in
-  ArduPilot's ``FS_OPTIONS`` (a mission, a landing or a pilot's mode flown on through a lost link). A
+  ArduPilot's ``FS_OPTIONS`` (a mission, a landing or a pilot's mode flown on through a lost link), and
+  no hold before the failsafe's action (PX4's ``COM_FAIL_ACT_T`` = 0: by default PX4 holds 5 s after
+  ``COM_DL_LOSS_T`` before it returns, so its return would start 5 s after its timeout). A
   parameter that cannot be set is refused, naming it: nothing is armed.
 """
 
@@ -190,6 +192,10 @@ def pin_return_path(link: MavlinkLink, system_id: int, conventions: Conventions,
         held[conventions.rtl_descend_param] = _settle(
             link, system_id, conventions, conventions.rtl_descend_param, rtl_alt_m, protocol,
             "it must not descend over home from above its return layer", at_most=True)
+    if conventions.failsafe_delay_param:
+        held[conventions.failsafe_delay_param] = _settle(
+            link, system_id, conventions, conventions.failsafe_delay_param, 0.0, protocol,
+            "a lost link must start its return at the link-loss timeout, not hold first")
     if conventions.failsafe_options_param:
         name, bits = conventions.failsafe_options_param, conventions.failsafe_continue_bits
         try:

@@ -7,7 +7,8 @@ for HOME_POSITION (COMMAND_LONG) with its home, the position it starts at. The f
 (:mod:`bridge.simulated.ardupilot`, :mod:`bridge.simulated.px4`) build on it; alone it is a vehicle
 that holds where it is, for the mission protocol's tests.
 
-Faults on demand: never answer the mission protocol (``silent``), refuse an item with a
+Faults on demand: a link cut both ways (``cut``: nothing it hears is handled, nothing it sends leaves,
+as a radio out of range), never answer the mission protocol (``silent``), refuse an item with a
 ``MAV_MISSION_RESULT`` code, or use the legacy MISSION_REQUEST; a command link with latency and loss
 (``link``: :class:`~bridge.simulated.dynamics.Realism`'s ``command_latency_s`` and ``command_loss``,
 drawn from ``rng``): a lost COMMAND_LONG or COMMAND_INT gets no answer, the others are handled
@@ -99,6 +100,7 @@ class SimVehicle:
         self.personality = personality
         self.autopilot = m.MAV_AUTOPILOT_ARDUPILOTMEGA if ardupilot else autopilot
         self.silent = silent
+        self.cut = False
         self.refuse_code = refuse_code
         self.refuse_seq = refuse_seq
         self.legacy_requests = legacy_requests or ardupilot
@@ -128,6 +130,8 @@ class SimVehicle:
         self._rx: dict | None = None
         self._last_done_seq: int | None = None
         self._conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=1)
+        send = self._conn.write
+        self._conn.write = lambda buf: None if self.cut else send(buf)
         if signing_key is not None:
             self._conn.setup_signing(signing_key, sign_outgoing=True)
         self._stop = threading.Event()
@@ -208,7 +212,7 @@ class SimVehicle:
                 continue
             while self._delayed and self._delayed[0][0] <= time.monotonic():
                 self._dispatch(self._delayed.pop(0)[1])
-            if msg is None or msg.get_type() == "BAD_DATA" or self.silent:
+            if msg is None or msg.get_type() == "BAD_DATA" or self.silent or self.cut:
                 continue
             if getattr(msg, "target_system", self.system_id) not in (0, self.system_id):
                 continue

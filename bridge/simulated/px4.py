@@ -33,10 +33,12 @@ v1.16.0) and from what real PX4 SITL did, independently of the bridge's own tabl
   higher; with ``RTL_CONE_ANG`` > 0, its default 45, lowered near home to ``distance / tan(angle)``, not
   below ``RTL_DESCEND_ALT``), flies home at it and lands; AUTO.LAND lands where it is; on the ground
   "Landing detected" and disarmed.
-- **Data link loss** (Commander's GCS link check): once a ground station's heartbeat
-  (``MAV_TYPE_GCS``, any system id) was heard, an armed vehicle that hears none for
-  ``COM_DL_LOSS_T`` seconds takes ``NAV_DLL_ACT``: 0 nothing (PX4's default), 1 hold (AUTO.LOITER),
-  2 AUTO.RTL, 3 AUTO.LAND. Parameters travel bytewise (PX4's ``PARAM_ENCODE_BYTEWISE``).
+- **Data link loss** (Commander's GCS link check): once a ground station's heartbeat (``MAV_TYPE_GCS``, any
+  system id) was heard, an armed vehicle that hears none for ``COM_DL_LOSS_T`` seconds after the heartbeat's
+  own timeout (2.5 s, ``telemetry_status``'s ``HEARTBEAT_TIMEOUT_US``: the last heartbeat counts as heard that
+  long), and ``COM_FAIL_ACT_T`` more (PX4 holds then; here it stays in the mode it was in), takes
+  ``NAV_DLL_ACT``: 0 nothing (PX4's default), 1 hold (AUTO.LOITER), 2 AUTO.RTL, 3 AUTO.LAND. Parameters travel
+  bytewise (PX4's ``PARAM_ENCODE_BYTEWISE``).
 """
 
 from __future__ import annotations
@@ -63,7 +65,7 @@ _INT32, _REAL32 = m.MAV_PARAM_TYPE_INT32, m.MAV_PARAM_TYPE_REAL32
 PX4_PARAMS = {
     "NAV_DLL_ACT": (0.0, _INT32), "COM_DL_LOSS_T": (10.0, _INT32), "RTL_RETURN_ALT": (60.0, _REAL32),
     "GF_ACTION": (2.0, _INT32), "MIS_TAKEOFF_ALT": (2.5, _REAL32), "RTL_CONE_ANG": (45.0, _INT32),
-    "RTL_TYPE": (0.0, _INT32), "RTL_DESCEND_ALT": (30.0, _REAL32),
+    "RTL_TYPE": (0.0, _INT32), "RTL_DESCEND_ALT": (30.0, _REAL32), "COM_FAIL_ACT_T": (5.0, _REAL32),
     "MPC_XY_CRUISE": (5.0, _REAL32), "MPC_XY_VEL_MAX": (12.0, _REAL32), "MPC_ACC_HOR": (3.0, _REAL32),
     "MPC_JERK_AUTO": (4.0, _REAL32), "MPC_TKO_SPEED": (1.5, _REAL32), "MPC_Z_V_AUTO_UP": (3.0, _REAL32),
     "MPC_Z_V_AUTO_DN": (1.5, _REAL32), "MPC_ACC_UP_MAX": (4.0, _REAL32), "MPC_ACC_DOWN_MAX": (3.0, _REAL32)}
@@ -71,6 +73,7 @@ PX4_PARAMS = {
 _DLL_MODES = {1: LOITER, 2: RTL, 3: LAND}
 FAILSAFE_ON = {"NAV_DLL_ACT": 2.0}
 """PX4's data link loss action set to Return (``params`` of a vehicle an operator prepared)."""
+_HEARTBEAT_TIMEOUT_S = 2.5  # a heartbeat counts as heard this long (PX4's mavlink receiver)
 _SLOWEST = 0.1  # m/s or m/s^2: PX4 keeps its speeds and accelerations above a positive floor
 
 
@@ -122,8 +125,10 @@ class Px4Copter(ArduCopter):
 
     def _check_failsafe(self) -> None:
         action, silent_s = int(self.param("NAV_DLL_ACT")), self._silent_s()
+        hold_s = self.param("COM_FAIL_ACT_T") if "COM_FAIL_ACT_T" in self.params else 0.0  # older PX4: none
+        waits_s = _HEARTBEAT_TIMEOUT_S + self.param("COM_DL_LOSS_T") + hold_s
         if (action not in _DLL_MODES or not self.armed or self.mode in (RTL, LAND) or silent_s is None
-                or silent_s < self.param("COM_DL_LOSS_T") or self._setpoint()[2] <= 0.0 or self.failsafes):
+                or silent_s < waits_s or self._setpoint()[2] <= 0.0 or self.failsafes):
             return
         self.failsafes.append(time.monotonic())
         self._say("Connection to ground station lost", m.MAV_SEVERITY_CRITICAL)

@@ -28,7 +28,7 @@ from bridge.geo import Home, enu_to_geodetic, geodetic_to_enu
 from bridge.simulated.peer import m, mavutil
 
 __all__ = ["Instances", "Observer", "px4_paths", "ardupilot_paths", "PX4_GCS_URL", "CMAC_HOME", "home_apart",
-           "reported_closest"]
+           "reported_closest", "reported_at"]
 
 PX4_GCS_URL = "udpin:127.0.0.1:14550"
 CMAC_HOME = (-35.3633, 149.165, 584.0)
@@ -73,6 +73,15 @@ def reported_closest(observers: dict, origin: tuple[float, float, float],
             if gaps[k] < best[0]:
                 best = (float(gaps[k]), (first, second), float(clock[k]))
     return best
+
+
+def reported_at(observers: dict, origin: tuple[float, float, float], sid: int,
+                clock_s: float) -> tuple[float, float, float]:
+    """Vehicle ``sid``'s reported position (East, North, Up of ``origin``, metres) at ``clock_s``."""
+    home = Home(lat_deg=origin[0], lon_deg=origin[1], alt_m=origin[2])
+    rows = np.array([(t, *geodetic_to_enu(home, lat, lon, origin[2])[:2], z)
+                     for t, z, lat, lon in observers[sid].positions[sid]])
+    return tuple(round(float(np.interp(clock_s, rows[:, 0], rows[:, c])), 2) for c in (1, 2, 3))
 
 
 def px4_paths(root: Path) -> tuple[Path, Path]:
@@ -159,8 +168,9 @@ class Instances:
 class Observer:
     """An independent ground station that records what the vehicles say (pymavlink, its own link).
 
-    Per system id: GLOBAL_POSITION_INT as ``(monotonic s, relative_alt_m, lat_deg, lon_deg)``, the
-    HEARTBEAT mode and armed flag, the HOME_POSITION altitude, MISSION_CURRENT and STATUSTEXT.
+    Per system id: GLOBAL_POSITION_INT as ``(monotonic s, relative_alt_m, lat_deg, lon_deg)`` and its own
+    clock (``time_boot_ms``), the HEARTBEAT mode (and when it changed) and armed flag, the HOME_POSITION
+    altitude, MISSION_CURRENT and STATUSTEXT.
 
     Args:
         url: Its link (PX4's GCS port, or an ArduCopter's SERIAL1).
@@ -171,6 +181,8 @@ class Observer:
         self.positions: dict[int, list[tuple[float, float, float, float]]] = {}
         self.modes: dict[int, str] = {}
         self.modes_seen: dict[int, set[str]] = {}
+        self.mode_changes: dict[int, list[tuple[float, str]]] = {}
+        self.boot_s: dict[int, list[tuple[float, float]]] = {}
         self.armed: dict[int, bool] = {}
         self.home_alt_m: dict[int, float] = {}
         self.mission_seq: dict[int, int] = {}
@@ -214,8 +226,12 @@ class Observer:
             if kind == "GLOBAL_POSITION_INT" and (msg.lat or msg.lon):  # 0, 0: no fix yet, no position
                 self.positions.setdefault(sid, []).append(
                     (time.monotonic(), msg.relative_alt / 1000.0, msg.lat / 1e7, msg.lon / 1e7))
+                self.boot_s.setdefault(sid, []).append((time.monotonic(), msg.time_boot_ms / 1000.0))
             elif kind == "HEARTBEAT" and msg.type != m.MAV_TYPE_GCS:
-                self.modes[sid] = mavutil.mode_string_v10(msg)
+                mode = mavutil.mode_string_v10(msg)
+                if self.modes.get(sid) != mode:
+                    self.mode_changes.setdefault(sid, []).append((time.monotonic(), mode))
+                self.modes[sid] = mode
                 self.modes_seen.setdefault(sid, set()).add(self.modes[sid])
                 self.armed[sid] = bool(msg.base_mode & m.MAV_MODE_FLAG_SAFETY_ARMED)
             elif kind == "HOME_POSITION":
@@ -224,6 +240,18 @@ class Observer:
                 self.mission_seq[sid] = msg.seq
             elif kind == "STATUSTEXT":
                 self.texts.setdefault(sid, []).append(msg.text)
+
+    def entered(self, sid: int, mode: str, after_s: float) -> float | None:
+        """When (monotonic s) ``sid``'s HEARTBEAT first said ``mode`` after ``after_s`` (None: not yet)."""
+        return next((t for t, seen in self.mode_changes.get(sid, []) if t > after_s and seen == mode), None)
+
+    def vehicle_s(self, sid: int, clock_s: float) -> float:
+        """``sid``'s own clock (``time_boot_ms``, seconds) at monotonic ``clock_s``, from its positions.
+
+        A loaded machine slows SITL's clock (lockstep): timeouts are the autopilot's, on its clock.
+        """
+        rows = np.array(self.boot_s[sid])
+        return float(np.interp(clock_s, rows[:, 0], rows[:, 1]))
 
     def wait(self, condition, timeout_s: float) -> bool:  # noqa: ANN001 - a callable of the observer
         """Poll ``condition(self)`` until true or ``timeout_s`` passed; whether it held."""

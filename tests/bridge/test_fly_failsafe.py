@@ -47,10 +47,12 @@ def _argv(tmp_path, urls: list[str], *extra: str) -> list[str]:
 
 def test_the_return_path_is_set_and_read_back_before_arming_on_both_autopilots(tmp_path):
     """At their defaults both would lower the return near home by a cone (RTL_CONE_SLOPE 3,
-    RTL_CONE_ANG 45) and ArduPilot would fly on in a pilot's mode (FS_OPTIONS 16): all pinned, read back
-    and reported, and the flight flies."""
+    RTL_CONE_ANG 45), ArduPilot would fly on in a pilot's mode (FS_OPTIONS 16) and PX4 would hold 5 s after
+    its link-loss timeout before returning (COM_FAIL_ACT_T 5): all pinned, read back and reported, and
+    the flight flies."""
     vehicles, urls = _fleet(["ardupilot", "px4"], [launch_home(0), launch_home(1)])
     assert vehicles[0].param("RTL_CONE_SLOPE") == 3.0 and vehicles[1].param("RTL_CONE_ANG") == 45.0
+    assert vehicles[1].param("COM_FAIL_ACT_T") == 5.0
     try:
         assert main(_argv(tmp_path, urls)) == 0
         assert wait_until(lambda: not any(v.armed for v in vehicles), 90.0)  # home and landed
@@ -60,11 +62,13 @@ def test_the_return_path_is_set_and_read_back_before_arming_on_both_autopilots(t
     assert ardupilot.param("RTL_CONE_SLOPE") == 0.0 and ardupilot.param("RTL_ALT_TYPE") == 0.0
     assert ardupilot.param("FS_OPTIONS") == 0.0
     assert px4.param("RTL_CONE_ANG") == 0.0 and px4.param("RTL_TYPE") == 0.0
+    assert px4.param("COM_FAIL_ACT_T") == 0.0
     assert px4.param("RTL_DESCEND_ALT") <= px4.param("RTL_RETURN_ALT")
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     paths = {r["system_id"]: r["return_path"] for r in summary["preflight"]}
     assert paths[1] == {"RTL_CONE_SLOPE": 0.0, "RTL_ALT_TYPE": 0.0, "FS_OPTIONS": 0.0}
     assert paths[2]["RTL_CONE_ANG"] == 0.0 and paths[2]["RTL_TYPE"] == 0.0
+    assert paths[2]["COM_FAIL_ACT_T"] == 0.0
     assert summary["launch_spacing_m"] == SPACING_M
     for vehicle in vehicles:
         assert math.hypot(*vehicle.enu[:2]) < 1.0 and vehicle.enu[2] == 0.0
@@ -72,6 +76,7 @@ def test_the_return_path_is_set_and_read_back_before_arming_on_both_autopilots(t
 
 @pytest.mark.parametrize(("kind", "name", "value"), [
     ("px4", "RTL_CONE_ANG", None),  # an autopilot that does not answer it
+    ("px4", "COM_FAIL_ACT_T", None),
     ("ardupilot", "FS_OPTIONS", None),
     ("ardupilot", "FS_GCS_ENABLE", 5.0),  # LAND where it is: not the return the guard separates
     ("px4", "NAV_DLL_ACT", 3.0)])

@@ -119,10 +119,12 @@ def _fly_process(toml: Path, out: Path) -> subprocess.Popen:
                             text=True)
 
 
+@pytest.mark.parametrize("fault", ["kill", "cut"])
 @pytest.mark.parametrize("kind", KINDS)
-def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(tmp_path, kind):
-    """Three vehicles in guided flight; ``fly`` killed: each leaves guided flight for RTL within its
-    failsafe timeout + 5 s, and they return in layers without coming closer than the minimum."""
+def test_kill_9_of_fly_or_every_link_cut_brings_every_vehicle_home_by_its_own_failsafe(tmp_path, kind, fault):
+    """Three vehicles in guided flight; ``fly`` killed, or every vehicle's link cut both ways at once while
+    ``fly`` goes on: each leaves guided flight for RTL within its failsafe timeout + 5 s, and they return in
+    layers without coming closer than the minimum."""
     vehicles, urls = _fleet(kind, [launch_home(i, 10.0) for i in range(3)])
     process = _fly_process(bridge_toml(tmp_path / "bridge.toml", urls, FAST), tmp_path / "out")
     try:
@@ -137,9 +139,13 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
         said = process.communicate(timeout=10)[1][-2000:] if process.poll() is not None else "not flying"
         assert flew, said
         time.sleep(2.0)  # in flight, targets being flown
-        process.kill()  # SIGKILL: no RTL from fly, no goodbye
+        if fault == "kill":
+            process.kill()  # SIGKILL: no RTL from fly, no goodbye
+            process.wait(timeout=10)
+        else:
+            for vehicle in vehicles:  # a ground-station radio outage: fly hears none and reaches none
+                vehicle.cut = True
         killed_s = time.monotonic()
-        process.wait(timeout=10)
         timeout_param = "COM_DL_LOSS_T" if kind == "px4" else "FS_GCS_TIMEOUT"
         timeouts_s = [v.param(timeout_param) for v in vehicles]
         assert wait_until(lambda: all(v.failsafes for v in vehicles), max(timeouts_s) + 10.0)
@@ -154,7 +160,7 @@ def test_kill_9_of_fly_in_flight_brings_every_vehicle_home_by_its_own_failsafe(t
         assert vehicle.failsafes[0] - killed_s <= timeout_s + 5.0
         assert _in_rtl(vehicle) and math.hypot(*vehicle.enu[:2]) < 1.0
     assert approach.distance_m >= MIN_M, approach
-    assert not (tmp_path / "out" / "summary.json").exists()  # killed: nothing ended it
+    assert fault == "cut" or not (tmp_path / "out" / "summary.json").exists()  # killed: nothing ended it
 
 
 def test_a_vehicle_without_a_link_loss_failsafe_is_refused_before_arming_unless_asked(tmp_path, capsys):

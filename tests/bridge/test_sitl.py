@@ -41,6 +41,7 @@ from sitl import (
     ardupilot_paths,
     home_apart,
     px4_paths,
+    reported_at,
     reported_closest,
 )
 
@@ -340,14 +341,19 @@ def test_a_head_on_swap_on_real_autopilots_keeps_the_minimum_on_their_reported_p
     assert all(values["guard_holds"] >= 1 for values in measured.values())
 
 
-@pytest.mark.parametrize("kind", [pytest.param("ardupilot", marks=needs_ardupilot),
-                                  pytest.param("px4", marks=needs_px4)])
-def test_kill_9_of_fly_sends_every_real_autopilot_home_by_its_own_failsafe(tmp_path, kind):
-    """Three vehicles in guided flight, ``fly`` killed: each leaves guided flight for RTL within its failsafe
-    timeout + 5 s (its own parameter, set by ``--set-failsafe``), and they land without two closer than
-    the minimum on their reported positions."""
+@pytest.mark.parametrize(("kind", "n", "spacing_m"), [
+    pytest.param("ardupilot", 5, 6.0, marks=needs_ardupilot),
+    pytest.param("px4", 3, 6.0, marks=[needs_px4, pytest.mark.xfail(
+        reason="homes under the launch spacing: two failsafe landings keep only d - 2 (e_t + e_p), and PX4 "
+               "SIH lands up to 1.3 m from its home (4.43 and 4.68 m measured)", strict=False)]),
+    pytest.param("px4", 3, 8.0, marks=needs_px4)])  # the launch spacing (min + margin + 2 (e_t + e_p))
+def test_kill_9_of_fly_sends_every_real_autopilot_home_by_its_own_failsafe(tmp_path, kind, n, spacing_m):
+    """Vehicles in cruise on homes ``spacing_m`` apart, ``fly`` killed: each one's HEARTBEAT says RTL within
+    its failsafe timeout + 5 s of the kill on its own clock (``FS_GCS_TIMEOUT`` 5 s; ``COM_DL_LOSS_T``
+    10 s, with PX4's hold before the action, ``COM_FAIL_ACT_T``, set to 0 by ``--set-failsafe``), and they
+    land without two closer than the minimum on their reported positions."""
     with Instances(tmp_path / "sitl") as sitl:
-        observers, urls, home = _start(sitl, kind, 3, spacing_m=6.0)
+        observers, urls, home = _start(sitl, kind, n, spacing_m=spacing_m)
         try:
             _wait_homes(observers, 180.0)
             toml = _bridge_toml(tmp_path / "bridge.toml", home, urls)
@@ -367,15 +373,25 @@ def test_kill_9_of_fly_sends_every_real_autopilot_home_by_its_own_failsafe(tmp_p
             killed_s = time.monotonic()
             process.wait(timeout=10.0)
             timeout_s = 5.0 if kind == "ardupilot" else 10.0  # FS_GCS_TIMEOUT, COM_DL_LOSS_T defaults
-            left = {sid: o.wait(lambda o, sid=sid: o.modes.get(sid) == "RTL", timeout_s + 5.0)
-                    for sid, o in observers.items()}
-            left_s = time.monotonic() - killed_s
+            for sid, o in observers.items():  # the wall clock's bound only ends the wait: judged below
+                o.wait(lambda o, sid=sid: o.entered(sid, "RTL", killed_s) is not None,
+                       3.0 * (timeout_s + 5.0))
+            entered = {sid: o.entered(sid, "RTL", killed_s) for sid, o in observers.items()}
+            wall_s = {sid: None if t is None else round(t - killed_s, 1) for sid, t in entered.items()}
+            after_s = {sid: None if t is None else round(o.vehicle_s(sid, t) - o.vehicle_s(sid, killed_s), 1)
+                       for (sid, o), t in zip(observers.items(), entered.values(), strict=True)}
             landed = _landed(observers)
             closest = reported_closest(observers, home)
-            log.info("measured: kill -9 of fly; in RTL %s within %.1f s; landed %s; closest %.2f m %s",
-                     left, left_s, landed, closest[0], closest[1])
+            where = {sid: reported_at(observers, home, sid, closest[2]) for sid in closest[1]}
+            log.info("measured: kill -9 of fly, %s x%d, homes %g m apart; in RTL after (s, its clock) %s, "
+                     "(s, wall) %s (timeout %.0f s); landed %s; closest %.2f m %s, %.1f s after the kill, at "
+                     "(E, N, U) %s; modes then %s", kind, n, spacing_m, after_s, wall_s, timeout_s, landed,
+                     closest[0], closest[1], closest[2] - killed_s, where,
+                     {sid: [mode for t, mode in observers[sid].mode_changes.get(sid, [])
+                            if t <= closest[2]][-1:] for sid in closest[1]})
         finally:
             for observer in {id(o): o for o in observers.values()}.values():
                 observer.close()
-    assert flying and all(left.values()) and landed
+    assert flying and landed
+    assert all(t is not None and t <= timeout_s + 5.0 for t in after_s.values()), after_s
     assert closest[0] >= MIN_M, closest
