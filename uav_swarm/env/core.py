@@ -211,9 +211,9 @@ class SwarmCore:
     def set_access_points(self, enabled: np.ndarray | None) -> None:
         """Which UAVs' access points are on from the next step on (802.11 radio).
 
-        ``enabled``: (K,) or (B, K) bool; an AP that is off transmits nothing (a UAV the plan gives no
-        users to keeps its AP off, so that it takes no airtime from the APs that serve). None: every AP on
-        (the default).
+        ``enabled``: (K,) or (B, K) bool; an AP that is off transmits nothing (under admission on rate, a UAV
+        the plan gives no users keeps its AP off, so that it takes no airtime from the APs that serve). None:
+        every AP on (the default).
 
         Raises:
             ValueError: The paper's radio, or a shape that is neither.

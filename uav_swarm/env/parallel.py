@@ -311,7 +311,8 @@ class raw_env(ParallelEnv):  # PettingZoo's name for the environment class
         """Which UAVs' access points are on from the next step on (``propagation = "802.11"``).
 
         ``enabled``: (K,) bool; an AP that is off transmits nothing, so it takes no airtime from the others
-        (``simulate`` turns off the AP of a UAV its plan gives no users). None: every AP on, the default.
+        (under admission on rate ``simulate`` turns off the AP of a UAV its plan gives no users). None: every
+        AP on, the default.
 
         Raises:
             ValueError: The paper's radio, or a shape the environment does not take.

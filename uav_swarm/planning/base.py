@@ -105,7 +105,8 @@ class PlanResult:
     def serving(self) -> np.ndarray:
         """``(n,)`` True where the plan gives the UAV users (a proposal, or its own users followed).
 
-        The others are spares (parked or holding); under the 802.11 radio their access points stay off.
+        The others are spares (parked or holding); under admission on rate (802.11) their access points stay
+        off.
         """
         return (np.asarray(self.candidate_index) >= 0) | np.asarray(self.kept, dtype=bool)
 

@@ -281,8 +281,8 @@ class MotionPlanning:
         """Every option's horizon QoS, all options and instants in one radio-model pass."""
         cfg = self.config
         velocities = [self._users_velocity(targets, peds, vels) for targets in options]
-        if self.radio.propagation != "802.11":
-            serving = None
+        if self.radio.propagation != "802.11" or not self.radio.ieee80211.admits_on_rate:
+            serving = None  # spares' APs are off only under admission on rate, as simulate flies them
         return horizon_qos(peds, vels, uavs, options, velocities, self.radio, self.strategy, cfg.horizon_s,
                            cfg.samples, self.uav.max_speed_m_s, self.uav.max_accel_m_s2, serving)
 

@@ -180,7 +180,9 @@ def run_sequence(config: SimulateConfig, planner: Planner, kind: str, *, outputs
                     changes.append(int(np.count_nonzero(moved)))
                 targets = result.targets_m
                 if env.radio.propagation == "802.11":  # a channel per UAV for where it flies, few changes;
-                    serving = result.serving  # a UAV the plan gives no users keeps its AP off
+                    # under admission on rate a UAV the plan gives no users keeps its AP off (it would take
+                    # airtime from the placed APs); under strategy 1 every AP in the air serves
+                    serving = result.serving if env.radio.ieee80211.admits_on_rate else None
                     channels = plan_channels(targets, env.radio, env.uav_altitudes_m, channels, serving)
                     env.set_channel_plan(channels)
                     env.set_access_points(serving)
