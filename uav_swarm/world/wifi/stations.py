@@ -151,8 +151,5 @@ def _closed(stations: int, slowest_mbps: float, inverse_sum: float, airtime: flo
     efficiency, top_rate_mbps, min_rate_mbps, airtime_fair, rate_admission, station_limit = rule
     if station_limit > 0 and stations >= station_limit:
         return True
-    if airtime_fair:
-        best = airtime * efficiency * min(slowest_mbps, top_rate_mbps) / (stations + 1)
-    else:
-        best = airtime * efficiency / (inverse_sum + 1.0 / top_rate_mbps)
+    best = _share_mbps(stations, slowest_mbps, inverse_sum, airtime, top_rate_mbps, efficiency, airtime_fair)
     return rate_admission and best < min_rate_mbps
